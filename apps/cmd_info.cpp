@@ -1,0 +1,59 @@
+#include <cstdio>
+
+#include <fmt/format.h>
+
+#include "apps/commands.h"
+#include "core/memory.h"
+#include "scene/loader.h"
+
+namespace hrad::app {
+
+int runInfo(const std::string& spec, Params& params) {
+    scene::Scene s = scene::loadScene(spec, params);
+    params.reportUnused();
+    const auto& st = s.stats;
+    scene::Bounds3 b = s.bounds();
+    RGB power = s.emittedPower();
+    fmt::print("scene          {}\n", s.name);
+    fmt::print("source         {}\n", s.source);
+    fmt::print("patches        {} ({} triangles, {} quads)\n", s.patches.size(),
+               s.count(scene::PatchKind::Triangle), s.count(scene::PatchKind::Quad));
+    fmt::print("input faces    {}\n", st.inputFaces);
+    fmt::print("triangulated   {} faces\n", st.triangulatedFaces);
+    fmt::print("dropped        {} degenerate faces\n", st.droppedDegenerate);
+    if (st.defaultMaterialFaces)
+        fmt::print("default mat.   {} faces had no material\n", st.defaultMaterialFaces);
+    if (st.ignoredStatements) fmt::print("ignored        {} statements\n", st.ignoredStatements);
+    fmt::print("emitters       {} patches\n", s.numEmitters());
+    fmt::print("total area     {:.6g}\n", s.totalArea());
+    fmt::print("emitted power  ({:.6g}, {:.6g}, {:.6g})  [E * area, RGB]\n", power.r, power.g,
+               power.b);
+    fmt::print("bounds         ({:.6g}, {:.6g}, {:.6g}) .. ({:.6g}, {:.6g}, {:.6g})\n", b.lo.x,
+               b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
+    if (s.camera)
+        fmt::print("camera         eye ({:.4g}, {:.4g}, {:.4g}) target ({:.4g}, {:.4g}, {:.4g}) fov {:.4g}\n",
+                   s.camera->eye.x, s.camera->eye.y, s.camera->eye.z, s.camera->target.x,
+                   s.camera->target.y, s.camera->target.z, s.camera->fovYDegrees);
+    fmt::print("load time      {:.3f} s\n", st.loadSeconds);
+    fmt::print("peak RSS       {}\n", formatBytes(peakRssBytes()));
+
+    // Materials with the number of patches using each.
+    std::vector<size_t> uses(s.materials.size(), 0);
+    std::vector<double> area(s.materials.size(), 0.0);
+    for (const auto& p : s.patches) {
+        ++uses[p.material];
+        area[p.material] += p.area;
+    }
+    fmt::print("materials      {}\n", s.materials.size());
+    fmt::print("  {:<28} {:>8} {:>12}  {:<26} {}\n", "name", "patches", "area", "rho", "E");
+    for (size_t m = 0; m < s.materials.size(); ++m) {
+        const auto& mat = s.materials[m];
+        fmt::print("  {:<28} {:>8} {:>12.5g}  ({:.3f}, {:.3f}, {:.3f})    ({:.4g}, {:.4g}, {:.4g})\n",
+                   mat.name, uses[m], area[m], mat.rho.r, mat.rho.g, mat.rho.b, mat.emission.r,
+                   mat.emission.g, mat.emission.b);
+    }
+    for (const auto& w : st.warnings) fmt::print("warning        {}\n", w);
+    return 0;
+}
+
+}  // namespace hrad::app

@@ -1,0 +1,112 @@
+// The `hrad` command line. This is the only translation unit that includes
+// CLI11 (slow to compile); it turns flags into Params (each remembering the
+// flag it came from) and dispatches to apps/cmd_*.cpp.
+#include <cstdio>
+#include <memory>
+
+#include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
+#include "apps/commands.h"
+#include "core/error.h"
+#include "core/log.h"
+
+using namespace hrad;
+
+namespace {
+
+/// --set key=value (repeatable) into params.
+void addSets(Params& params, const std::vector<std::string>& sets) {
+    for (const auto& kv : sets) {
+        auto eq = kv.find('=');
+        if (eq == std::string::npos || eq == 0)
+            throwInputError({"command line", 0, 0}, "--set expects key=value, got '{}'", kv);
+        params.setFromText(kv.substr(0, eq), kv.substr(eq + 1),
+                           {"command line (--set " + kv.substr(0, eq) + ")", 0, 0});
+    }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"hrad: hierarchical and clustered radiosity"};
+    app.require_subcommand(1);
+    app.set_version_flag("--version", HRAD_VERSION);
+    std::string logLevel = "info";
+    app.add_option("--log", logLevel, "log level: quiet, info, debug")
+        ->check(CLI::IsMember({"quiet", "info", "debug"}));
+    int threads = 0;
+    app.add_option("--threads", threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
+    std::vector<std::string> sets;
+    app.add_option("--set", sets, "any setting as key=value (repeatable), e.g. ff.vis_rays=32");
+
+    // info
+    auto* info = app.add_subcommand("info", "print scene statistics");
+    std::string infoScene;
+    info->add_option("scene", infoScene, "built-in name (cornell, furnace, office:N, ...) or file")
+        ->required();
+
+    // solve
+    auto* solve = app.add_subcommand("solve", "solve a scene and write images, PLY and summary");
+    app::SolveOptions so;
+    std::string solver, oracle;
+    double eps = -1, minArea = -1;
+    int refLevel = -1, width = 0, height = 0;
+    bool interpolate = false, noImages = false, noPly = false, quietProgress = false;
+    solve->add_option("scene", so.scene, "built-in name or file")->required();
+    solve->add_option("--solver", solver, "hr | full-matrix");
+    solve->add_option("--oracle", oracle, "refinement oracle (hr): bfa, ff, uniform");
+    solve->add_option("--eps", eps, "oracle threshold (oracle.eps)");
+    solve->add_option("--min-area", minArea, "minimum element area (hr.min_area)");
+    solve->add_option("-o,--output", so.outDir, "output folder")->capture_default_str();
+    solve->add_option("--reference-level", refLevel,
+                      "also solve a full-matrix reference at this uniform level and report the error");
+    solve->add_option("--width", width, "image width");
+    solve->add_option("--height", height, "image height");
+    solve->add_flag("--interpolate", interpolate, "vertex-interpolated reconstruction in the image");
+    solve->add_flag("--no-images", noImages, "do not render image.exr / image.png");
+    solve->add_flag("--no-ply", noPly, "do not write solution.ply");
+    solve->add_flag("--no-progress", quietProgress, "no progress lines on stderr");
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    }
+
+    initLogging(logLevel);
+    std::unique_ptr<tbb::global_control> threadLimit;
+    if (threads > 0)
+        threadLimit = std::make_unique<tbb::global_control>(
+            tbb::global_control::max_allowed_parallelism, size_t(threads));
+
+    try {
+        Params params;
+        addSets(params, sets);
+        if (*info) return app::runInfo(infoScene, params);
+        if (*solve) {
+            auto flag = [&](const char* name) { return SourceLocation{std::string("command line (") + name + ")", 0, 0}; };
+            if (!solver.empty()) params.set("solver", solver, flag("--solver"));
+            if (!oracle.empty()) params.set("hr.oracle", oracle, flag("--oracle"));
+            if (eps >= 0) params.set("oracle.eps", eps, flag("--eps"));
+            if (minArea >= 0) params.set("hr.min_area", minArea, flag("--min-area"));
+            if (refLevel >= 0) params.set("metrics.reference_level", int64_t(refLevel), flag("--reference-level"));
+            if (width > 0) params.set("render.width", int64_t(width), flag("--width"));
+            if (height > 0) params.set("render.height", int64_t(height), flag("--height"));
+            if (interpolate) params.set("render.interpolate", true, flag("--interpolate"));
+            so.threads = threads;
+            so.writeImages = !noImages;
+            so.writePly = !noPly;
+            so.progress = !quietProgress;
+            return app::runSolve(so, params);
+        }
+    } catch (const InputError& e) {
+        std::fprintf(stderr, "hrad: %s\n", e.what());
+        return 2;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "hrad: error: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}

@@ -1,0 +1,138 @@
+// The element hierarchy and its links, in flat arrays.
+//
+// Elements (quadtree nodes over root patches, scene/element.h) live in a
+// structure of arrays addressed by 32-bit indices; element i < numPatches is
+// the root of patch i; children are allocated four at a time and contiguous,
+// so a node stores only the index of its first child. Links are stored with
+// their receiver in compressed-row form (CSR): offsets per receiver element,
+// then 16-byte Link records holding the sender, the transfer coefficient and
+// what refinement needs. Gather runs in parallel over receivers without locks.
+// (DESIGN.md "Core model"; the 16-byte link is a measured target.)
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "core/memory.h"
+#include "core/types.h"
+#include "scene/element.h"
+#include "scene/field.h"
+#include "scene/scene.h"
+
+namespace hrad::hr {
+
+inline constexpr uint32_t kNone = UINT32_MAX;
+
+/// One link, stored in the receiver's row. 16 bytes.
+struct Link {
+    uint32_t sender = kNone;
+    float K = 0.f;             ///< transfer coefficient: F_rs with visibility
+    float Fupper = 0.f;        ///< upper bound on the unoccluded F_rs
+    uint16_t visibility = 0;   ///< visibility fraction, quantised to 1/65535
+    uint8_t flags = 0;         ///< kPartial | kUnoccludedScaled
+    uint8_t reserved = 0;
+
+    static constexpr uint8_t kPartial = 1;
+
+    double vis() const { return visibility / 65535.0; }
+    void setVis(double v) {
+        double c = v < 0 ? 0 : (v > 1 ? 1 : v);
+        visibility = uint16_t(c * 65535.0 + 0.5);
+    }
+};
+static_assert(sizeof(Link) == 16, "Link must stay 16 bytes");
+
+class Hierarchy {
+  public:
+    explicit Hierarchy(const scene::Scene& scene);
+
+    const scene::Scene& scene() const { return *scene_; }
+    uint32_t numElements() const { return uint32_t(patch_.size()); }
+    uint32_t numPatches() const { return uint32_t(scene_->patches.size()); }
+
+    // ---- element attributes -------------------------------------------------
+    uint32_t patch(uint32_t e) const { return patch_[e]; }
+    scene::ElementKey key(uint32_t e) const { return key_[e]; }
+    int level(uint32_t e) const { return scene::keyLevel(key_[e]); }
+    uint32_t parent(uint32_t e) const { return parent_[e]; }
+    uint32_t firstChild(uint32_t e) const { return firstChild_[e]; }
+    bool isLeaf(uint32_t e) const { return firstChild_[e] == kNone; }
+    double area(uint32_t e) const { return area_[e]; }
+    scene::Domain domain(uint32_t e) const;
+    const RGB& B(uint32_t e) const { return B_[e]; }
+    RGB& B(uint32_t e) { return B_[e]; }
+    const RGB& gathered(uint32_t e) const { return gathered_[e]; }
+    RGB& gathered(uint32_t e) { return gathered_[e]; }
+    /// Stable id of an element, independent of allocation order (seeds rays).
+    uint64_t stableId(uint32_t e) const;
+
+    /// Creates the four children of a leaf (no-op when already subdivided).
+    /// Children inherit the parent's B. Not thread-safe.
+    void subdivide(uint32_t e);
+    uint32_t numLeaves() const;
+
+    // ---- links ----------------------------------------------------------------
+    /// Replaces all links. `receivers[i]` is the receiver of links[i]; the
+    /// arrays are sorted stably by receiver into CSR form.
+    void setLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links);
+    uint64_t numLinks() const { return links_.size(); }
+    /// Links of receiver e: [linkBegin(e), linkEnd(e)).
+    uint64_t linkBegin(uint32_t e) const { return e < linkOffsets_.size() - 1 ? linkOffsets_[e] : links_.size(); }
+    uint64_t linkEnd(uint32_t e) const { return e < linkOffsets_.size() - 1 ? linkOffsets_[e + 1] : links_.size(); }
+    const Link& link(uint64_t i) const { return links_[i]; }
+    const std::vector<Link>& links() const { return links_; }
+    /// Receiver of every link (expanded from CSR).
+    std::vector<uint32_t> linkReceivers() const;
+
+    // ---- solution -------------------------------------------------------------
+    /// B_r^g = rho_r * sum_links K B_s for every receiver (parallel over receivers).
+    void gather();
+    /// Push gathered radiosity down (unchanged, it is per unit area), set leaves
+    /// to E + sum of gathered on the path, pull area-weighted averages up.
+    /// Parallel over root patches.
+    void pushPull();
+    /// Sum over leaves of A (B - E): the reflected power (RGB).
+    RGB reflectedPower() const;
+    /// Sum over leaves of A * B (RGB).
+    RGB radiosityPower() const;
+    /// Sets B = E on every element and clears gathered.
+    void resetToEmission();
+
+    // ---- memory ----------------------------------------------------------------
+    uint64_t elementBytes() const;
+    uint64_t linkBytes() const;
+    void reportMemory(MemoryCounters& m) const;
+
+  private:
+    const scene::Scene* scene_;
+    // Elements (structure of arrays).
+    std::vector<uint32_t> patch_;
+    std::vector<scene::ElementKey> key_;
+    std::vector<uint32_t> parent_;
+    std::vector<uint32_t> firstChild_;
+    std::vector<double> area_;
+    std::vector<RGB> B_;
+    std::vector<RGB> gathered_;
+    // Links (CSR by receiver).
+    std::vector<uint64_t> linkOffsets_;
+    std::vector<Link> links_;
+};
+
+/// The hierarchical solution viewed as a RadiosityField (the values are the
+/// hierarchy's B after push-pull: leaves carry the solution, inner nodes the
+/// exact area-weighted averages of their leaves).
+class HierarchyField final : public scene::RadiosityField {
+  public:
+    explicit HierarchyField(const Hierarchy& h) : h_(&h) {}
+    const scene::Scene& scene() const override { return h_->scene(); }
+    RGB at(uint32_t patch, double u, double v) const override;
+    RGB average(uint32_t patch, scene::ElementKey key) const override;
+    void forEachLeaf(uint32_t patch,
+                     const std::function<void(scene::ElementKey, const RGB&)>& fn) const override;
+
+  private:
+    const Hierarchy* h_;
+};
+
+}  // namespace hrad::hr

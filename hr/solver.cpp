@@ -1,0 +1,339 @@
+#include "hr/solver.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <sstream>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "core/log.h"
+#include "core/timer.h"
+#include "oracles/registry.h"
+
+namespace hrad::hr {
+
+using oracles::Decision;
+
+namespace {
+std::vector<double> parseSchedule(const std::string& text, const SourceLocation& where) {
+    std::vector<double> out;
+    std::stringstream ss(text);
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+        if (item.find_first_not_of(" \t") == std::string::npos) continue;
+        char* end = nullptr;
+        double v = std::strtod(item.c_str(), &end);
+        while (end && (*end == ' ' || *end == '\t')) ++end;
+        if (!end || *end != '\0' || !(v > 0) || !std::isfinite(v))
+            throwInputError(where, "hr.eps_schedule: '{}' is not a positive number", item);
+        if (!out.empty() && v > out.back())
+            throwInputError(where, "hr.eps_schedule must be decreasing ({} after {})", v,
+                            out.back());
+        out.push_back(v);
+    }
+    return out;
+}
+
+double relativeChange(const RGB& now, const RGB& before) {
+    double num = maxComponent(glm::abs(now - before));
+    double den = maxComponent(glm::abs(now));
+    if (den <= 0) return num > 0 ? 1.0 : 0.0;
+    return num / den;
+}
+}  // namespace
+
+HrSettings HrSettings::fromParams(const Params& p) {
+    HrSettings s;
+    s.oracle = p.getEnum("hr.oracle", s.oracle, oracles::oracleNames());
+    s.oracleParams = p.subset("oracle");
+    s.epsSchedule = parseSchedule(p.getString("hr.eps_schedule", ""), p.where("hr.eps_schedule"));
+    s.minArea = p.getDouble("hr.min_area", s.minArea, 0.0, 1e300);
+    s.minAreaRel = p.getDouble("hr.min_area_rel", s.minAreaRel, 0.0, 1.0);
+    s.maxLevel = int(p.getInt("hr.max_level", s.maxLevel, 0, scene::kMaxLevel));
+    s.maxIterations = int(p.getInt("hr.max_iterations", s.maxIterations, 1, 1000000));
+    s.minIterations = int(p.getInt("hr.min_iterations", s.minIterations, 1, 1000000));
+    s.tolerance = p.getDouble("hr.tolerance", s.tolerance, 0.0, 1.0, true);
+    s.maxLinks = uint64_t(p.getInt("hr.max_links", int64_t(s.maxLinks), 1, int64_t(1) << 40));
+    s.ff = transport::FormFactorSettings::fromParams(p, "ff");
+    // Validate the oracle settings now (unknown keys included), so a bad
+    // setting fails before any work is done.
+    Params probe = s.oracleParams;
+    oracles::createOracle(s.oracle, probe);
+    probe.reportUnused();
+    p.markUsedPrefix("oracle");
+    return s;
+}
+
+std::string HrSettings::describe() const {
+    std::string sched = fmt::format("{}", fmt::join(epsSchedule, ","));
+    return fmt::format(
+        "hr(oracle={}, eps_schedule=[{}], min_area={}, min_area_rel={}, max_level={}, "
+        "max_iterations={}, tolerance={}, {})",
+        oracle, sched, minArea, minAreaRel, maxLevel, maxIterations, tolerance, ff.describe());
+}
+
+HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visibility,
+                   HrSettings settings)
+    : scene_(&scene), vis_(&visibility), s_(std::move(settings)), engine_(scene, &visibility, s_.ff) {
+    minArea_ = s_.minArea > 0 ? s_.minArea : s_.minAreaRel * scene.totalArea();
+    emittedPower_ = maxComponent(scene.emittedPower());
+    if (!(emittedPower_ > 0)) emittedPower_ = 1.0;
+}
+
+bool HrSolver::canSubdivide(const Hierarchy& h, uint32_t e) const {
+    return h.level(e) < s_.maxLevel && 0.25 * h.area(e) >= minArea_;
+}
+
+Link HrSolver::makeLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const {
+    transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
+    transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
+    Link l;
+    l.sender = s;
+    rays = 0;
+    if (!engine_.facing(er, es)) return l;
+    transport::FormFactorResult f = engine_.compute(er, es);
+    rays = f.rays;
+    l.K = float(f.F);
+    l.Fupper = float(std::max(engine_.upperBound(er, es), f.unoccludedF));
+    l.setVis(f.visibility);
+    if (f.partial) l.flags |= Link::kPartial;
+    return l;
+}
+
+void HrSolver::initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vector<Link>& links,
+                            HrResult& res, bool progress) {
+    // Without clustering every pair of root patches that face each other and
+    // are not fully occluded is linked (HSA91 section 3). O(k^2) in the
+    // number of patches: the reason for clustering (Smits et al. 1994).
+    uint32_t k = h.numPatches();
+    std::vector<std::vector<Link>> rows(k);
+    std::atomic<uint64_t> rays{0}, ffs{0};
+    ProgressBar bar("initial linking", k, progress);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, k, 4), [&](const auto& range) {
+        for (uint32_t r = range.begin(); r != range.end(); ++r) {
+            uint64_t localRays = 0, localFf = 0;
+            for (uint32_t s = 0; s < k; ++s) {
+                if (s == r) continue;
+                uint32_t nr = 0;
+                Link l = makeLink(h, r, s, nr);
+                localRays += nr;
+                if (l.K > 0) {
+                    ++localFf;
+                    rows[r].push_back(l);
+                }
+            }
+            rays += localRays;
+            ffs += localFf;
+            bar.add(1);
+        }
+    });
+    bar.done();
+    for (uint32_t r = 0; r < k; ++r) {
+        for (const Link& l : rows[r]) {
+            recv.push_back(r);
+            links.push_back(l);
+        }
+    }
+    res.totalRays += rays;
+    res.totalFormFactors += ffs;
+}
+
+uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
+                          IterationRecord& rec) {
+    std::vector<uint32_t> recv = h.linkReceivers();
+    std::vector<Link> pending = h.links();
+    std::vector<uint32_t> finalRecv;
+    std::vector<Link> finalLinks;
+    finalRecv.reserve(pending.size());
+    finalLinks.reserve(pending.size());
+    uint64_t refined = 0;
+    std::vector<uint8_t> decision;
+    std::vector<uint8_t> mark;
+
+    while (!pending.empty()) {
+        size_t n = pending.size();
+        decision.assign(n, 0);
+        bool capHit = finalLinks.size() + n > s_.maxLinks;
+        if (capHit && !res.linkCapHit) {
+            res.linkCapHit = true;
+            spdlog::warn("hr.max_links = {} reached: refinement stops here", s_.maxLinks);
+        }
+        if (!capHit) {
+            tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const auto& range) {
+                for (size_t i = range.begin(); i != range.end(); ++i) {
+                    const Link& l = pending[i];
+                    uint32_t r = recv[i], s = l.sender;
+                    oracles::LinkEstimate e;
+                    e.F = l.K;
+                    double v = l.vis();
+                    e.visibility = v;
+                    e.unoccludedF = v > 0 ? l.K / v : l.K;
+                    e.Fupper = l.Fupper;
+                    e.partialVisibility = (l.flags & Link::kPartial) != 0;
+                    e.receiverArea = h.area(r);
+                    e.senderArea = h.area(s);
+                    e.senderB = h.B(s);
+                    e.receiverRho = scene_->patches[h.patch(r)].rho;
+                    e.emittedPower = emittedPower_;
+                    e.receiverLevel = h.level(r);
+                    e.senderLevel = h.level(s);
+                    e.receiverCanSubdivide = canSubdivide(h, r);
+                    e.senderCanSubdivide = canSubdivide(h, s);
+                    decision[i] = uint8_t(oracles::constrain(oracle.decide(e), e));
+                }
+            });
+        }
+        // Collect the elements to subdivide and subdivide them in index order.
+        mark.assign(h.numElements(), 0);
+        size_t newCount = 0;
+        std::vector<size_t> offset(n + 1, 0);
+        for (size_t i = 0; i < n; ++i) {
+            auto d = Decision(decision[i]);
+            size_t c = 0;
+            if (d == Decision::Accept) {
+                finalRecv.push_back(recv[i]);
+                finalLinks.push_back(pending[i]);
+            } else {
+                bool rr = d == Decision::RefineReceiver || d == Decision::RefineBoth;
+                bool ss = d == Decision::RefineSender || d == Decision::RefineBoth;
+                if (rr) mark[recv[i]] = 1;
+                if (ss) mark[pending[i].sender] = 1;
+                c = (rr ? 4 : 1) * (ss ? 4 : 1);
+                ++refined;
+            }
+            offset[i + 1] = offset[i] + c;
+        }
+        newCount = offset[n];
+        if (newCount == 0) break;
+        for (uint32_t e = 0; e < uint32_t(mark.size()); ++e)
+            if (mark[e]) h.subdivide(e);
+
+        // Links between the children, with their form factors (parallel;
+        // each slot is written by exactly one task).
+        std::vector<uint32_t> nrecv(newCount);
+        std::vector<Link> nlinks(newCount);
+        std::atomic<uint64_t> rays{0};
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 64), [&](const auto& range) {
+            uint64_t localRays = 0;
+            for (size_t i = range.begin(); i != range.end(); ++i) {
+                if (offset[i + 1] == offset[i]) continue;
+                auto d = Decision(decision[i]);
+                uint32_t r = recv[i], s = pending[i].sender;
+                bool rr = d == Decision::RefineReceiver || d == Decision::RefineBoth;
+                bool ss = d == Decision::RefineSender || d == Decision::RefineBoth;
+                size_t o = offset[i];
+                for (int a = 0; a < (rr ? 4 : 1); ++a) {
+                    uint32_t rc = rr ? h.firstChild(r) + uint32_t(a) : r;
+                    for (int b = 0; b < (ss ? 4 : 1); ++b) {
+                        uint32_t sc = ss ? h.firstChild(s) + uint32_t(b) : s;
+                        uint32_t nr = 0;
+                        nlinks[o] = makeLink(h, rc, sc, nr);
+                        nrecv[o] = rc;
+                        localRays += nr;
+                        ++o;
+                    }
+                }
+            }
+            rays += localRays;
+        });
+        rec.rays += rays;
+        rec.formFactors += newCount;
+        // Drop links that carry nothing (back-facing or fully occluded pairs).
+        size_t w = 0;
+        for (size_t i = 0; i < newCount; ++i) {
+            if (nlinks[i].K > 0) {
+                nlinks[w] = nlinks[i];
+                nrecv[w] = nrecv[i];
+                ++w;
+            }
+        }
+        nlinks.resize(w);
+        nrecv.resize(w);
+        pending = std::move(nlinks);
+        recv = std::move(nrecv);
+    }
+    h.setLinks(finalRecv, std::move(finalLinks));
+    return refined;
+}
+
+HrResult HrSolver::solve(bool progress) {
+    HrResult res;
+    res.minArea = minArea_;
+    res.hierarchy = std::make_unique<Hierarchy>(*scene_);
+    Hierarchy& h = *res.hierarchy;
+
+    Timer t;
+    {
+        std::vector<uint32_t> recv;
+        std::vector<Link> links;
+        initialLinks(h, recv, links, res, progress);
+        h.setLinks(recv, std::move(links));
+    }
+    res.linkingSeconds = t.seconds();
+    res.initialLinks = h.numLinks();
+    spdlog::info("initial linking: {} links between {} patches ({:.2f} s)", h.numLinks(),
+                 h.numPatches(), res.linkingSeconds);
+
+    std::vector<double> stages = s_.epsSchedule;
+    bool hasEps = s_.oracle != "uniform";
+    if (stages.empty()) stages.push_back(hasEps ? s_.oracleParams.getDouble("eps", NAN) : NAN);
+
+    RGB lastReflected = h.reflectedPower();
+    int iteration = 0;
+    res.converged = false;
+    for (size_t stage = 0; stage < stages.size(); ++stage) {
+        Params op = s_.oracleParams;
+        if (!std::isnan(stages[stage])) op.set("eps", stages[stage]);
+        auto oracle = oracles::createOracle(s_.oracle, op);
+        res.oracleDescription = oracle->describe();
+        bool stageConverged = false;
+        for (int it = 0; it < s_.maxIterations; ++it) {
+            IterationRecord rec;
+            rec.iteration = ++iteration;
+            rec.stage = int(stage);
+            rec.eps = stages[stage];
+            Timer tr;
+            rec.refinedLinks = refine(h, *oracle, res, rec);
+            rec.refineSeconds = tr.seconds();
+            Timer tg;
+            h.gather();
+            rec.gatherSeconds = tg.seconds();
+            Timer tp;
+            h.pushPull();
+            rec.pushPullSeconds = tp.seconds();
+            RGB reflected = h.reflectedPower();
+            rec.reflectedPower = reflected;
+            rec.residual = relativeChange(reflected, lastReflected);
+            lastReflected = reflected;
+            rec.links = h.numLinks();
+            rec.elements = h.numElements();
+            rec.leaves = h.numLeaves();
+            rec.elementBytes = h.elementBytes();
+            rec.linkBytes = h.linkBytes();
+            res.totalRays += rec.rays;
+            res.totalFormFactors += rec.formFactors;
+            res.refineSeconds += rec.refineSeconds;
+            res.gatherSeconds += rec.gatherSeconds;
+            res.pushPullSeconds += rec.pushPullSeconds;
+            if (progress)
+                spdlog::info(
+                    "iter {:3d}  links {:>10}  elements {:>9}  refined {:>9}  residual {:.3e}  "
+                    "({:.2f} s)",
+                    rec.iteration, rec.links, rec.elements, rec.refinedLinks, rec.residual,
+                    rec.refineSeconds + rec.gatherSeconds + rec.pushPullSeconds);
+            res.history.push_back(rec);
+            if (rec.refinedLinks == 0 && it + 1 >= s_.minIterations && rec.residual < s_.tolerance) {
+                stageConverged = true;
+                break;
+            }
+        }
+        res.converged = stageConverged;
+    }
+    res.field = std::make_unique<HierarchyField>(h);
+    h.reportMemory(res.memory);
+    return res;
+}
+
+}  // namespace hrad::hr

@@ -1,0 +1,122 @@
+// The hierarchical radiosity solver: initial linking, refinement driven by an
+// oracle, gather and push-pull, repeated until converged.
+//
+// Hanrahan, Salzman & Aupperle 1991 ("A Rapid Hierarchical Radiosity
+// Algorithm"), with the solver loop of DESIGN.md: refine all links -> gather ->
+// push-pull, until no link was refined and the relative change of total
+// reflected power is below `tolerance` (or `max_iterations`). An optional
+// schedule of decreasing epsilon (multigridding, HSA91 section 5) runs the loop
+// once per value, keeping the hierarchy between stages.
+//
+// Refinement is breadth-first over the whole link set: every link is given to
+// the oracle; elements to subdivide are collected and subdivided serially in
+// index order; links are replaced by links between the children, whose form
+// factors are computed in parallel; the new links are judged in the next
+// round, until no link is refined. This is HSA91's recursive Refine() unrolled
+// by level, and it makes the result independent of thread scheduling: results
+// are bitwise identical for any thread count.
+//
+// Settings (Params keys):
+//   hr.oracle          string  "bfa"   refinement oracle (oracles/registry.h); its own
+//                                       settings are the keys "oracle.*" (e.g. oracle.eps)
+//   hr.eps_schedule    string  ""      comma-separated decreasing eps values; each stage
+//                                       sets oracle.eps and runs the loop to convergence
+//   hr.min_area        double  0       minimum element area (absolute); 0: min_area_rel
+//   hr.min_area_rel    double  1e-5    minimum element area relative to the total scene area
+//   hr.max_level       int     14      maximum quadtree depth below a root patch
+//   hr.max_iterations  int     100     iteration cap per stage
+//   hr.min_iterations  int     2       iterations before convergence may be declared
+//   hr.tolerance       double  1e-4    relative change of reflected power to stop
+//   hr.max_links       int     2e8     refinement stops (with a warning) past this many links
+//   ff.*                               form-factor settings (transport/formfactor.h)
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/memory.h"
+#include "core/params.h"
+#include "hr/hierarchy.h"
+#include "oracles/oracle.h"
+#include "scene/scene.h"
+#include "transport/formfactor.h"
+#include "transport/visibility.h"
+
+namespace hrad::hr {
+
+struct HrSettings {
+    std::string oracle = "bfa";
+    Params oracleParams;  ///< the "oracle.*" keys, prefix stripped
+    std::vector<double> epsSchedule;
+    double minArea = 0.0;
+    double minAreaRel = 1e-5;
+    int maxLevel = 14;
+    int maxIterations = 100;
+    int minIterations = 2;
+    double tolerance = 1e-4;
+    uint64_t maxLinks = 200'000'000;
+    transport::FormFactorSettings ff;
+
+    /// Reads the keys above (marks "oracle.*" used only after the oracle has
+    /// read them: see HrSolver). Throws InputError on bad values or an unknown
+    /// oracle name.
+    static HrSettings fromParams(const Params& params);
+    std::string describe() const;
+};
+
+/// What one iteration did (one row of the per-iteration history).
+struct IterationRecord {
+    int iteration = 0;  ///< 1-based, counted across stages
+    int stage = 0;
+    double eps = 0.0;   ///< oracle eps of the stage (NaN when the oracle has none)
+    uint64_t links = 0, elements = 0, leaves = 0;
+    uint64_t refinedLinks = 0;   ///< links replaced by refinement this iteration
+    uint64_t rays = 0;           ///< occlusion rays cast this iteration
+    uint64_t formFactors = 0;    ///< form factors computed this iteration
+    double residual = 0.0;       ///< relative change of reflected power
+    RGB reflectedPower{0.0};
+    double refineSeconds = 0.0, gatherSeconds = 0.0, pushPullSeconds = 0.0;
+    uint64_t elementBytes = 0, linkBytes = 0;
+};
+
+struct HrResult {
+    std::unique_ptr<Hierarchy> hierarchy;
+    std::unique_ptr<HierarchyField> field;
+    std::vector<IterationRecord> history;
+    std::string oracleDescription;
+    bool converged = false;
+    bool linkCapHit = false;
+    uint64_t initialLinks = 0;
+    uint64_t totalRays = 0, totalFormFactors = 0;
+    double linkingSeconds = 0.0, refineSeconds = 0.0, gatherSeconds = 0.0, pushPullSeconds = 0.0;
+    double minArea = 0.0;
+    MemoryCounters memory;
+};
+
+class HrSolver {
+  public:
+    HrSolver(const scene::Scene& scene, const transport::Visibility& visibility,
+             HrSettings settings);
+
+    /// Runs the whole solve. `progress` enables progress lines on stderr.
+    HrResult solve(bool progress = false);
+
+  private:
+    struct Pending;
+    void initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vector<Link>& links,
+                      HrResult& res, bool progress);
+    uint64_t refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
+                    IterationRecord& rec);
+    Link makeLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
+    bool canSubdivide(const Hierarchy& h, uint32_t e) const;
+
+    const scene::Scene* scene_;
+    const transport::Visibility* vis_;
+    HrSettings s_;
+    transport::FormFactorEngine engine_;
+    double minArea_ = 0.0;
+    double emittedPower_ = 1.0;
+};
+
+}  // namespace hrad::hr

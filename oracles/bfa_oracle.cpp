@@ -1,0 +1,33 @@
+#include "oracles/bfa_oracle.h"
+
+#include <fmt/format.h>
+
+namespace hrad::oracles {
+
+PowerOracle::Settings PowerOracle::Settings::fromParams(const Params& p) {
+    Settings s;
+    s.eps = p.getDouble("eps", s.eps, 0.0, 1.0, true);
+    s.useBound = p.getBool("use_bound", s.useBound);
+    s.minArea = p.getDouble("min_area", s.minArea, 0.0, 1e300);
+    return s;
+}
+
+double PowerOracle::transportedPower(const LinkEstimate& e) const {
+    double f = s_.useBound ? e.Fupper : e.F;
+    return maxComponent(e.receiverRho * e.senderB) * f * e.receiverArea * e.importance;
+}
+
+Decision PowerOracle::decide(const LinkEstimate& e) const {
+    if (transportedPower(e) <= s_.eps * e.emittedPower) return Decision::Accept;
+    LinkEstimate c = e;
+    c.receiverCanSubdivide = e.receiverCanSubdivide && e.receiverArea > s_.minArea;
+    c.senderCanSubdivide = e.senderCanSubdivide && e.senderArea > s_.minArea;
+    if (s_.useBound) c.F = e.Fupper;
+    return refineLarger(c);
+}
+
+std::string PowerOracle::describe() const {
+    return fmt::format("bfa(eps={}, use_bound={}, min_area={})", s_.eps, s_.useBound, s_.minArea);
+}
+
+}  // namespace hrad::oracles

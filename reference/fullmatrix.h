@@ -1,0 +1,154 @@
+// Full-matrix reference radiosity (DESIGN.md "Reference solves and error").
+//
+// Every root patch is subdivided uniformly (scene::uniformLevels, a fixed
+// level or an element-area bound) and all n^2 element-to-element form factors
+// F_ij are computed with transport::FormFactorEngine (quadrature and
+// visibility). The classical radiosity system (Cohen & Wallace 1993, eq. 5.1)
+//
+//     B_i = E_i + rho_i sum_j F_ij B_j        (per RGB channel)
+//
+// is then solved by one of three stationary methods (Cohen & Wallace 1993,
+// ch. 5): Jacobi (§5.3.1), Gauss-Seidel (§5.3.2, in place, rows in element
+// order) or Southwell / progressive refinement (§5.3.3, Cohen, Chen, Wallace &
+// Greenberg 1988: "shoot" the unshot radiosity of the element with the largest
+// unshot power). All three converge to the same solution of the same matrix.
+//
+// Settings (Params keys below a prefix, "fm" by default):
+//   level           int     3       uniform subdivision level of every patch
+//                                   (4^level elements per patch); ignored when
+//                                   max_area > 0
+//   max_area        double  0       subdivide each patch until every element has
+//                                   area <= max_area (0: use level)
+//   max_level       int     12      cap on the level chosen by max_area
+//   solver          string  "gauss-seidel"   "jacobi" | "gauss-seidel" | "southwell"
+//   tolerance       double  1e-7    relative residual at which iteration stops:
+//                                   res(B) = sum_i A_i |r_i|_1 / sum_i A_i |B_i|_1
+//                                   with r = E + rho (F B) - B, |.|_1 the sum of
+//                                   the absolute RGB channels: the relative L1
+//                                   norm of the unbalanced *power* A_i r_i
+//   max_iterations  int     10000   Jacobi / Gauss-Seidel sweeps; for Southwell
+//                                   the cap is max_iterations * n shots
+//   ambient         bool    false   Southwell only: add the ambient term of
+//                                   Cohen et al. 1988 (Cohen & Wallace 1993
+//                                   §5.3.3) to the returned field. It is a
+//                                   display estimate of the not yet shot light;
+//                                   it vanishes as the residual does, so a
+//                                   converged solution differs from the others
+//                                   by O(tolerance). Leave false for references.
+//   ff.*                            transport::FormFactorSettings (rule, points,
+//                                   sender_points, vis_rays)
+//
+// Storage: the form factors are kept as sparse rows (CSR) with double values
+// and 32-bit column indices, 12 bytes per non-zero plus 8 bytes per row; pairs
+// that cannot exchange energy (FormFactorEngine::facing false, or F == 0
+// because fully occluded) and the diagonal (planar elements, F_ii = 0) are not
+// stored. Southwell needs columns of F and builds the transpose (a second copy;
+// reciprocity A_i F_ij = A_j F_ji holds only up to quadrature error, so using it
+// instead would solve a slightly different system).
+//
+// Practical limits, measured with the default settings (ff.rule gauss 3x3,
+// 16 visibility rays) on the 2-core development machine: Cornell box level 3
+// (1,088 elements) 2.2 s; furnace level 4 (1,536) 4.5 s; a 19-patch box with
+// a blocker at level 4 (4,864 elements, 11.0 M non-zeros, 132 MB CSR) 62 CPU-s
+// (~30 s wall on two idle cores); the solve itself takes < 0.5 s (Southwell
+// 1.5 s). Cost grows as n^2: 20k elements are ~17x the 4.9k case (~20 CPU-min)
+// and ~2 GB of matrix (twice that for Southwell). Nothing is cached on disk
+// yet (DESIGN.md asks for a cache keyed by scene hash and settings).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/params.h"
+#include "scene/field.h"
+#include "scene/scene.h"
+#include "transport/formfactor.h"
+#include "transport/visibility.h"
+
+namespace hrad::reference {
+
+enum class MatrixSolver { Jacobi, GaussSeidel, Southwell };
+
+std::string solverName(MatrixSolver s);
+
+struct FullMatrixSettings {
+    int level = 3;
+    double maxArea = 0.0;
+    int maxLevel = 12;
+    MatrixSolver solver = MatrixSolver::GaussSeidel;
+    double tolerance = 1e-7;
+    int maxIterations = 10000;
+    bool ambient = false;
+    transport::FormFactorSettings ff{};
+
+    /// Reads the keys listed above below `prefix` ("fm.level", ..., "fm.ff.points").
+    static FullMatrixSettings fromParams(const Params& params, const std::string& prefix = "fm");
+    /// One line, "level=3 solver=gauss-seidel tolerance=1e-07 ... ff={...}".
+    std::string describe() const;
+};
+
+/// Sparse form-factor matrix on a uniform subdivision. Element i is the
+/// UniformField element with flat index i (UniformField::offset(patch) + local).
+struct FormFactorMatrix {
+    std::vector<uint8_t> levels;     ///< subdivision level per patch
+    std::vector<uint32_t> patchOf;   ///< patch of element i
+    std::vector<double> areas;       ///< A_i
+    std::vector<uint64_t> rowStart;  ///< n+1 offsets into cols/values
+    std::vector<uint32_t> cols;      ///< sender j of each non-zero F_ij
+    std::vector<double> values;      ///< F_ij
+    uint64_t rays = 0;               ///< occlusion rays cast
+    double seconds = 0.0;            ///< wall time of the form-factor pass
+
+    size_t size() const { return areas.size(); }
+    uint64_t nonZeros() const { return values.size(); }
+    uint64_t bytes() const;
+    /// sum_j F_ij (1 for an interior element of a closed scene, up to quadrature error).
+    double rowSum(size_t i) const;
+};
+
+struct FullMatrixStats {
+    size_t elements = 0;
+    uint64_t formFactors = 0;  ///< stored non-zeros
+    uint64_t rays = 0;
+    double ffSeconds = 0.0;
+    double solveSeconds = 0.0;
+    /// Sweeps (Jacobi, Gauss-Seidel) or shots (Southwell).
+    int64_t iterations = 0;
+    double residual = 0.0;  ///< final relative residual (see "tolerance")
+    bool converged = false;
+    uint64_t matrixBytes = 0;  ///< CSR bytes (plus the transpose for Southwell)
+    /// Relative residual after each sweep (Southwell: after every n shots).
+    std::vector<double> residualHistory;
+};
+
+struct FullMatrixResult {
+    std::unique_ptr<scene::UniformField> field;
+    FullMatrixStats stats;
+};
+
+/// Computes all element-to-element form factors (parallel over receiver rows;
+/// every row is written by one task and the engine is deterministic, so the
+/// matrix does not depend on thread scheduling).
+FormFactorMatrix computeFormFactorMatrix(const scene::Scene& scene,
+                                         const transport::Visibility& visibility,
+                                         const FullMatrixSettings& settings,
+                                         bool showProgress = true);
+
+/// Solves B = E + rho F B on a precomputed matrix with settings.solver. Only
+/// the solver settings (solver, tolerance, max_iterations, ambient) are read.
+/// Non-convergence within max_iterations is not an error: stats.converged says.
+FullMatrixResult solveFormFactorMatrix(const scene::Scene& scene, const FormFactorMatrix& matrix,
+                                       const FullMatrixSettings& settings);
+
+/// computeFormFactorMatrix + solveFormFactorMatrix.
+FullMatrixResult solveFullMatrix(const scene::Scene& scene, const transport::Visibility& visibility,
+                                 const FullMatrixSettings& settings, bool showProgress = true);
+
+/// Relative residual (see "tolerance") of an arbitrary field on the matrix's
+/// elements: useful to check any solution against the full-matrix system.
+double relativeResidual(const scene::Scene& scene, const FormFactorMatrix& matrix,
+                        const std::vector<RGB>& B);
+
+}  // namespace hrad::reference

@@ -1,0 +1,41 @@
+// Error of a radiosity solution against a reference (DESIGN.md "Reference
+// solves and error").
+//
+// Both fields live on the same root patches and subdivide the same parametric
+// domains, so the average of the solution over each reference element (a
+// "region") is computed exactly from the solution's leaves
+// (RadiosityField::average), never resampled. For every region k with area
+// A_k, solution average S_k and reference value R_k:
+//
+//   L1   = sum_k A_k |S_k - R_k|   / sum_k A_k |R_k|
+//   L2   = sqrt(sum_k A_k |S_k - R_k|^2) / sqrt(sum_k A_k |R_k|^2)
+//   Linf = max_k |S_k - R_k| / max_k |R_k|
+//
+// once with |.| the absolute value of luminance (core/types.h, Rec. 709
+// weights) and once with |.| the Euclidean norm of the RGB triple. A ratio
+// whose denominator is 0 is 0 when its numerator is 0 too, else +infinity.
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+#include "scene/field.h"
+
+namespace hrad::reference {
+
+struct ErrorMetrics {
+    double l1Lum = 0.0, l2Lum = 0.0, linfLum = 0.0;
+    double l1Rgb = 0.0, l2Rgb = 0.0, linfRgb = 0.0;
+    size_t regions = 0;    ///< reference elements compared
+    double refArea = 0.0;  ///< sum of their areas
+
+    std::string describe() const;
+};
+
+/// Error of `solution` against `reference`. Both must be defined on scenes
+/// with the same patches (checked: same patch count; the scenes are normally
+/// the same object). Throws hrad::Error when they differ.
+ErrorMetrics computeError(const scene::RadiosityField& solution,
+                          const scene::UniformField& reference);
+
+}  // namespace hrad::reference

@@ -1,0 +1,41 @@
+// Cameras for rendering radiosity fields (a pinhole scene::Camera).
+#pragma once
+
+#include "core/types.h"
+#include "scene/scene.h"
+
+namespace hrad::render {
+
+/// The camera of the Cornell box data set (Cornell Program of Computer
+/// Graphics, "Cornell Box Data", coordinates in millimetres: eye (278, 273,
+/// -800) looking along +z at (278, 273, 0), vertical field of view 39.3077
+/// degrees). Only meaningful for a scene in those coordinates; the built-in
+/// "cornell" scene sets scene.camera itself.
+scene::Camera standardCornellCamera();
+
+/// A camera that sees the whole scene: it looks at the centre of the bounding
+/// box from outside, along a diagonal direction (y up), at the distance where
+/// the bounding sphere fits the vertical field of view (40 degrees). The
+/// direction is (1, 0.8, 1.6) (normalised) unless the scene is open: then the
+/// vector area sum_k A_k n_k (zero for closed surfaces) points out of the
+/// opening, and the diagonal among (+-1, +-0.8, +-1.6) and (+-1.6, +-0.8, +-1)
+/// most aligned with it is used (the Cornell box is seen through its open
+/// front). A closed scene seen from outside shows only back faces (black by
+/// default, render.back_faces); such scenes should carry their own camera.
+scene::Camera autoCamera(const scene::Scene& scene);
+
+/// scene.camera when present, else autoCamera(scene).
+scene::Camera cameraFor(const scene::Scene& scene);
+
+/// A primary ray through the image: pixel coordinates (x right, y down,
+/// continuous, [0,width] x [0,height]) to a unit direction from camera.eye.
+struct CameraFrame {
+    Vec3 eye, forward, right, up;
+    double tanHalfY = 0.0, aspect = 1.0;
+    int width = 1, height = 1;
+
+    CameraFrame(const scene::Camera& camera, int width, int height);
+    Vec3 direction(double px, double py) const;
+};
+
+}  // namespace hrad::render

@@ -1,0 +1,89 @@
+#include "render/ply_export.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <bit>
+#include <cstring>
+#include <fstream>
+#include <vector>
+
+#include "core/error.h"
+#include "render/image.h"
+#include "scene/element.h"
+
+namespace hrad::render {
+
+namespace {
+template <typename T>
+void putLE(std::vector<char>& out, T value) {
+    char b[sizeof(T)];
+    std::memcpy(b, &value, sizeof(T));
+    if constexpr (std::endian::native == std::endian::big) std::reverse(b, b + sizeof(T));
+    out.insert(out.end(), b, b + sizeof(T));
+}
+}  // namespace
+
+PlyCounts writePly(const scene::RadiosityField& field, const std::string& path, double exposure) {
+    const scene::Scene& scene = field.scene();
+    struct Leaf {
+        uint32_t patch;
+        scene::ElementKey key;
+        RGB b;
+    };
+    std::vector<Leaf> leaves;
+    std::vector<RGB> values;
+    std::vector<double> areas;
+    for (uint32_t p = 0; p < scene.patches.size(); ++p)
+        field.forEachLeaf(p, [&](scene::ElementKey k, const RGB& b) {
+            leaves.push_back({p, k, b});
+            values.push_back(b);
+            areas.push_back(
+                scene::elementArea(scene.patches[p], scene::keyDomain(scene.patches[p].kind, k)));
+        });
+    if (!(exposure > 0)) exposure = autoExposure(values, areas);
+
+    PlyCounts counts;
+    std::vector<char> vtx, faces;
+    for (const Leaf& l : leaves) {
+        const scene::Patch& p = scene.patches[l.patch];
+        Vec3 c[4];
+        int n = scene::elementCorners(p, scene::keyDomain(p.kind, l.key), c);
+        auto rgb = toneMap(l.b, exposure);
+        putLE(faces, uint8_t(n));
+        for (int i = 0; i < n; ++i) {
+            putLE(vtx, float(c[i].x));
+            putLE(vtx, float(c[i].y));
+            putLE(vtx, float(c[i].z));
+            for (uint8_t ch : rgb) putLE(vtx, ch);
+            putLE(faces, int32_t(counts.vertices + uint64_t(i)));
+        }
+        putLE(faces, float(l.b.r));
+        putLE(faces, float(l.b.g));
+        putLE(faces, float(l.b.b));
+        counts.vertices += uint64_t(n);
+        ++counts.faces;
+    }
+    HRAD_CHECK_MSG(counts.vertices < uint64_t(INT32_MAX), "too many vertices for PLY int indices");
+
+    std::ofstream out(path, std::ios::binary);
+    if (!out) throw InputError(SourceLocation{path, 0, 0}, "cannot open PLY file for writing");
+    out << "ply\nformat binary_little_endian 1.0\n"
+        << "comment hrad radiosity field of " << scene.name << ": one face per leaf element\n"
+        << "comment vertex colours: sRGB of exposure * B, exposure "
+        << fmt::format("{:.6g}", exposure)
+        << "\ncomment face radiosity_r/g/b: linear radiosity B (W/m^2)\n"
+        << "element vertex " << counts.vertices << "\n"
+        << "property float x\nproperty float y\nproperty float z\n"
+        << "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+        << "element face " << counts.faces << "\n"
+        << "property list uchar int vertex_indices\n"
+        << "property float radiosity_r\nproperty float radiosity_g\nproperty float radiosity_b\n"
+        << "end_header\n";
+    out.write(vtx.data(), std::streamsize(vtx.size()));
+    out.write(faces.data(), std::streamsize(faces.size()));
+    if (!out) throw InputError(SourceLocation{path, 0, 0}, "error writing PLY file");
+    return counts;
+}
+
+}  // namespace hrad::render

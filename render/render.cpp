@@ -1,0 +1,211 @@
+#include "render/render.h"
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <unordered_map>
+
+#include "core/error.h"
+#include "core/rng.h"
+#include "render/camera.h"
+#include "scene/element.h"
+
+namespace hrad::render {
+
+using scene::Domain;
+using scene::ElementKey;
+using scene::PatchKind;
+
+RenderSettings RenderSettings::fromParams(const Params& params, const std::string& prefix) {
+    auto key = [&](const char* k) { return prefix.empty() ? std::string(k) : prefix + "." + k; };
+    RenderSettings s;
+    s.width = int(params.getInt(key("width"), s.width, 1, 32768));
+    s.height = int(params.getInt(key("height"), s.height, 1, 32768));
+    s.spp = int(params.getInt(key("spp"), s.spp, 1, 65536));
+    s.interpolate = params.getBool(key("interpolate"), s.interpolate);
+    s.backFacesBlack = params.getEnum(key("back_faces"), "black", {"black", "front"}) == "black";
+    return s;
+}
+
+std::string RenderSettings::describe() const {
+    return fmt::format("width={} height={} spp={} interpolate={} back_faces={}", width, height, spp,
+                       interpolate, backFacesBlack ? "black" : "front");
+}
+
+namespace {
+
+/// Parametric corners of a domain in Domain order (scene/element.h).
+int domainCorners(PatchKind kind, const Domain& d, Vec2 out[4]) {
+    out[0] = {d.u0, d.v0};
+    out[1] = {d.u0 + d.h, d.v0};
+    if (kind == PatchKind::Quad) {
+        out[2] = {d.u0 + d.h, d.v0 + d.h};
+        out[3] = {d.u0, d.v0 + d.h};
+        return 4;
+    }
+    out[2] = {d.u0, d.v0 + d.h};
+    return 3;
+}
+
+/// Closed containment; exact for dyadic coordinates.
+bool containsClosed(PatchKind kind, const Domain& d, double u, double v) {
+    double a = u - d.u0, b = v - d.v0;
+    if (kind == PatchKind::Quad) return a >= 0 && a <= d.h && b >= 0 && b <= d.h;
+    if (d.h > 0) return a >= 0 && b >= 0 && a + b <= d.h;
+    return a <= 0 && b <= 0 && a + b >= d.h;  // inverted (middle) triangle
+}
+
+Vec2 clampToPatch(PatchKind kind, Vec2 uv) {
+    if (kind == PatchKind::Quad) return glm::clamp(uv, Vec2(0.0), Vec2(1.0));
+    uv = glm::max(uv, Vec2(0.0));
+    double s = uv.x + uv.y;
+    if (s > 1) uv /= s;
+    return uv;
+}
+
+}  // namespace
+
+struct VertexInterpolation::PatchTable {
+    PatchKind kind = PatchKind::Quad;
+    std::unordered_map<ElementKey, uint32_t> leafIndex;
+    std::vector<RGB> leafValue;
+    std::vector<std::array<RGB, 4>> corners;
+
+    void collect(ElementKey key, const Domain& dom, double u, double v, RGB& sum,
+                 int& count) const {
+        auto it = leafIndex.find(key);
+        if (it != leafIndex.end()) {
+            sum += leafValue[it->second];
+            ++count;
+            return;
+        }
+        if (scene::keyLevel(key) >= scene::kMaxLevel) return;
+        for (int c = 0; c < 4; ++c) {
+            Domain cd = scene::childDomain(kind, dom, c);
+            if (containsClosed(kind, cd, u, v))
+                collect(scene::childKey(key, c), cd, u, v, sum, count);
+        }
+    }
+
+    /// Leaf containing (u,v) (UINT32_MAX if the leaves do not cover it).
+    uint32_t find(double u, double v, Domain& dom) const {
+        ElementKey key = scene::kRootKey;
+        dom = Domain{};
+        for (int level = 0; level <= scene::kMaxLevel; ++level) {
+            auto it = leafIndex.find(key);
+            if (it != leafIndex.end()) return it->second;
+            int c = scene::childContaining(kind, dom, u, v);
+            dom = scene::childDomain(kind, dom, c);
+            key = scene::childKey(key, c);
+        }
+        return UINT32_MAX;
+    }
+};
+
+VertexInterpolation::VertexInterpolation(const scene::RadiosityField& field) : field_(&field) {
+    const scene::Scene& scene = field.scene();
+    tables_.resize(scene.patches.size());
+    tbb::parallel_for(size_t(0), scene.patches.size(), [&](size_t p) {
+        auto t = std::make_unique<PatchTable>();
+        t->kind = scene.patches[p].kind;
+        std::vector<ElementKey> keys;
+        field.forEachLeaf(uint32_t(p), [&](ElementKey k, const RGB& b) {
+            t->leafIndex.emplace(k, uint32_t(keys.size()));
+            keys.push_back(k);
+            t->leafValue.push_back(b);
+        });
+        t->corners.resize(keys.size());
+        // Each distinct corner is resolved once.
+        std::map<std::pair<double, double>, RGB> cache;
+        for (size_t i = 0; i < keys.size(); ++i) {
+            Vec2 cs[4];
+            int n = domainCorners(t->kind, scene::keyDomain(t->kind, keys[i]), cs);
+            for (int c = 0; c < n; ++c) {
+                auto [it, fresh] = cache.try_emplace({cs[c].x, cs[c].y}, RGB(0.0));
+                if (fresh) {
+                    RGB sum(0.0);
+                    int count = 0;
+                    t->collect(scene::kRootKey, Domain{}, cs[c].x, cs[c].y, sum, count);
+                    it->second = count > 0 ? sum / double(count) : t->leafValue[i];
+                }
+                t->corners[i][c] = it->second;
+            }
+        }
+        tables_[p] = std::move(t);
+    });
+}
+
+VertexInterpolation::~VertexInterpolation() = default;
+
+RGB VertexInterpolation::cornerValue(uint32_t patch, ElementKey key, int corner) const {
+    const PatchTable& t = *tables_.at(patch);
+    auto it = t.leafIndex.find(key);
+    HRAD_CHECK_MSG(it != t.leafIndex.end(), "key {} is not a leaf of patch {}", key, patch);
+    return t.corners[it->second][corner];
+}
+
+RGB VertexInterpolation::at(uint32_t patch, double u, double v) const {
+    const PatchTable& t = *tables_[patch];
+    Vec2 uv = clampToPatch(t.kind, Vec2(u, v));
+    Domain d;
+    uint32_t leaf = t.find(uv.x, uv.y, d);
+    if (leaf == UINT32_MAX) return field_->at(patch, uv.x, uv.y);
+    // Local coordinates; for inverted triangles h < 0 maps the corners
+    // (u0,v0), (u0+h,v0), (u0,v0+h) to (0,0), (1,0), (0,1) all the same.
+    double a = std::clamp((uv.x - d.u0) / d.h, 0.0, 1.0);
+    double b = std::clamp((uv.y - d.v0) / d.h, 0.0, 1.0);
+    const auto& c = t.corners[leaf];
+    if (t.kind == PatchKind::Quad)
+        return (1 - a) * (1 - b) * c[0] + a * (1 - b) * c[1] + a * b * c[2] + (1 - a) * b * c[3];
+    return (1 - a - b) * c[0] + a * c[1] + b * c[2];
+}
+
+Image renderField(const scene::Scene& scene, const transport::Visibility& visibility,
+                  const scene::RadiosityField& field, const scene::Camera& camera,
+                  const RenderSettings& settings) {
+    HRAD_CHECK(&field.scene() == &scene || field.scene().patches.size() == scene.patches.size());
+    CameraFrame frame(camera, settings.width, settings.height);
+    std::unique_ptr<VertexInterpolation> interp;
+    if (settings.interpolate) interp = std::make_unique<VertexInterpolation>(field);
+    Image img(settings.width, settings.height);
+    const int spp = settings.spp;
+    const int strata = int(std::lround(std::sqrt(double(spp))));
+    const bool stratified = strata * strata == spp;
+
+    tbb::parallel_for(
+        tbb::blocked_range<int>(0, settings.height), [&](const tbb::blocked_range<int>& r) {
+            for (int y = r.begin(); y != r.end(); ++y) {
+                for (int x = 0; x < settings.width; ++x) {
+                    Pcg32 rng(hashIds(uint64_t(x), uint64_t(y)));
+                    RGB sum(0.0);
+                    for (int s = 0; s < spp; ++s) {
+                        double jx = 0.5, jy = 0.5;
+                        if (spp > 1) {
+                            jx = rng.nextDouble();
+                            jy = rng.nextDouble();
+                            if (stratified) {
+                                jx = ((s % strata) + jx) / strata;
+                                jy = ((s / strata) + jy) / strata;
+                            }
+                        }
+                        Vec3 dir = frame.direction(x + jx, y + jy);
+                        transport::RayHit hit = visibility.intersect(frame.eye, dir);
+                        if (!hit.hit) continue;
+                        const scene::Patch& p = scene.patches[hit.patch];
+                        if (settings.backFacesBlack && glm::dot(dir, p.normal) > 0) continue;
+                        Vec2 uv = clampToPatch(p.kind, scene::patchInverse(p, hit.point));
+                        sum += interp ? interp->at(hit.patch, uv.x, uv.y)
+                                      : field.at(hit.patch, uv.x, uv.y);
+                    }
+                    img.at(x, y) = sum / double(spp);
+                }
+            }
+        });
+    return img;
+}
+
+}  // namespace hrad::render

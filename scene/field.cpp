@@ -1,0 +1,98 @@
+#include "scene/field.h"
+
+#include <cmath>
+
+#include "core/error.h"
+
+namespace hrad::scene {
+
+RGB RadiosityField::totalPower() const {
+    RGB sum(0.0);
+    const Scene& s = scene();
+    for (uint32_t p = 0; p < s.patches.size(); ++p) {
+        const Patch& patch = s.patches[p];
+        forEachLeaf(p, [&](ElementKey k, const RGB& b) {
+            sum += b * elementArea(patch, keyDomain(patch.kind, k));
+        });
+    }
+    return sum;
+}
+
+UniformField::UniformField(const Scene& scene, std::vector<uint8_t> levels)
+    : scene_(&scene), levels_(std::move(levels)) {
+    HRAD_CHECK(levels_.size() == scene.patches.size());
+    offsets_.resize(levels_.size() + 1);
+    size_t n = 0;
+    for (size_t p = 0; p < levels_.size(); ++p) {
+        HRAD_CHECK(levels_[p] <= kMaxLevel);
+        offsets_[p] = n;
+        n += size_t(1) << (2 * levels_[p]);
+    }
+    offsets_.back() = n;
+    values_.assign(n, RGB(0.0));
+    areas_.resize(n);
+    for (uint32_t p = 0; p < levels_.size(); ++p) {
+        const Patch& patch = scene.patches[p];
+        for (size_t i = 0; i < count(p); ++i)
+            areas_[offsets_[p] + i] = elementArea(patch, keyDomain(patch.kind, key(p, i)));
+    }
+}
+
+RGB UniformField::at(uint32_t patch, double u, double v) const {
+    const Patch& p = scene_->patches[patch];
+    ElementKey k = keyAt(p.kind, u, v, levels_[patch]);
+    return values_[offsets_[patch] + (k - (ElementKey(1) << (2 * levels_[patch])))];
+}
+
+RGB UniformField::average(uint32_t patch, ElementKey key) const {
+    int L = levels_[patch], l = keyLevel(key);
+    size_t base = offsets_[patch];
+    ElementKey first = ElementKey(1) << (2 * L);
+    if (l >= L) return values_[base + ((key >> (2 * (l - L))) - first)];
+    // Descendants at level L are contiguous keys.
+    ElementKey lo = key << (2 * (L - l));
+    size_t n = size_t(1) << (2 * (L - l));
+    RGB sum(0.0);
+    double a = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+        size_t idx = base + (lo - first) + i;
+        sum += values_[idx] * areas_[idx];
+        a += areas_[idx];
+    }
+    return a > 0 ? sum / a : RGB(0.0);
+}
+
+void UniformField::forEachLeaf(uint32_t patch,
+                               const std::function<void(ElementKey, const RGB&)>& fn) const {
+    for (size_t i = 0; i < count(patch); ++i) fn(key(patch, i), values_[offsets_[patch] + i]);
+}
+
+std::vector<uint8_t> uniformLevels(const Scene& scene, int level, double maxArea, int maxLevel) {
+    std::vector<uint8_t> out(scene.patches.size(), uint8_t(level));
+    if (maxArea > 0) {
+        for (size_t i = 0; i < scene.patches.size(); ++i) {
+            int l = 0;
+            double a = scene.patches[i].area;
+            // Children of a quad need not have equal area (trapezoids), so the
+            // bound uses the exact largest child area per level.
+            while (l < maxLevel && a > maxArea) {
+                ++l;
+                a *= 0.25;
+                // Refine the estimate for non-parallelogram quads.
+                if (scene.patches[i].kind == PatchKind::Quad) {
+                    const Patch& p = scene.patches[i];
+                    double amax = 0;
+                    int n = 1 << l;
+                    for (int iu = 0; iu < n; iu += std::max(1, n - 1))
+                        for (int iv = 0; iv < n; iv += std::max(1, n - 1))
+                            amax = std::max(amax, elementArea(p, Domain{double(iu) / n, double(iv) / n, 1.0 / n}));
+                    a = amax;
+                }
+            }
+            out[i] = uint8_t(l);
+        }
+    }
+    return out;
+}
+
+}  // namespace hrad::scene

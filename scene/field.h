@@ -1,0 +1,75 @@
+// RadiosityField: the one interface through which solutions are compared,
+// rendered and exported (DESIGN.md "Data flow").
+//
+// Every solver (hierarchical, full matrix, Monte Carlo) produces a field that
+// is piecewise constant over quadtree elements of the scene's root patches
+// (scene/element.h). Because all of them subdivide the same parametric
+// domains the same way, the exact average of a field over any element of any
+// other field is a sum over nested keys, never a resampling.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "scene/element.h"
+#include "scene/scene.h"
+
+namespace hrad::scene {
+
+class RadiosityField {
+  public:
+    virtual ~RadiosityField() = default;
+    virtual const Scene& scene() const = 0;
+    /// Radiosity of the leaf that contains parametric point (u,v) of `patch`.
+    virtual RGB at(uint32_t patch, double u, double v) const = 0;
+    /// Exact area-weighted average of the field over element `key` of `patch`.
+    virtual RGB average(uint32_t patch, ElementKey key) const = 0;
+    /// Calls fn(key, B) for each leaf element of `patch`.
+    virtual void forEachLeaf(uint32_t patch,
+                             const std::function<void(ElementKey, const RGB&)>& fn) const = 0;
+
+    /// Total radiosity power sum_leaves B * A (RGB).
+    RGB totalPower() const;
+};
+
+/// A field on a uniform subdivision: patch i is split to level levels[i]
+/// (4^level elements, keys 4^L .. 2*4^L-1, stored contiguously).
+class UniformField : public RadiosityField {
+  public:
+    UniformField(const Scene& scene, std::vector<uint8_t> levels);
+
+    const Scene& scene() const override { return *scene_; }
+    RGB at(uint32_t patch, double u, double v) const override;
+    RGB average(uint32_t patch, ElementKey key) const override;
+    void forEachLeaf(uint32_t patch,
+                     const std::function<void(ElementKey, const RGB&)>& fn) const override;
+
+    int level(uint32_t patch) const { return levels_[patch]; }
+    size_t numElements() const { return values_.size(); }
+    /// Index of the first element of `patch` in the flat arrays.
+    size_t offset(uint32_t patch) const { return offsets_[patch]; }
+    size_t count(uint32_t patch) const { return offsets_[patch + 1] - offsets_[patch]; }
+    RGB& value(size_t index) { return values_[index]; }
+    const RGB& value(size_t index) const { return values_[index]; }
+    double area(size_t index) const { return areas_[index]; }
+    /// Key of element `local` (0-based within its patch).
+    ElementKey key(uint32_t patch, size_t local) const {
+        return (ElementKey(1) << (2 * levels_[patch])) + local;
+    }
+    std::vector<RGB>& values() { return values_; }
+    const std::vector<RGB>& values() const { return values_; }
+
+  private:
+    const Scene* scene_;
+    std::vector<uint8_t> levels_;
+    std::vector<size_t> offsets_;
+    std::vector<RGB> values_;
+    std::vector<double> areas_;
+};
+
+/// Level per patch so that every element has area <= maxArea (level capped at
+/// maxLevel); with maxArea <= 0 every patch gets `level`.
+std::vector<uint8_t> uniformLevels(const Scene& scene, int level, double maxArea, int maxLevel = 12);
+
+}  // namespace hrad::scene

@@ -1,0 +1,35 @@
+// Scene loading entry point: built-in names and files chosen by extension.
+//
+//   cornell, furnace, plates:parallel:W:H:D, plates:perpendicular:W:H:L,
+//   office:N                      built-in procedural scenes (scene/builtin.h)
+//   *.obj                         OBJ/MTL (tinyobjloader): Kd -> rho, Ke -> E
+//   *.mgf                         Ward's Materials and Geometry Format
+//   *.ply                         PLY, ASCII or binary, optional colours as rho
+//
+// Settings (Params keys, all optional):
+//   mgf.resolution   int    16     segments around sph/cyl/cone/ring/torus
+//   obj.default_rho  double 0.5    grey reflectance for faces with no material
+//   mgf.white_point  string "E"    white of the xy -> RGB conversion: "E"
+//                                  (equal energy, as Radiance/MGF) or "D65"
+//   ply.emission     double 1.0    E of faces coloured pure white (255,255,255)
+//   ply.default_rho  double 0.5    grey reflectance of faces without colour
+//   validate         bool   true   run Scene::validate() (rho range, emitter)
+//
+// Every key is read whatever the format, so callers may reportUnused().
+#pragma once
+
+#include <string>
+
+#include "core/params.h"
+#include "scene/scene.h"
+
+namespace hrad::scene {
+
+/// Loads a built-in scene by name or a file by extension; throws InputError
+/// with file:line on malformed input. Fills scene.stats (incl. load time).
+Scene loadScene(const std::string& spec, const Params& params = {});
+
+/// True when spec names a built-in scene rather than a file.
+bool isBuiltinName(const std::string& spec);
+
+}  // namespace hrad::scene

@@ -1,0 +1,28 @@
+// Wavefront OBJ/MTL loader (tinyobjloader).
+//
+// Kd -> rho, Ke -> emission (E, W/m^2), material names kept. Faces are read as
+// polygons (tinyobjloader's triangulate = false) so quads stay quads; every
+// face goes through addPolygon (scene/triangulate.h). Faces without a
+// material get one grey material named "default" with rho = defaultRho
+// (Params key obj.default_rho) and one warning with their count
+// (stats.defaultMaterialFaces). Before tinyobjloader runs, a cheap pre-scan of
+// the text checks what tinyobjloader accepts silently, so errors carry a line:
+// non-finite or malformed vertex coordinates and face indices that name no
+// vertex. A material with rho outside [0, 1) is reported at its `newmtl` line
+// in the .mtl file.
+#pragma once
+
+#include <string>
+
+#include "scene/scene.h"
+
+namespace hrad::scene {
+
+struct ObjOptions {
+    double defaultRho = 0.5;  ///< reflectance of faces with no material
+};
+
+/// Loads an OBJ file (and its MTL libraries); throws InputError with file:line.
+Scene loadObj(const std::string& path, const ObjOptions& options = {});
+
+}  // namespace hrad::scene

@@ -1,0 +1,34 @@
+// PLY loader (Turk's polygon file format): ASCII, binary_little_endian and
+// binary_big_endian.
+//
+// Reads element `vertex` (x, y, z as any numeric type; optional red, green,
+// blue: integer types are divided by 255, float types taken as is) and element
+// `face` (list property `vertex_indices` or `vertex_index`, any count/index
+// types; optional face red, green, blue). Other elements and properties are
+// skipped. Faces go through addPolygon.
+//
+// Materials, one per distinct colour (named "ply_RRGGBB"):
+//   - the face's colour if the face has one, else the mean of its vertices'
+//     colours, else a grey "default" with rho = PlyOptions::defaultRho;
+//   - rho = colour, each channel clamped to at most 0.99 (rho must be < 1);
+//   - PLY has no emission: a face whose colour is pure white (255, 255, 255,
+//     or 1.0 for float colours) is an emitter ("ply_emitter") with rho = 0 and
+//     E = PlyOptions::emission (grey, Params key ply.emission).
+// Errors name the file and line (ASCII: the data line; binary: the byte
+// offset is in the message).
+#pragma once
+
+#include <string>
+
+#include "scene/scene.h"
+
+namespace hrad::scene {
+
+struct PlyOptions {
+    double emission = 1.0;    ///< E of pure white faces
+    double defaultRho = 0.5;  ///< rho of faces without colour
+};
+
+Scene loadPly(const std::string& path, const PlyOptions& options = {});
+
+}  // namespace hrad::scene

@@ -1,0 +1,141 @@
+#include "scene/scene.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.h"
+#include "scene/element.h"
+
+namespace hrad::scene {
+
+namespace {
+bool finite(const Vec3& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
+
+// A face is degenerate when its area is tiny relative to its longest edge
+// squared (needles and collapsed faces), or when it has no finite normal.
+bool degenerate(double area, double maxEdge2) {
+    return !(area > 0) || !std::isfinite(area) || area <= 1e-12 * maxEdge2;
+}
+}  // namespace
+
+uint32_t Scene::addMaterial(Material m) {
+    materials.push_back(std::move(m));
+    return static_cast<uint32_t>(materials.size() - 1);
+}
+
+bool Scene::addTriangle(const Vec3& a, const Vec3& b, const Vec3& c, uint32_t material) {
+    HRAD_CHECK(material < materials.size());
+    Vec3 n = glm::cross(b - a, c - a);
+    double len = glm::length(n);
+    double area = 0.5 * len;
+    double maxEdge2 = std::max({glm::dot(b - a, b - a), glm::dot(c - b, c - b), glm::dot(a - c, a - c)});
+    if (degenerate(area, maxEdge2)) {
+        ++stats.droppedDegenerate;
+        return false;
+    }
+    Patch p;
+    p.kind = PatchKind::Triangle;
+    p.material = material;
+    p.v = {a, b, c, c};
+    p.normal = n / len;
+    p.area = area;
+    p.rho = materials[material].rho;
+    p.emission = materials[material].emission;
+    patches.push_back(p);
+    return true;
+}
+
+bool Scene::addQuad(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, uint32_t material) {
+    HRAD_CHECK(material < materials.size());
+    Vec3 pts[4] = {a, b, c, d};
+    Vec3 n(0.0);
+    for (int i = 0; i < 4; ++i) n += glm::cross(pts[i], pts[(i + 1) % 4]);
+    double len = glm::length(n);
+    double area = 0.5 * glm::length(glm::cross(c - a, d - b));
+    double maxEdge2 = 0;
+    for (int i = 0; i < 4; ++i)
+        maxEdge2 = std::max(maxEdge2, glm::dot(pts[(i + 1) % 4] - pts[i], pts[(i + 1) % 4] - pts[i]));
+    if (degenerate(area, maxEdge2) || !(len > 0)) {
+        ++stats.droppedDegenerate;
+        return false;
+    }
+    Patch p;
+    p.kind = PatchKind::Quad;
+    p.material = material;
+    p.v = {a, b, c, d};
+    p.normal = n / len;
+    p.area = area;
+    p.rho = materials[material].rho;
+    p.emission = materials[material].emission;
+    patches.push_back(p);
+    return true;
+}
+
+void Scene::applyMaterials() {
+    for (auto& p : patches) {
+        p.rho = materials[p.material].rho;
+        p.emission = materials[p.material].emission;
+    }
+}
+
+Bounds3 Scene::bounds() const {
+    Bounds3 b;
+    for (const auto& p : patches)
+        for (int i = 0; i < p.numVertices(); ++i) b.expand(p.v[i]);
+    return b;
+}
+
+double Scene::totalArea() const {
+    double a = 0;
+    for (const auto& p : patches) a += p.area;
+    return a;
+}
+
+RGB Scene::emittedPower() const {
+    RGB s(0.0);
+    for (const auto& p : patches) s += p.emission * p.area;
+    return s;
+}
+
+size_t Scene::numEmitters() const {
+    size_t n = 0;
+    for (const auto& p : patches) n += p.isEmitter() ? 1 : 0;
+    return n;
+}
+
+size_t Scene::count(PatchKind k) const {
+    size_t n = 0;
+    for (const auto& p : patches) n += p.kind == k ? 1 : 0;
+    return n;
+}
+
+void Scene::validate() const {
+    SourceLocation where{name, 0, 0};
+    if (patches.empty()) throwInputError(where, "scene has no (non-degenerate) faces");
+    std::vector<bool> used(materials.size(), false);
+    for (const auto& p : patches) {
+        for (int i = 0; i < p.numVertices(); ++i)
+            if (!finite(p.v[i])) throwInputError(where, "non-finite vertex coordinate");
+        used[p.material] = true;
+    }
+    for (size_t m = 0; m < materials.size(); ++m) {
+        if (!used[m]) continue;
+        const Material& mat = materials[m];
+        for (int c = 0; c < 3; ++c) {
+            double r = mat.rho[c];
+            if (!(r >= 0.0 && r < 1.0))
+                throwInputError(where,
+                                "material '{}': reflectance ({:.6g}, {:.6g}, {:.6g}) must be in "
+                                "[0, 1) per channel",
+                                mat.name, mat.rho.r, mat.rho.g, mat.rho.b);
+            double e = mat.emission[c];
+            if (!(e >= 0.0) || !std::isfinite(e))
+                throwInputError(where, "material '{}': emission must be finite and >= 0",
+                                mat.name);
+        }
+    }
+    if (numEmitters() == 0)
+        throwInputError(where, "scene has no emitter (no face with emission > 0)");
+}
+
+}  // namespace hrad::scene

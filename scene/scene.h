@@ -1,0 +1,116 @@
+// The scene model: root patches, materials, camera.
+//
+// A root patch is an input triangle or a planar convex quad (DESIGN.md "Core
+// model"). Everything else (n-gons, non-planar and non-convex polygons) is
+// triangulated by the loaders (scene/triangulate.h). Reflectance rho and
+// emission E live on the patch (copied from its material) so that the hot
+// loops of every solver read one flat array.
+//
+// Units: emission is radiosity in W/m^2 (per RGB channel); lengths are in the
+// scene file's units and areas in their square. Emitted power of a patch is
+// E * area.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/types.h"
+
+namespace hrad::scene {
+
+enum class PatchKind : uint8_t { Triangle = 3, Quad = 4 };
+
+struct Material {
+    std::string name;
+    RGB rho{0.0};       ///< diffuse reflectance, each channel in [0, 1)
+    RGB emission{0.0};  ///< emitted radiosity E (W/m^2)
+    bool isEmitter() const { return emission.r > 0 || emission.g > 0 || emission.b > 0; }
+};
+
+/// A root patch. Vertices are counter-clockwise seen from the front (the side
+/// the normal points to). For a quad, v[0..3] are in order around the boundary
+/// and the patch is planar and convex; the parametrisation is bilinear:
+///   p(u,v) = (1-u)(1-v) v0 + u(1-v) v1 + u v v2 + (1-u) v v3.
+/// For a triangle, p(u,v) = v0 + u (v1-v0) + v (v2-v0) with u,v >= 0, u+v <= 1.
+struct Patch {
+    PatchKind kind = PatchKind::Triangle;
+    uint32_t material = 0;
+    std::array<Vec3, 4> v{};  ///< v[3] unused (equal to v[2]) for triangles
+    Vec3 normal{0.0};         ///< unit normal
+    double area = 0.0;
+    RGB rho{0.0};
+    RGB emission{0.0};
+
+    int numVertices() const { return kind == PatchKind::Quad ? 4 : 3; }
+    bool isEmitter() const { return emission.r > 0 || emission.g > 0 || emission.b > 0; }
+    /// Point at parametric coordinates (u,v) (see above).
+    Vec3 point(double u, double v) const;
+    Vec3 centroid() const;
+};
+
+struct Camera {
+    Vec3 eye{0.0, 0.0, 1.0};
+    Vec3 target{0.0, 0.0, 0.0};
+    Vec3 up{0.0, 1.0, 0.0};
+    double fovYDegrees = 40.0;  ///< vertical field of view
+};
+
+struct Bounds3 {
+    Vec3 lo{1e300}, hi{-1e300};
+    void expand(const Vec3& p) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    bool valid() const { return lo.x <= hi.x; }
+    Vec3 extent() const { return hi - lo; }
+    Vec3 center() const { return 0.5 * (lo + hi); }
+    double diagonal() const { return valid() ? glm::length(hi - lo) : 0.0; }
+};
+
+/// Counters filled by loaders, reported by `hrad info`.
+struct LoadStats {
+    uint64_t inputFaces = 0;         ///< faces read from the file (before triangulation)
+    uint64_t droppedDegenerate = 0;  ///< faces of (near) zero area dropped
+    uint64_t triangulatedFaces = 0;  ///< faces that had to be triangulated
+    uint64_t defaultMaterialFaces = 0;
+    uint64_t ignoredStatements = 0;  ///< e.g. MGF rs/ts
+    double loadSeconds = 0.0;
+    std::vector<std::string> warnings;
+};
+
+class Scene {
+  public:
+    std::string name;    ///< built-in name or file path
+    std::string source;  ///< "builtin" or the loader used
+    std::vector<Patch> patches;
+    std::vector<Material> materials;
+    std::optional<Camera> camera;
+    LoadStats stats;
+
+    uint32_t addMaterial(Material m);
+    /// Adds a triangle or quad with material index; computes normal and area.
+    /// Returns false (and adds nothing) when the face is degenerate.
+    bool addTriangle(const Vec3& a, const Vec3& b, const Vec3& c, uint32_t material);
+    bool addQuad(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, uint32_t material);
+
+    /// Copies rho/emission from materials onto patches (after materials change).
+    void applyMaterials();
+    Bounds3 bounds() const;
+    double totalArea() const;
+    RGB emittedPower() const;  ///< sum of E * area
+    size_t numEmitters() const;
+    size_t count(PatchKind k) const;
+
+    /// Load-time validation (nori's Scene::activate()): finite coordinates,
+    /// rho in [0,1) per channel on every used material, at least one emitter.
+    /// Throws InputError naming the material or the problem.
+    void validate() const;
+};
+
+/// Relative area below which a face counts as degenerate (times bbox diagonal^2).
+inline constexpr double kDegenerateAreaRel = 1e-14;
+
+}  // namespace hrad::scene

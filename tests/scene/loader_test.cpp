@@ -1,0 +1,48 @@
+// loadScene dispatch and settings (scene/loader.h).
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "scene/loader.h"
+#include "tests/test_util.h"
+
+namespace hrad::scene {
+namespace {
+
+TEST(Loader, UnknownExtensionIsAnInputErrorNamingTheFile) {
+    auto dir = test::tempDir("loader_ext");
+    auto path = test::writeFile(dir / "scene.xyz", "hello\n");
+    try {
+        loadScene(path.string());
+        FAIL();
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos);
+        EXPECT_NE(std::string(e.what()).find(".xyz"), std::string::npos);
+    }
+}
+
+TEST(Loader, ReadsEveryKeyEvenWhenNotApplicable) {
+    Params p;
+    p.set("mgf.resolution", int64_t(8));
+    p.set("obj.default_rho", 0.3);
+    p.set("ply.emission", 2.0);
+    p.set("validate", true);
+    Scene s = loadScene("furnace", p);
+    EXPECT_TRUE(p.unusedKeys().empty());
+    EXPECT_NO_THROW(p.reportUnused());
+    EXPECT_GE(s.stats.loadSeconds, 0.0);
+    EXPECT_EQ(s.name, "furnace");
+    Params bad;
+    bad.set("mgf.resolution", int64_t(1));
+    EXPECT_THROW(loadScene("furnace", bad), InputError);
+}
+
+TEST(Loader, ValidateFalseSkipsTheEmitterCheck) {
+    Params p;
+    p.set("validate", false);
+    Scene s = loadScene("furnace:0.5:0", p);
+    EXPECT_EQ(s.numEmitters(), 0u);
+    EXPECT_THROW(loadScene("furnace:0.5:0"), InputError);
+}
+
+}  // namespace
+}  // namespace hrad::scene

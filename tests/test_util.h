@@ -1,0 +1,41 @@
+// Helpers shared by the test binaries.
+#pragma once
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <string>
+
+namespace hrad::test {
+
+/// ../shared/scenes (or $HRAD_SCENES) when it exists.
+inline std::optional<std::filesystem::path> sharedScenesDir() {
+    if (const char* env = std::getenv("HRAD_SCENES")) {
+        std::filesystem::path p(env);
+        if (std::filesystem::is_directory(p)) return p;
+        return std::nullopt;
+    }
+    std::filesystem::path p(HRAD_SCENES_DEFAULT);
+    if (std::filesystem::is_directory(p)) return p;
+    return std::nullopt;
+}
+
+/// A fresh temporary directory for one test.
+inline std::filesystem::path tempDir(const std::string& name) {
+    auto dir = std::filesystem::temp_directory_path() / ("hrad_test_" + name + "_" +
+                                                         std::to_string(::getpid()));
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    return dir;
+}
+
+inline std::filesystem::path writeFile(const std::filesystem::path& path, const std::string& text) {
+    std::filesystem::create_directories(path.parent_path());
+    std::ofstream(path, std::ios::binary) << text;
+    return path;
+}
+
+}  // namespace hrad::test
+
+#include <unistd.h>

@@ -1,0 +1,233 @@
+// Visibility through Embree 3.
+//
+// Layout: one RTCDevice and one RTCScene per Visibility. The root patches go
+// into (at most) two geometries: all triangles in one RTC_GEOMETRY_TYPE_TRIANGLE
+// geometry and all quads in one RTC_GEOMETRY_TYPE_QUAD geometry, float vertices
+// (one copy per corner; sharing is not needed for occlusion). Each geometry's
+// user pointer is its primID -> patch index table, so the filter functions
+// map a hit back to a patch without a search.
+//
+// Ignoring the endpoint patches: every query passes an extended
+// RTCIntersectContext (Embree's documented pattern: the context is the first
+// member, the filter casts it back) that points to one (patchA, patchB) pair
+// per ray. The ray's `id` field holds the ray's index in the batch: Embree
+// copies it into the RTCRayN handed to the filter even when it regroups the
+// rays of rtcOccluded1M into packets, so the filter indexes the pair table with
+// RTCRayN_id(ray, N, i), never with the lane i. A hit on either endpoint
+// patch is rejected by clearing valid[i].
+//
+// Segment rays: org = a, dir = b - a (unnormalised), tnear = 0,
+// tfar = 1 - 1e-5 (the relative epsilon keeps a blocker lying exactly in the
+// plane of b from counting; hits on b's own patch are filtered anyway).
+//
+// Thread safety: after rtcCommitScene the scene is read-only; rtcOccluded*/
+// rtcIntersect1 are thread-safe, and each query has its own context on the stack.
+#include "transport/visibility.h"
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cfloat>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "core/error.h"
+
+namespace hrad::transport {
+
+namespace {
+
+constexpr float kSegmentTfar = 1.0f - 1e-5f;
+constexpr size_t kBatch = 256;  // rays per rtcOccluded1M call (stack buffer)
+
+/// An intersection context carrying one (patchA, patchB) pair per ray.
+struct QueryContext {
+    RTCIntersectContext ctx;  // must be first: Embree hands us &ctx
+    const uint32_t* pairs;    // 2 entries per ray, indexed by the ray's id
+};
+
+/// Filter for both occlusion and intersection: reject hits on the ray's own
+/// patches. geometryUserPtr is the geometry's primID -> patch table.
+void ignoreEndpointsFilter(const RTCFilterFunctionNArguments* args) {
+    const auto* qc = reinterpret_cast<const QueryContext*>(args->context);
+    const auto* primToPatch = static_cast<const uint32_t*>(args->geometryUserPtr);
+    const unsigned N = args->N;
+    for (unsigned i = 0; i < N; ++i) {
+        if (args->valid[i] != -1) continue;
+        unsigned id = RTCRayN_id(args->ray, N, i);
+        unsigned prim = RTCHitN_primID(args->hit, N, i);
+        uint32_t patch = primToPatch[prim];
+        if (patch == qc->pairs[2 * id] || patch == qc->pairs[2 * id + 1]) args->valid[i] = 0;
+    }
+}
+
+bool memoryMonitor(void* userPtr, ssize_t bytes, bool /*post*/) {
+    auto* counter = static_cast<std::atomic<int64_t>*>(userPtr);
+    counter->fetch_add(int64_t(bytes), std::memory_order_relaxed);
+    return true;  // never refuse an allocation
+}
+
+void errorFunction(void* /*userPtr*/, RTCError code, const char* str) {
+    // Errors surface through rtcGetDeviceError checks below; nothing to do here
+    // beyond keeping Embree from printing to stderr.
+    (void)code;
+    (void)str;
+}
+
+}  // namespace
+
+struct Visibility::Impl {
+    RTCDevice device = nullptr;
+    RTCScene scene = nullptr;
+    std::atomic<int64_t> bytes{0};
+    std::vector<uint32_t> triToPatch, quadToPatch;
+    unsigned triGeom = RTC_INVALID_GEOMETRY_ID, quadGeom = RTC_INVALID_GEOMETRY_ID;
+
+    void check(const char* what) const {
+        RTCError e = rtcGetDeviceError(device);
+        if (e != RTC_ERROR_NONE)
+            throw InternalError(std::string("Embree error ") + std::to_string(int(e)) + " in " +
+                                what);
+    }
+
+    uint32_t patchOf(unsigned geomID, unsigned primID) const {
+        if (geomID == triGeom) return triToPatch[primID];
+        if (geomID == quadGeom) return quadToPatch[primID];
+        return UINT32_MAX;
+    }
+};
+
+Visibility::Visibility(const scene::Scene& sc) : impl_(std::make_unique<Impl>()) {
+    Impl& m = *impl_;
+    m.device = rtcNewDevice(nullptr);
+    if (!m.device)
+        throw InternalError("Embree: rtcNewDevice failed (error " +
+                            std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
+    rtcSetDeviceErrorFunction(m.device, errorFunction, nullptr);
+    rtcSetDeviceMemoryMonitorFunction(m.device, memoryMonitor, &m.bytes);
+
+    m.scene = rtcNewScene(m.device);
+    rtcSetSceneFlags(m.scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(m.scene, RTC_BUILD_QUALITY_HIGH);
+
+    for (uint32_t i = 0; i < sc.patches.size(); ++i)
+        (sc.patches[i].kind == scene::PatchKind::Quad ? m.quadToPatch : m.triToPatch).push_back(i);
+
+    auto addGeometry = [&](RTCGeometryType type, const std::vector<uint32_t>& prims, int nv) {
+        RTCGeometry g = rtcNewGeometry(m.device, type);
+        auto* verts = static_cast<float*>(rtcSetNewGeometryBuffer(
+            g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), prims.size() * nv));
+        auto* idx = static_cast<unsigned*>(rtcSetNewGeometryBuffer(
+            g, RTC_BUFFER_TYPE_INDEX, 0, nv == 3 ? RTC_FORMAT_UINT3 : RTC_FORMAT_UINT4,
+            nv * sizeof(unsigned), prims.size()));
+        m.check("rtcSetNewGeometryBuffer");
+        for (size_t k = 0; k < prims.size(); ++k) {
+            const scene::Patch& p = sc.patches[prims[k]];
+            for (int c = 0; c < nv; ++c) {
+                verts[3 * (nv * k + c) + 0] = float(p.v[c].x);
+                verts[3 * (nv * k + c) + 1] = float(p.v[c].y);
+                verts[3 * (nv * k + c) + 2] = float(p.v[c].z);
+                idx[nv * k + c] = unsigned(nv * k + c);
+            }
+        }
+        rtcSetGeometryUserData(g, const_cast<uint32_t*>(prims.data()));
+        rtcSetGeometryOccludedFilterFunction(g, ignoreEndpointsFilter);
+        rtcSetGeometryIntersectFilterFunction(g, ignoreEndpointsFilter);
+        rtcCommitGeometry(g);
+        unsigned id = rtcAttachGeometry(m.scene, g);
+        rtcReleaseGeometry(g);
+        m.check("geometry setup");
+        return id;
+    };
+    if (!m.triToPatch.empty()) m.triGeom = addGeometry(RTC_GEOMETRY_TYPE_TRIANGLE, m.triToPatch, 3);
+    if (!m.quadToPatch.empty()) m.quadGeom = addGeometry(RTC_GEOMETRY_TYPE_QUAD, m.quadToPatch, 4);
+    rtcCommitScene(m.scene);
+    m.check("rtcCommitScene");
+}
+
+Visibility::~Visibility() {
+    if (impl_) {
+        if (impl_->scene) rtcReleaseScene(impl_->scene);
+        if (impl_->device) rtcReleaseDevice(impl_->device);
+    }
+}
+
+void Visibility::occluded(const Segment* segments, size_t count, uint8_t* out) const {
+    alignas(16) RTCRay rays[kBatch];
+    uint32_t pairs[2 * kBatch];
+    for (size_t base = 0; base < count; base += kBatch) {
+        size_t n = std::min(kBatch, count - base);
+        for (size_t i = 0; i < n; ++i) {
+            const Segment& s = segments[base + i];
+            RTCRay& r = rays[i];
+            r.org_x = float(s.a.x);
+            r.org_y = float(s.a.y);
+            r.org_z = float(s.a.z);
+            r.dir_x = float(s.b.x - s.a.x);
+            r.dir_y = float(s.b.y - s.a.y);
+            r.dir_z = float(s.b.z - s.a.z);
+            r.tnear = 0.0f;
+            r.tfar = kSegmentTfar;
+            r.time = 0.0f;
+            r.mask = 0xFFFFFFFFu;
+            r.id = unsigned(i);
+            r.flags = 0;
+            pairs[2 * i] = s.patchA;
+            pairs[2 * i + 1] = s.patchB;
+        }
+        QueryContext qc;
+        rtcInitIntersectContext(&qc.ctx);
+        qc.ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+        qc.pairs = pairs;
+        rtcOccluded1M(impl_->scene, &qc.ctx, rays, unsigned(n), sizeof(RTCRay));
+        // An occluded ray has tfar set to -inf.
+        for (size_t i = 0; i < n; ++i) out[base + i] = rays[i].tfar < 0.0f ? 1 : 0;
+    }
+}
+
+bool Visibility::occluded(const Segment& s) const {
+    uint8_t o = 0;
+    occluded(&s, 1, &o);
+    return o != 0;
+}
+
+RayHit Visibility::intersect(const Vec3& origin, const Vec3& dir, double tmin, double tmax,
+                             uint32_t ignorePatch) const {
+    RTCRayHit rh;
+    rh.ray.org_x = float(origin.x);
+    rh.ray.org_y = float(origin.y);
+    rh.ray.org_z = float(origin.z);
+    rh.ray.dir_x = float(dir.x);
+    rh.ray.dir_y = float(dir.y);
+    rh.ray.dir_z = float(dir.z);
+    rh.ray.tnear = float(std::max(0.0, tmin));
+    rh.ray.tfar = tmax >= double(FLT_MAX) ? std::numeric_limits<float>::infinity() : float(tmax);
+    rh.ray.time = 0.0f;
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    uint32_t pairs[2] = {ignorePatch, ignorePatch};
+    QueryContext qc;
+    rtcInitIntersectContext(&qc.ctx);
+    qc.pairs = pairs;
+    rtcIntersect1(impl_->scene, &qc.ctx, &rh);
+    RayHit out;
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return out;
+    out.hit = true;
+    out.patch = impl_->patchOf(rh.hit.geomID, rh.hit.primID);
+    out.t = double(rh.ray.tfar);
+    out.point = origin + out.t * dir;
+    return out;
+}
+
+uint64_t Visibility::memoryBytes() const {
+    int64_t b = impl_->bytes.load(std::memory_order_relaxed);
+    return b > 0 ? uint64_t(b) : 0;
+}
+
+}  // namespace hrad::transport
