@@ -1,5 +1,7 @@
 #include "hr/hierarchy.h"
 
+#include <algorithm>
+#include <cmath>
 #include <numeric>
 
 #include <tbb/blocked_range.h>
@@ -12,28 +14,94 @@ namespace hrad::hr {
 
 using scene::ElementKey;
 
-Hierarchy::Hierarchy(const scene::Scene& scene) : scene_(&scene) {
-    uint32_t n = uint32_t(scene.patches.size());
-    patch_.resize(n);
-    key_.assign(n, scene::kRootKey);
+Hierarchy::Hierarchy(const scene::Scene& scene, const cluster::ClusterTree* tree,
+                     cluster::ClusterModel model)
+    : scene_(&scene), tree_(tree), model_(model) {
+    if (model_ == cluster::ClusterModel::None) tree_ = nullptr;
+    if (!tree_) model_ = cluster::ClusterModel::None;
+    uint32_t k = uint32_t(scene.patches.size());
+    numClusters_ = tree_ ? tree_->size() : 0;
+    uint32_t n = k + numClusters_;
+    patch_.assign(n, kNone);
+    key_.assign(n, 0);
     parent_.assign(n, kNone);
     firstChild_.assign(n, kNone);
     area_.resize(n);
-    B_.resize(n);
+    B_.assign(n, RGB(0.0));
     gathered_.assign(n, RGB(0.0));
-    for (uint32_t i = 0; i < n; ++i) {
+    for (uint32_t i = 0; i < k; ++i) {
         patch_[i] = i;
+        key_[i] = scene::kRootKey;
         area_[i] = scene.patches[i].area;
         B_[i] = scene.patches[i].emission;
     }
-    linkOffsets_.assign(n + 1, 0);
+    if (tree_) {
+        for (uint32_t p = 0; p < k; ++p) parent_[p] = k + tree_->patchCluster()[p];
+        for (uint32_t c = 0; c < numClusters_; ++c) {
+            uint32_t pc = tree_->parents()[c];
+            parent_[k + c] = pc == UINT32_MAX ? kNone : k + pc;
+            area_[k + c] = tree_->node(c).area;
+        }
+        // Clusters start with the area-weighted average emission below them.
+        for (uint32_t c = numClusters_; c-- > 0;) {
+            RGB sum(0.0);
+            for (uint32_t i = 0; i < numChildren(k + c); ++i) {
+                uint32_t ch = child(k + c, i);
+                sum += area_[ch] * B_[ch];
+            }
+            B_[k + c] = area_[k + c] > 0 ? sum / area_[k + c] : RGB(0.0);
+        }
+    }
+    linkOffsets_.assign(size_t(n) + 1, 0);
+}
+
+uint32_t Hierarchy::numChildren(uint32_t e) const {
+    if (isCluster(e)) {
+        const auto& c = tree_->node(clusterIndex(e));
+        return c.childCount ? c.childCount : c.ownEnd - c.ownBegin;
+    }
+    return firstChild_[e] == kNone ? 0 : 4;
+}
+
+uint32_t Hierarchy::child(uint32_t e, uint32_t i) const {
+    if (isCluster(e)) {
+        uint32_t ci = clusterIndex(e);
+        const auto& c = tree_->node(ci);
+        if (c.childCount) return numPatches() + tree_->child(ci, i);
+        return tree_->patchAt(c.ownBegin + i);
+    }
+    return firstChild_[e] + i;
+}
+
+Vec3 Hierarchy::center(uint32_t e) const {
+    if (isCluster(e)) return tree_->node(clusterIndex(e)).centroid;
+    return scene::elementCentroid(scene_->patches[patch_[e]], domain(e));
+}
+
+double Hierarchy::radius(uint32_t e) const {
+    if (isCluster(e)) return tree_->node(clusterIndex(e)).radius;
+    Vec3 c[4];
+    int n = scene::elementCorners(scene_->patches[patch_[e]], domain(e), c);
+    Vec3 m = center(e);
+    double r2 = 0;
+    for (int i = 0; i < n; ++i) r2 = std::max(r2, glm::dot(c[i] - m, c[i] - m));
+    return std::sqrt(r2);
+}
+
+RGB Hierarchy::rho(uint32_t e) const {
+    if (isCluster(e)) return tree_->node(clusterIndex(e)).rho;
+    return scene_->patches[patch_[e]].rho;
 }
 
 scene::Domain Hierarchy::domain(uint32_t e) const {
+    HRAD_DCHECK(!isCluster(e));
     return scene::keyDomain(scene_->patches[patch_[e]].kind, key_[e]);
 }
 
-uint64_t Hierarchy::stableId(uint32_t e) const { return hashIds(patch_[e], key_[e]); }
+uint64_t Hierarchy::stableId(uint32_t e) const {
+    if (isCluster(e)) return hashIds(0xC105E6ULL, clusterIndex(e));
+    return hashIds(patch_[e], key_[e]);
+}
 
 void Hierarchy::subdivide(uint32_t e) {
     if (firstChild_[e] != kNone) return;
@@ -55,7 +123,7 @@ void Hierarchy::subdivide(uint32_t e) {
 
 uint32_t Hierarchy::numLeaves() const {
     uint32_t n = 0;
-    for (uint32_t e = 0; e < numElements(); ++e) n += firstChild_[e] == kNone ? 1 : 0;
+    for (uint32_t e = 0; e < numElements(); ++e) n += isLeaf(e) ? 1 : 0;
     return n;
 }
 
@@ -76,6 +144,27 @@ void Hierarchy::setLinks(const std::vector<uint32_t>& receivers, std::vector<Lin
     links_.shrink_to_fit();
     links.clear();
     links.shrink_to_fit();
+    prepareOrientedDirections();
+}
+
+void Hierarchy::prepareOrientedDirections() {
+    clusterLinkDir_.clear();
+    clusterLinkBase_ = 0;
+    if (model_ != cluster::ClusterModel::Oriented || numClusters_ == 0) return;
+    uint32_t k = numPatches();
+    clusterLinkBase_ = linkOffsets_[k];
+    uint64_t end = linkOffsets_[k + numClusters_];
+    clusterLinkDir_.resize(end - clusterLinkBase_);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(k, k + numClusters_, 64), [&](const auto& r) {
+        for (uint32_t c = r.begin(); c != r.end(); ++c) {
+            Vec3 cc = center(c);
+            for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i) {
+                Vec3 d = center(links_[i].sender) - cc;
+                double len = glm::length(d);
+                clusterLinkDir_[i - clusterLinkBase_] = len > 0 ? glm::vec3(d / len) : glm::vec3(0);
+            }
+        }
+    });
 }
 
 std::vector<uint32_t> Hierarchy::linkReceivers() const {
@@ -94,13 +183,47 @@ void Hierarchy::gather() {
             // how the range is split between threads.
             for (uint64_t i = linkBegin(r); i < linkEnd(r); ++i)
                 sum += double(links_[i].K) * B_[links_[i].sender];
-            gathered_[r] = scene_->patches[patch_[r]].rho * sum;
+            if (patch_[r] == kNone)
+                // A cluster gathers irradiance (reflected per surface when
+                // pushed); oriented clusters push link by link instead.
+                gathered_[r] = model_ == cluster::ClusterModel::Isotropic ? sum : RGB(0.0);
+            else
+                gathered_[r] = scene_->patches[patch_[r]].rho * sum;
         }
     });
 }
 
 void Hierarchy::pushPull() {
     uint32_t np = numPatches();
+    uint32_t nc = numClusters_;
+    // Irradiance that clusters hand down to each root patch (radiosity
+    // units, before the patch's reflectance).
+    std::vector<RGB> clusterDown;
+    if (nc) {
+        clusterDown.assign(nc, RGB(0.0));
+        // Pre-order: parents before children.
+        for (uint32_t c = 0; c < nc; ++c) {
+            uint32_t parent = parent_[np + c];
+            clusterDown[c] = gathered_[np + c] + (parent == kNone ? RGB(0.0) : clusterDown[parent - np]);
+        }
+    }
+    auto fromClusters = [&](uint32_t root) {
+        if (!nc) return RGB(0.0);
+        const scene::Patch& P = scene_->patches[root];
+        RGB h = clusterDown[parent_[root] - np];
+        if (model_ == cluster::ClusterModel::Oriented) {
+            // Each link into an ancestor cluster lights this patch with its
+            // own cosine (Smits et al. 1994).
+            glm::vec3 n(P.normal);
+            for (uint32_t c = parent_[root]; c != kNone; c = parent_[c]) {
+                for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i) {
+                    double cosine = glm::dot(n, clusterLinkDir_[i - clusterLinkBase_]);
+                    if (cosine > 0) h += double(links_[i].K) * cosine * B_[links_[i].sender];
+                }
+            }
+        }
+        return P.rho * h;
+    };
     // Iterative depth-first traversal per root patch: push the accumulated
     // gathered radiosity down, set leaves, pull averages up on the way back.
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, np, 16), [&](const auto& range) {
@@ -113,7 +236,7 @@ void Hierarchy::pushPull() {
         for (uint32_t root = range.begin(); root != range.end(); ++root) {
             const RGB& E = scene_->patches[root].emission;
             stack.clear();
-            stack.push_back({root, gathered_[root], 0});
+            stack.push_back({root, gathered_[root] + fromClusters(root), 0});
             while (!stack.empty()) {
                 Frame& f = stack.back();
                 uint32_t fc = firstChild_[f.e];
@@ -140,27 +263,39 @@ void Hierarchy::pushPull() {
             }
         }
     });
+    // Pull through the clusters, children before parents.
+    for (uint32_t c = nc; c-- > 0;) {
+        uint32_t e = np + c;
+        RGB sum(0.0);
+        for (uint32_t i = 0; i < numChildren(e); ++i) {
+            uint32_t ch = child(e, i);
+            sum += area_[ch] * B_[ch];
+        }
+        B_[e] = area_[e] > 0 ? sum / area_[e] : RGB(0.0);
+    }
 }
 
 RGB Hierarchy::reflectedPower() const {
     RGB s(0.0);
     for (uint32_t e = 0; e < numElements(); ++e)
-        if (firstChild_[e] == kNone) s += area_[e] * (B_[e] - scene_->patches[patch_[e]].emission);
+        if (isLeaf(e)) s += area_[e] * (B_[e] - scene_->patches[patch_[e]].emission);
     return s;
 }
 
 RGB Hierarchy::radiosityPower() const {
     RGB s(0.0);
     for (uint32_t e = 0; e < numElements(); ++e)
-        if (firstChild_[e] == kNone) s += area_[e] * B_[e];
+        if (isLeaf(e)) s += area_[e] * B_[e];
     return s;
 }
 
 void Hierarchy::resetToEmission() {
     for (uint32_t e = 0; e < numElements(); ++e) {
-        B_[e] = scene_->patches[patch_[e]].emission;
+        B_[e] = patch_[e] == kNone ? RGB(0.0) : scene_->patches[patch_[e]].emission;
         gathered_[e] = RGB(0.0);
     }
+    std::fill(gathered_.begin(), gathered_.end(), RGB(0.0));
+    pushPull();
 }
 
 uint64_t Hierarchy::elementBytes() const {
@@ -171,13 +306,16 @@ uint64_t Hierarchy::elementBytes() const {
 }
 
 uint64_t Hierarchy::linkBytes() const {
-    return links_.capacity() * sizeof(Link) + linkOffsets_.capacity() * sizeof(uint64_t);
+    return links_.capacity() * sizeof(Link) + linkOffsets_.capacity() * sizeof(uint64_t) +
+           clusterLinkDir_.capacity() * sizeof(glm::vec3);
 }
 
 void Hierarchy::reportMemory(MemoryCounters& m) const {
     m.set("elements", elementBytes());
     m.set("links", links_.capacity() * sizeof(Link));
     m.set("link_offsets", linkOffsets_.capacity() * sizeof(uint64_t));
+    if (!clusterLinkDir_.empty()) m.set("cluster_link_directions", clusterLinkDir_.capacity() * sizeof(glm::vec3));
+    if (tree_) m.set("clusters", tree_->memoryBytes());
 }
 
 // ---- field view ---------------------------------------------------------------

@@ -1,9 +1,14 @@
 // The element hierarchy and its links, in flat arrays.
 //
-// Elements (quadtree nodes over root patches, scene/element.h) live in a
-// structure of arrays addressed by 32-bit indices; element i < numPatches is
-// the root of patch i; children are allocated four at a time and contiguous,
-// so a node stores only the index of its first child. Links are stored with
+// Nodes live in a structure of arrays addressed by 32-bit indices:
+//   [0, k)          the root elements of the k root patches (node i = patch i)
+//   [k, k + C)      the C clusters of the cluster tree, when clustering is on
+//                   (node k + c = cluster c, in the tree's pre-order)
+//   [k + C, ...)    sub-elements (quadtree nodes, scene/element.h), allocated
+//                   four at a time and contiguous, so an element stores only
+//                   the index of its first child.
+// A root patch's parent is its leaf cluster; a cluster's children are its
+// sub-clusters or, for a leaf cluster, its root patches. Links are stored with
 // their receiver in compressed-row form (CSR): offsets per receiver element,
 // then 16-byte Link records holding the sender, the transfer coefficient and
 // what refinement needs. Gather runs in parallel over receivers without locks.
@@ -14,6 +19,8 @@
 #include <functional>
 #include <vector>
 
+#include "cluster/transfer.h"
+#include "cluster/tree.h"
 #include "core/memory.h"
 #include "core/types.h"
 #include "scene/element.h"
@@ -45,19 +52,40 @@ static_assert(sizeof(Link) == 16, "Link must stay 16 bytes");
 
 class Hierarchy {
   public:
-    explicit Hierarchy(const scene::Scene& scene);
+    /// Without a cluster tree (or with model None) there are no cluster nodes.
+    explicit Hierarchy(const scene::Scene& scene, const cluster::ClusterTree* tree = nullptr,
+                       cluster::ClusterModel model = cluster::ClusterModel::None);
 
     const scene::Scene& scene() const { return *scene_; }
+    /// Number of nodes (elements and clusters).
     uint32_t numElements() const { return uint32_t(patch_.size()); }
     uint32_t numPatches() const { return uint32_t(scene_->patches.size()); }
+    uint32_t numClusters() const { return numClusters_; }
+    cluster::ClusterModel clusterModel() const { return model_; }
+    const cluster::ClusterTree* clusterTree() const { return tree_; }
+    bool isCluster(uint32_t e) const { return e >= numPatches() && e < numPatches() + numClusters_; }
+    /// Cluster tree index of a cluster node.
+    uint32_t clusterIndex(uint32_t e) const { return e - numPatches(); }
+    uint32_t rootCluster() const { return numPatches(); }
+    /// Children of any node: 4 for a subdivided element, the sub-clusters or
+    /// root patches of a cluster, none for a leaf element.
+    uint32_t numChildren(uint32_t e) const;
+    uint32_t child(uint32_t e, uint32_t i) const;
+    /// Area-weighted centroid, and the radius of a sphere around it containing the node.
+    Vec3 center(uint32_t e) const;
+    double radius(uint32_t e) const;
+    /// Mean reflectance (a cluster's is area-weighted over its surfaces).
+    RGB rho(uint32_t e) const;
 
     // ---- element attributes -------------------------------------------------
     uint32_t patch(uint32_t e) const { return patch_[e]; }
     scene::ElementKey key(uint32_t e) const { return key_[e]; }
-    int level(uint32_t e) const { return scene::keyLevel(key_[e]); }
+    /// Quadtree level of an element; 0 for clusters.
+    int level(uint32_t e) const { return key_[e] ? scene::keyLevel(key_[e]) : 0; }
     uint32_t parent(uint32_t e) const { return parent_[e]; }
     uint32_t firstChild(uint32_t e) const { return firstChild_[e]; }
-    bool isLeaf(uint32_t e) const { return firstChild_[e] == kNone; }
+    /// A surface element with no children (clusters are never leaves).
+    bool isLeaf(uint32_t e) const { return firstChild_[e] == kNone && patch_[e] != kNone; }
     double area(uint32_t e) const { return area_[e]; }
     scene::Domain domain(uint32_t e) const;
     const RGB& B(uint32_t e) const { return B_[e]; }
@@ -70,6 +98,7 @@ class Hierarchy {
     /// Creates the four children of a leaf (no-op when already subdivided).
     /// Children inherit the parent's B. Not thread-safe.
     void subdivide(uint32_t e);
+    /// Number of surface elements that are leaves (clusters excluded).
     uint32_t numLeaves() const;
 
     // ---- links ----------------------------------------------------------------
@@ -90,7 +119,10 @@ class Hierarchy {
     void gather();
     /// Push gathered radiosity down (unchanged, it is per unit area), set leaves
     /// to E + sum of gathered on the path, pull area-weighted averages up.
-    /// Parallel over root patches.
+    /// Parallel over root patches. With clusters, irradiance gathered by a
+    /// cluster reaches its root patches first (isotropic: unchanged; oriented:
+    /// per link with each patch's own cosine, see cluster/transfer.h), and
+    /// clusters pull the area-weighted average of their children.
     void pushPull();
     /// Sum over leaves of A (B - E): the reflected power (RGB).
     RGB reflectedPower() const;
@@ -105,7 +137,15 @@ class Hierarchy {
     void reportMemory(MemoryCounters& m) const;
 
   private:
+    void prepareOrientedDirections();
     const scene::Scene* scene_;
+    const cluster::ClusterTree* tree_ = nullptr;
+    cluster::ClusterModel model_ = cluster::ClusterModel::None;
+    uint32_t numClusters_ = 0;
+    /// Oriented model: unit direction from each cluster-receiver link's
+    /// receiver to its sender, for the links of cluster rows (contiguous).
+    std::vector<glm::vec3> clusterLinkDir_;
+    uint64_t clusterLinkBase_ = 0;
     // Elements (structure of arrays).
     std::vector<uint32_t> patch_;
     std::vector<scene::ElementKey> key_;

@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include "core/log.h"
+#include "core/rng.h"
 #include "core/timer.h"
 #include "oracles/registry.h"
 
@@ -57,6 +58,10 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.tolerance = p.getDouble("hr.tolerance", s.tolerance, 0.0, 1.0, true);
     s.maxLinks = uint64_t(p.getInt("hr.max_links", int64_t(s.maxLinks), 1, int64_t(1) << 40));
     s.ff = transport::FormFactorSettings::fromParams(p, "ff");
+    s.clusterModel = cluster::parseClusterModel(
+        p.getEnum("cluster.model", "none", cluster::clusterModelNames()));
+    s.cluster = cluster::ClusterSettings::fromParams(p);
+    s.clusterVisRays = int(p.getInt("cluster.vis_rays", s.clusterVisRays, 0, 1024));
     // Validate the oracle settings now (unknown keys included), so a bad
     // setting fails before any work is done.
     Params probe = s.oracleParams;
@@ -70,8 +75,9 @@ std::string HrSettings::describe() const {
     std::string sched = fmt::format("{}", fmt::join(epsSchedule, ","));
     return fmt::format(
         "hr(oracle={}, eps_schedule=[{}], min_area={}, min_area_rel={}, max_level={}, "
-        "max_iterations={}, tolerance={}, {})",
-        oracle, sched, minArea, minAreaRel, maxLevel, maxIterations, tolerance, ff.describe());
+        "max_iterations={}, tolerance={}, {}, cluster_model={}, {}, cluster_vis_rays={})",
+        oracle, sched, minArea, minAreaRel, maxLevel, maxIterations, tolerance, ff.describe(),
+        cluster::clusterModelName(clusterModel), cluster.describe(), clusterVisRays);
 }
 
 HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visibility,
@@ -83,10 +89,113 @@ HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visib
 }
 
 bool HrSolver::canSubdivide(const Hierarchy& h, uint32_t e) const {
+    if (h.isCluster(e)) return true;  // a cluster can always be opened
     return h.level(e) < s_.maxLevel && 0.25 * h.area(e) >= minArea_;
 }
 
+double HrSolver::projectedFraction(const Hierarchy& h, uint32_t e, const Vec3& d) const {
+    if (!h.isCluster(e)) return std::max(0.0, glm::dot(scene_->patches[h.patch(e)].normal, d));
+    if (h.clusterModel() == cluster::ClusterModel::Isotropic) return 0.25;
+    double a = h.area(e);
+    return a > 0 ? h.clusterTree()->projectedArea(h.clusterIndex(e), d) / a : 0.0;
+}
+
+Decision HrSolver::forcedDecision(const Hierarchy& h, uint32_t r, uint32_t s) const {
+    if (r == s) return Decision::RefineBoth;  // a cluster's self-link must be opened
+    bool rc = h.isCluster(r), sc = h.isCluster(s);
+    if (!rc && !sc) return Decision::Accept;
+    // A cluster holding a single surface is that surface: open it at once
+    // rather than approximate the surface by a cluster model.
+    bool r1 = rc && h.numChildren(r) == 1 && !h.isCluster(h.child(r, 0));
+    bool s1 = sc && h.numChildren(s) == 1 && !h.isCluster(h.child(s, 0));
+    if (r1 || s1) return r1 && s1 ? Decision::RefineBoth : r1 ? Decision::RefineReceiver : Decision::RefineSender;
+    // The point approximation of a cluster transfer needs the two bounding
+    // spheres to be apart; otherwise open the cluster side(s).
+    double d = glm::length(h.center(r) - h.center(s));
+    if (d > h.radius(r) + h.radius(s)) return Decision::Accept;
+    if (rc && sc) return h.radius(r) >= 2 * h.radius(s)   ? Decision::RefineReceiver
+                         : h.radius(s) >= 2 * h.radius(r) ? Decision::RefineSender
+                                                          : Decision::RefineBoth;
+    return rc ? Decision::RefineReceiver : Decision::RefineSender;
+}
+
+Link HrSolver::makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const {
+    // Point approximation between the two nodes' centroids (cluster/transfer.h):
+    // K = A_s g_s(u) g_r(-u) / (pi r^2), times a visibility fraction estimated
+    // with rays between points on the surfaces of both nodes.
+    Link l;
+    l.sender = s;
+    rays = 0;
+    if (r == s) return l;  // self-link: refined before it is ever used
+    Vec3 cr = h.center(r), cs = h.center(s);
+    Vec3 d = cr - cs;
+    double dist2 = glm::dot(d, d);
+    if (!(dist2 > 0)) return l;
+    Vec3 u = d / std::sqrt(dist2);
+    double gs = projectedFraction(h, s, u);
+    bool orientedReceiver =
+        h.isCluster(r) && h.clusterModel() == cluster::ClusterModel::Oriented;
+    double gr = orientedReceiver ? 1.0 : projectedFraction(h, r, -u);
+    if (orientedReceiver && projectedFraction(h, r, -u) <= 0) return l;
+    double K = h.area(s) * gs * gr / (kPi * dist2);
+    if (!(K > 0)) return l;
+    // Upper bound: all cosines <= 1 and the nearest points of the spheres.
+    double gap = std::sqrt(dist2) - h.radius(r) - h.radius(s);
+    double iso = h.clusterModel() == cluster::ClusterModel::Isotropic ? 0.25 : 1.0;
+    double bound = gap > 0 ? h.area(s) * (h.isCluster(s) ? iso : 1.0) *
+                                 (h.isCluster(r) ? iso : 1.0) / (kPi * gap * gap)
+                           : 3.0e38;
+    double vis = 1.0;
+    int n = s_.clusterVisRays;
+    if (n > 0 && vis_) {
+        Pcg32 rng(hashIds(h.stableId(r), h.stableId(s)));
+        transport::Segment seg[64];
+        uint8_t occ[64];
+        int blocked = 0, done = 0;
+        auto samplePoint = [&](uint32_t e, const Vec3& towards, uint32_t& patch) {
+            double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
+            if (h.isCluster(e)) {
+                // Only surfaces that face the other node exchange light: a
+                // point on a surface facing away would be shadowed by its
+                // own cluster and bias the visibility low. Retry a few times.
+                Vec3 x;
+                for (int t = 0; t < 8; ++t) {
+                    x = h.clusterTree()->samplePoint(h.clusterIndex(e), a, b, c, patch);
+                    if (glm::dot(scene_->patches[patch].normal, towards - x) > 0) break;
+                    a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
+                }
+                return x;
+            }
+            patch = h.patch(e);
+            const auto& P = scene_->patches[patch];
+            if (P.kind == scene::PatchKind::Triangle && a + b > 1) {
+                a = 1 - a;
+                b = 1 - b;
+            }
+            return scene::elementPoint(P, h.domain(e), a, b);
+        };
+        while (done < n) {
+            int m = std::min(64, n - done);
+            for (int i = 0; i < m; ++i) {
+                seg[i].a = samplePoint(r, cs, seg[i].patchA);
+                seg[i].b = samplePoint(s, cr, seg[i].patchB);
+            }
+            vis_->occluded(seg, size_t(m), occ);
+            for (int i = 0; i < m; ++i) blocked += occ[i];
+            done += m;
+        }
+        rays = uint32_t(n);
+        vis = double(n - blocked) / n;
+        if (blocked > 0 && blocked < n) l.flags |= Link::kPartial;
+    }
+    l.K = float(K * vis);
+    l.Fupper = float(std::min(bound, 3.0e38));
+    l.setVis(vis);
+    return l;
+}
+
 Link HrSolver::makeLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const {
+    if (h.isCluster(r) || h.isCluster(s)) return makeClusterLink(h, r, s, rays);
     transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
     transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
     Link l;
@@ -107,6 +216,19 @@ void HrSolver::initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vect
     // Without clustering every pair of root patches that face each other and
     // are not fully occluded is linked (HSA91 section 3). O(k^2) in the
     // number of patches: the reason for clustering (Smits et al. 1994).
+    if (h.numClusters() > 0) {
+        // Clustering: the whole scene is one cluster linked to itself
+        // (Smits et al. 1994; Sillion 1995); refinement opens it.
+        Link self;
+        self.sender = h.rootCluster();
+        self.K = 0.f;
+        self.Fupper = 3.0e38f;
+        self.setVis(1.0);
+        recv.push_back(h.rootCluster());
+        links.push_back(self);
+        res.initialPairs = 1;
+        return;
+    }
     uint32_t k = h.numPatches();
     std::vector<std::vector<Link>> rows(k);
     std::atomic<uint64_t> rays{0}, ffs{0};
@@ -119,10 +241,8 @@ void HrSolver::initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vect
                 uint32_t nr = 0;
                 Link l = makeLink(h, r, s, nr);
                 localRays += nr;
-                if (l.K > 0) {
-                    ++localFf;
-                    rows[r].push_back(l);
-                }
+                ++localFf;
+                if (l.K > 0) rows[r].push_back(l);
             }
             rays += localRays;
             ffs += localFf;
@@ -138,6 +258,7 @@ void HrSolver::initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vect
     }
     res.totalRays += rays;
     res.totalFormFactors += ffs;
+    res.initialPairs = ffs;
 }
 
 uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
@@ -165,6 +286,11 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
                 for (size_t i = range.begin(); i != range.end(); ++i) {
                     const Link& l = pending[i];
                     uint32_t r = recv[i], s = l.sender;
+                    Decision forced = forcedDecision(h, r, s);
+                    if (forced != Decision::Accept) {
+                        decision[i] = uint8_t(forced);
+                        continue;
+                    }
                     oracles::LinkEstimate e;
                     e.F = l.K;
                     double v = l.vis();
@@ -175,7 +301,18 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
                     e.receiverArea = h.area(r);
                     e.senderArea = h.area(s);
                     e.senderB = h.B(s);
-                    e.receiverRho = scene_->patches[h.patch(r)].rho;
+                    e.receiverRho = h.rho(r);
+                    e.receiverIsCluster = h.isCluster(r);
+                    e.senderIsCluster = h.isCluster(s);
+                    if (e.receiverIsCluster && h.clusterModel() == cluster::ClusterModel::Oriented) {
+                        // The link stores K without the receiver's projected-area
+                        // fraction (applied per surface when pushing).
+                        Vec3 u = h.center(s) - h.center(r);
+                        double len = glm::length(u);
+                        double g = len > 0 ? projectedFraction(h, r, u / len) : 1.0;
+                        e.F *= g;
+                        e.unoccludedF *= g;
+                    }
                     e.emittedPower = emittedPower_;
                     e.receiverLevel = h.level(r);
                     e.senderLevel = h.level(s);
@@ -198,9 +335,12 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
             } else {
                 bool rr = d == Decision::RefineReceiver || d == Decision::RefineBoth;
                 bool ss = d == Decision::RefineSender || d == Decision::RefineBoth;
-                if (rr) mark[recv[i]] = 1;
-                if (ss) mark[pending[i].sender] = 1;
-                c = (rr ? 4 : 1) * (ss ? 4 : 1);
+                uint32_t r = recv[i], s = pending[i].sender;
+                if (rr && !h.isCluster(r)) mark[r] = 1;
+                if (ss && !h.isCluster(s)) mark[s] = 1;
+                size_t nr = rr ? (h.isCluster(r) ? h.numChildren(r) : 4) : 1;
+                size_t ns = ss ? (h.isCluster(s) ? h.numChildren(s) : 4) : 1;
+                c = nr * ns;
                 ++refined;
             }
             offset[i + 1] = offset[i] + c;
@@ -224,12 +364,20 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
                 bool rr = d == Decision::RefineReceiver || d == Decision::RefineBoth;
                 bool ss = d == Decision::RefineSender || d == Decision::RefineBoth;
                 size_t o = offset[i];
-                for (int a = 0; a < (rr ? 4 : 1); ++a) {
-                    uint32_t rc = rr ? h.firstChild(r) + uint32_t(a) : r;
-                    for (int b = 0; b < (ss ? 4 : 1); ++b) {
-                        uint32_t sc = ss ? h.firstChild(s) + uint32_t(b) : s;
+                uint32_t na = rr ? h.numChildren(r) : 1, nb = ss ? h.numChildren(s) : 1;
+                for (uint32_t a = 0; a < na; ++a) {
+                    uint32_t rc = rr ? h.child(r, a) : r;
+                    for (uint32_t b = 0; b < nb; ++b) {
+                        uint32_t sc = ss ? h.child(s, b) : s;
                         uint32_t nr = 0;
-                        nlinks[o] = makeLink(h, rc, sc, nr);
+                        // A self-link between surfaces carries nothing (planar
+                        // patches); between clusters it is kept, to be opened.
+                        if (rc == sc && !h.isCluster(rc)) {
+                            nlinks[o] = Link{};
+                        } else {
+                            nlinks[o] = makeLink(h, rc, sc, nr);
+                            if (rc == sc) nlinks[o].K = -1.f;  // marker: keep self-links
+                        }
                         nrecv[o] = rc;
                         localRays += nr;
                         ++o;
@@ -243,7 +391,17 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
         // Drop links that carry nothing (back-facing or fully occluded pairs).
         size_t w = 0;
         for (size_t i = 0; i < newCount; ++i) {
-            if (nlinks[i].K > 0) {
+            if (nlinks[i].K < 0) {
+                nlinks[i].K = 0.f;  // a cluster self-link
+            } else if (!(nlinks[i].K > 0)) {
+                // A cluster link whose point approximation is not valid yet
+                // (e.g. coincident centroids) is opened next round, not dropped.
+                uint32_t r = nrecv[i], s = nlinks[i].sender;
+                if (s == kNone || !(h.isCluster(r) || h.isCluster(s)) ||
+                    forcedDecision(h, r, s) == Decision::Accept)
+                    continue;
+            }
+            {
                 nlinks[w] = nlinks[i];
                 nrecv[w] = nrecv[i];
                 ++w;
@@ -261,7 +419,13 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
 HrResult HrSolver::solve(bool progress) {
     HrResult res;
     res.minArea = minArea_;
-    res.hierarchy = std::make_unique<Hierarchy>(*scene_);
+    if (s_.clusterModel != cluster::ClusterModel::None) {
+        res.clusterTree = std::make_unique<cluster::ClusterTree>(*scene_, s_.cluster);
+        res.clusterBuildSeconds = res.clusterTree->buildSeconds();
+        spdlog::info("cluster tree ({}): {} clusters, depth {}, {:.3f} s", s_.cluster.builder,
+                     res.clusterTree->size(), res.clusterTree->depth(), res.clusterBuildSeconds);
+    }
+    res.hierarchy = std::make_unique<Hierarchy>(*scene_, res.clusterTree.get(), s_.clusterModel);
     Hierarchy& h = *res.hierarchy;
 
     Timer t;
@@ -333,6 +497,13 @@ HrResult HrSolver::solve(bool progress) {
     }
     res.field = std::make_unique<HierarchyField>(h);
     h.reportMemory(res.memory);
+    for (uint32_t r = 0; r < h.numElements(); ++r) {
+        bool rc = h.isCluster(r);
+        for (uint64_t i = h.linkBegin(r); i < h.linkEnd(r); ++i) {
+            bool sc = h.isCluster(h.link(i).sender);
+            (rc ? (sc ? res.linksCC : res.linksCS) : (sc ? res.linksSC : res.linksSS))++;
+        }
+    }
     return res;
 }
 

@@ -29,12 +29,19 @@
 //   hr.tolerance       double  1e-4    relative change of reflected power to stop
 //   hr.max_links       int     2e8     refinement stops (with a warning) past this many links
 //   ff.*                               form-factor settings (transport/formfactor.h)
+//   cluster.model      string  "none"  none | isotropic | oriented (cluster/transfer.h); with
+//                                       clustering the solve starts from the root cluster's
+//                                       self-link instead of linking all pairs of patches
+//   cluster.builder, cluster.leaf_size, cluster.max_depth   (cluster/tree.h)
+//   cluster.vis_rays   int     8       visibility rays for links that touch a cluster
 #pragma once
 
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "cluster/transfer.h"
+#include "cluster/tree.h"
 #include "core/memory.h"
 #include "core/params.h"
 #include "hr/hierarchy.h"
@@ -57,6 +64,9 @@ struct HrSettings {
     double tolerance = 1e-4;
     uint64_t maxLinks = 200'000'000;
     transport::FormFactorSettings ff;
+    cluster::ClusterModel clusterModel = cluster::ClusterModel::None;
+    cluster::ClusterSettings cluster;
+    int clusterVisRays = 8;
 
     /// Reads the keys above (marks "oracle.*" used only after the oracle has
     /// read them: see HrSolver). Throws InputError on bad values or an unknown
@@ -88,6 +98,12 @@ struct HrResult {
     bool converged = false;
     bool linkCapHit = false;
     uint64_t initialLinks = 0;
+    uint64_t initialPairs = 0;  ///< node pairs evaluated by initial linking (k(k-1) without clusters)
+    std::unique_ptr<cluster::ClusterTree> clusterTree;
+    double clusterBuildSeconds = 0.0;
+    /// Links by kind after the solve: surface-surface, surface receiving from a
+    /// cluster, cluster receiving from a surface, cluster-cluster.
+    uint64_t linksSS = 0, linksSC = 0, linksCS = 0, linksCC = 0;
     uint64_t totalRays = 0, totalFormFactors = 0;
     double linkingSeconds = 0.0, refineSeconds = 0.0, gatherSeconds = 0.0, pushPullSeconds = 0.0;
     double minArea = 0.0;
@@ -109,6 +125,12 @@ class HrSolver {
     uint64_t refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
                     IterationRecord& rec);
     Link makeLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
+    Link makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
+    /// Projected-area fraction of node e towards unit direction d.
+    double projectedFraction(const Hierarchy& h, uint32_t e, const Vec3& d) const;
+    /// Refinement forced by validity (self-links, clusters too close for the
+    /// point approximation), independent of the oracle; Accept means "ask the oracle".
+    oracles::Decision forcedDecision(const Hierarchy& h, uint32_t r, uint32_t s) const;
     bool canSubdivide(const Hierarchy& h, uint32_t e) const;
 
     const scene::Scene* scene_;

@@ -31,6 +31,7 @@ Scene loadScene(const std::string& spec, const Params& params) {
     obj.defaultRho = params.getDouble("obj.default_rho", obj.defaultRho, 0.0, 1.0);
     if (!(obj.defaultRho < 1.0))
         throwInputError(params.where("obj.default_rho"), "setting 'obj.default_rho' must be < 1");
+    obj.clampRho = params.getDouble("obj.clamp_rho", obj.clampRho, 0.0, 0.999999);
     PlyOptions ply;
     ply.emission = params.getDouble("ply.emission", ply.emission, 0.0, 1e30);
     ply.defaultRho = params.getDouble("ply.default_rho", ply.defaultRho, 0.0, 1.0);

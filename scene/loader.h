@@ -9,6 +9,8 @@
 // Settings (Params keys, all optional):
 //   mgf.resolution   int    16     segments around sph/cyl/cone/ring/torus
 //   obj.default_rho  double 0.5    grey reflectance for faces with no material
+//   obj.clamp_rho    double 0      when > 0, Kd channels >= 1 become this value (with
+//                                  a warning) instead of being an error
 //   mgf.white_point  string "E"    white of the xy -> RGB conversion: "E"
 //                                  (equal energy, as Radiance/MGF) or "D65"
 //   ply.emission     double 1.0    E of faces coloured pure white (255,255,255)

@@ -143,6 +143,18 @@ Scene loadObj(const std::string& path, const ObjOptions& options) {
         mat.name = m.name;
         mat.rho = RGB(m.diffuse[0], m.diffuse[1], m.diffuse[2]);
         mat.emission = RGB(m.emission[0], m.emission[1], m.emission[2]);
+        if (options.clampRho > 0) {
+            bool clamped = false;
+            for (int c = 0; c < 3; ++c)
+                if (mat.rho[c] >= 1.0) {
+                    mat.rho[c] = options.clampRho;
+                    clamped = true;
+                }
+            if (clamped)
+                scene.stats.warnings.push_back(fmt::format(
+                    "{}: material '{}': reflectance >= 1 clamped to {} (obj.clamp_rho)", path,
+                    m.name, options.clampRho));
+        }
         for (int c = 0; c < 3; ++c) {
             bool rhoOk = mat.rho[c] >= 0.0 && mat.rho[c] < 1.0;
             bool eOk = mat.emission[c] >= 0.0 && std::isfinite(mat.emission[c]);
@@ -153,7 +165,7 @@ Scene loadObj(const std::string& path, const ObjOptions& options) {
                 if (!rhoOk)
                     throwInputError(where,
                                     "material '{}': reflectance Kd ({:.6g}, {:.6g}, {:.6g}) must be in "
-                                    "[0, 1) per channel",
+                                    "[0, 1) per channel (set obj.clamp_rho, e.g. 0.99, to clamp)",
                                     m.name, mat.rho.r, mat.rho.g, mat.rho.b);
                 throwInputError(where, "material '{}': emission Ke must be finite and >= 0", m.name);
             }

@@ -20,6 +20,10 @@ namespace hrad::scene {
 
 struct ObjOptions {
     double defaultRho = 0.5;  ///< reflectance of faces with no material
+    /// Reflectances >= 1 (e.g. Kd 1 in scenes made for path tracers) are an
+    /// error unless this is set: then each such channel becomes `clampRho`'s
+    /// value (< 1) with one warning per material. 0 = off.
+    double clampRho = 0.0;
 };
 
 /// Loads an OBJ file (and its MTL libraries); throws InputError with file:line.

@@ -11,18 +11,33 @@
 
 using namespace hrad;
 
-TEST(Cornell, BfaErrorDecreasesWithEpsAndReachesTwoPercent) {
-    scene::Scene s = scene::loadScene("cornell");
-    transport::Visibility vis(s);
+namespace {
+// One reference solve shared by the tests of this file (it takes ~8 s).
+struct CornellReference {
+    scene::Scene scene = scene::loadScene("cornell");
+    transport::Visibility vis{scene};
+    reference::FullMatrixResult ref;
+    CornellReference() {
+        // Uniform mesh, elements of at most ~40 x 40 mm.
+        Params fp;
+        fp.set("fm.max_area", 1600.0);
+        fp.set("fm.solver", std::string("gauss-seidel"));
+        fp.set("fm.tolerance", 1e-9);
+        auto fmSettings = reference::FullMatrixSettings::fromParams(fp, "fm");
+        fp.reportUnused();
+        ref = reference::solveFullMatrix(scene, vis, fmSettings, false);
+    }
+};
+CornellReference& cornellReference() {
+    static CornellReference r;
+    return r;
+}
+}  // namespace
 
-    // Reference: uniform mesh, elements of at most ~40 x 40 mm.
-    Params fp;
-    fp.set("fm.max_area", 1600.0);
-    fp.set("fm.solver", std::string("gauss-seidel"));
-    fp.set("fm.tolerance", 1e-9);
-    auto fmSettings = reference::FullMatrixSettings::fromParams(fp, "fm");
-    fp.reportUnused();
-    auto ref = reference::solveFullMatrix(s, vis, fmSettings);
+TEST(Cornell, BfaErrorDecreasesWithEpsAndReachesTwoPercent) {
+    const scene::Scene& s = cornellReference().scene;
+    const transport::Visibility& vis = cornellReference().vis;
+    const auto& ref = cornellReference().ref;
     size_t n = ref.field->numElements();
     std::cout << "reference: " << n << " elements, " << ref.stats.formFactors
               << " form factors\n";
@@ -47,4 +62,31 @@ TEST(Cornell, BfaErrorDecreasesWithEpsAndReachesTwoPercent) {
     }
     EXPECT_LE(lastL2, 0.02);
     EXPECT_LT(double(lastLinks), 0.1 * double(n) * double(n));
+}
+
+// With clustering the Cornell error stays within 1 % (absolute, of the L2
+// figure) of the error without clustering at the same eps.
+TEST(Cornell, ClusteringKeepsTheError) {
+    const scene::Scene& s = cornellReference().scene;
+    const transport::Visibility& vis = cornellReference().vis;
+    const auto& ref = cornellReference().ref;
+    for (double eps : {1e-3, 1e-4}) {
+        double base = 0;
+        for (std::string model : {"none", "isotropic", "oriented"}) {
+            Params p;
+            p.set("oracle.eps", eps);
+            p.set("hr.tolerance", 1e-6);
+            p.set("cluster.model", model);
+            hr::HrSolver solver(s, vis, hr::HrSettings::fromParams(p));
+            hr::HrResult r = solver.solve();
+            double l2 = reference::computeError(*r.field, *ref.field).l2Lum;
+            std::cout << "eps " << eps << " cluster " << model << ": links "
+                      << r.hierarchy->numLinks() << " (cluster links "
+                      << r.linksSC + r.linksCS + r.linksCC << "), L2(lum) " << l2 << "\n";
+            if (model == "none")
+                base = l2;
+            else
+                EXPECT_NEAR(l2, base, 0.01);
+        }
+    }
 }

@@ -1,0 +1,36 @@
+// Cluster transfer models: how a cluster emits and receives (DESIGN.md
+// "Clustering").
+//
+//   isotropic  a cluster is a volume whose projected area is A/4 in every
+//              direction and whose radiosity leaves uniformly; received
+//              irradiance is spread uniformly over its surfaces (Sillion 1995,
+//              "A unified hierarchical algorithm for global illumination with
+//              scattering volumes and object clusters", sec. 3).
+//   oriented   projected area sum_k A_k max(0, n_k . d) over the surfaces below
+//              (ClusterTree::projectedArea); irradiance received by a cluster
+//              is handed to each surface with its own cosine when pushed
+//              (Smits, Arvo & Greenberg 1994, "A clustering algorithm for
+//              radiosity in complex environments", sec. 4).
+//
+// Transfer between two nodes (surface elements or clusters) at distance r
+// along unit direction u (sender to receiver), in the point approximation:
+//   irradiance on the receiver per unit sender radiosity
+//       K = A_s g_s(u) g_r(-u) / (pi r^2)
+// with g the projected-area fraction: cos for a surface, 1/4 for an
+// isotropic cluster, projectedArea/A for an oriented one. For an oriented
+// receiving cluster the factor g_r is applied per surface when pushing, so
+// the link stores K without it.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace hrad::cluster {
+
+enum class ClusterModel { None, Isotropic, Oriented };
+
+ClusterModel parseClusterModel(const std::string& name);
+const char* clusterModelName(ClusterModel m);
+std::vector<std::string> clusterModelNames();
+
+}  // namespace hrad::cluster

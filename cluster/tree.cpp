@@ -1,0 +1,332 @@
+#include "cluster/tree.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include <fmt/format.h>
+
+#include "core/error.h"
+#include "core/timer.h"
+
+namespace hrad::cluster {
+
+namespace {
+const std::vector<std::string> kBuilders = {"bvh", "octree"};
+
+double halfSurfaceArea(const scene::Bounds3& b) {
+    if (!b.valid()) return 0.0;
+    Vec3 e = b.extent();
+    return e.x * e.y + e.y * e.z + e.z * e.x;
+}
+}  // namespace
+
+std::vector<std::string> builderNames() { return kBuilders; }
+
+ClusterSettings ClusterSettings::fromParams(const Params& p) {
+    ClusterSettings s;
+    s.builder = p.getEnum("cluster.builder", s.builder, kBuilders);
+    s.leafSize = int(p.getInt("cluster.leaf_size", s.leafSize, 1, 64));
+    s.maxDepth = int(p.getInt("cluster.max_depth", s.maxDepth, 1, 64));
+    return s;
+}
+
+std::string ClusterSettings::describe() const {
+    return fmt::format("cluster(builder={}, leaf_size={}, max_depth={})", builder, leafSize,
+                       maxDepth);
+}
+
+/// Recursive builders; they fill nodes_ in pre-order and children_ per node.
+struct TreeBuilder {
+    ClusterTree& t;
+    const scene::Scene& s;
+    const ClusterSettings& cfg;
+    std::vector<scene::Bounds3> pb;  // patch bounds
+    std::vector<Vec3> pc;            // patch centroids (of bounds)
+
+    TreeBuilder(ClusterTree& tree, const scene::Scene& scene, const ClusterSettings& settings)
+        : t(tree), s(scene), cfg(settings) {
+        size_t n = s.patches.size();
+        pb.resize(n);
+        pc.resize(n);
+        for (size_t i = 0; i < n; ++i) {
+            const auto& p = s.patches[i];
+            for (int k = 0; k < p.numVertices(); ++k) pb[i].expand(p.v[k]);
+            pc[i] = pb[i].center();
+        }
+    }
+
+    uint32_t newNode(uint32_t begin, uint32_t end, int depth) {
+        ClusterNode node;
+        node.patchBegin = begin;
+        node.patchEnd = end;
+        node.depth = uint16_t(depth);
+        for (uint32_t i = begin; i < end; ++i) {
+            node.box.expand(pb[t.order_[i]].lo);
+            node.box.expand(pb[t.order_[i]].hi);
+        }
+        t.nodes_.push_back(node);
+        t.depth_ = std::max(t.depth_, depth);
+        return uint32_t(t.nodes_.size() - 1);
+    }
+
+    void makeLeaf(uint32_t c) {
+        t.nodes_[c].ownBegin = t.nodes_[c].patchBegin;
+        t.nodes_[c].ownEnd = t.nodes_[c].patchEnd;
+    }
+
+    void setChildren(uint32_t c, const std::vector<uint32_t>& kids) {
+        t.nodes_[c].childBegin = uint32_t(t.children_.size());
+        t.nodes_[c].childCount = uint32_t(kids.size());
+        t.children_.insert(t.children_.end(), kids.begin(), kids.end());
+    }
+
+    // ---- binned SAH BVH ----------------------------------------------------------
+    uint32_t bvh(uint32_t begin, uint32_t end, int depth) {
+        uint32_t c = newNode(begin, end, depth);
+        uint32_t n = end - begin;
+        if (n <= uint32_t(cfg.leafSize) || depth >= cfg.maxDepth) {
+            makeLeaf(c);
+            return c;
+        }
+        scene::Bounds3 cb;
+        for (uint32_t i = begin; i < end; ++i) cb.expand(pc[t.order_[i]]);
+        constexpr int kBins = 16;
+        double bestCost = INFINITY;
+        int bestAxis = -1, bestSplit = -1;
+        Vec3 ext = cb.extent();
+        for (int axis = 0; axis < 3; ++axis) {
+            if (!(ext[axis] > 0)) continue;
+            scene::Bounds3 bb[kBins];
+            uint32_t cnt[kBins] = {};
+            double scale = kBins / ext[axis];
+            auto binOf = [&](uint32_t p) {
+                int b = int((pc[p][axis] - cb.lo[axis]) * scale);
+                return std::clamp(b, 0, kBins - 1);
+            };
+            for (uint32_t i = begin; i < end; ++i) {
+                uint32_t p = t.order_[i];
+                int b = binOf(p);
+                ++cnt[b];
+                bb[b].expand(pb[p].lo);
+                bb[b].expand(pb[p].hi);
+            }
+            // Sweep: cost(split after bin k) = SA(left) N_left + SA(right) N_right.
+            double rightArea[kBins];
+            uint32_t rightCnt[kBins];
+            scene::Bounds3 acc;
+            uint32_t accN = 0;
+            for (int k = kBins - 1; k > 0; --k) {
+                if (cnt[k]) {
+                    acc.expand(bb[k].lo);
+                    acc.expand(bb[k].hi);
+                }
+                accN += cnt[k];
+                rightArea[k] = halfSurfaceArea(acc);
+                rightCnt[k] = accN;
+            }
+            acc = scene::Bounds3();
+            accN = 0;
+            for (int k = 0; k < kBins - 1; ++k) {
+                if (cnt[k]) {
+                    acc.expand(bb[k].lo);
+                    acc.expand(bb[k].hi);
+                }
+                accN += cnt[k];
+                if (accN == 0 || rightCnt[k + 1] == 0) continue;
+                double cost = halfSurfaceArea(acc) * accN + rightArea[k + 1] * rightCnt[k + 1];
+                if (cost < bestCost) {
+                    bestCost = cost;
+                    bestAxis = axis;
+                    bestSplit = k;
+                }
+            }
+        }
+        uint32_t mid;
+        if (bestAxis < 0) {
+            // All centroids coincide: split by count.
+            mid = begin + n / 2;
+        } else {
+            double scale = kBins / ext[bestAxis];
+            auto it = std::partition(t.order_.begin() + begin, t.order_.begin() + end,
+                                     [&](uint32_t p) {
+                                         int b = int((pc[p][bestAxis] - cb.lo[bestAxis]) * scale);
+                                         return std::clamp(b, 0, kBins - 1) <= bestSplit;
+                                     });
+            mid = uint32_t(it - t.order_.begin());
+            if (mid == begin || mid == end) mid = begin + n / 2;
+        }
+        std::vector<uint32_t> kids = {bvh(begin, mid, depth + 1), bvh(mid, end, depth + 1)};
+        setChildren(c, kids);
+        return c;
+    }
+
+    // ---- octree ---------------------------------------------------------------
+    uint32_t octree(uint32_t begin, uint32_t end, int depth, Vec3 lo, double size) {
+        uint32_t c = newNode(begin, end, depth);
+        buildOctreeChildren(c, begin, end, depth, lo, size);
+        return c;
+    }
+
+    void buildOctreeChildren(uint32_t c, uint32_t begin, uint32_t end, int depth, Vec3 lo,
+                             double size) {
+        uint32_t n = end - begin;
+        for (int guard = 0;; ++guard) {
+            if (n <= uint32_t(cfg.leafSize) || depth >= cfg.maxDepth || guard > 60) {
+                makeLeaf(c);
+                return;
+            }
+            double h = 0.5 * size;
+            Vec3 mid = lo + Vec3(h);
+            auto octant = [&](uint32_t p) {
+                return (pc[p].x >= mid.x ? 1 : 0) | (pc[p].y >= mid.y ? 2 : 0) |
+                       (pc[p].z >= mid.z ? 4 : 0);
+            };
+            std::sort(t.order_.begin() + begin, t.order_.begin() + end,
+                      [&](uint32_t a, uint32_t b) {
+                          int oa = octant(a), ob = octant(b);
+                          return oa != ob ? oa < ob : a < b;
+                      });
+            uint32_t counts[8] = {};
+            for (uint32_t i = begin; i < end; ++i) ++counts[octant(t.order_[i])];
+            int nonEmpty = 0, only = -1;
+            for (int o = 0; o < 8; ++o)
+                if (counts[o]) {
+                    ++nonEmpty;
+                    only = o;
+                }
+            if (nonEmpty == 1) {
+                // Collapse a chain of single children: shrink the cube in place.
+                lo = lo + Vec3(only & 1 ? h : 0, only & 2 ? h : 0, only & 4 ? h : 0);
+                size = h;
+                continue;
+            }
+            std::vector<uint32_t> kids;
+            uint32_t start = begin;
+            for (int o = 0; o < 8; ++o) {
+                if (!counts[o]) continue;
+                Vec3 clo = lo + Vec3(o & 1 ? h : 0, o & 2 ? h : 0, o & 4 ? h : 0);
+                kids.push_back(octree(start, start + counts[o], depth + 1, clo, h));
+                start += counts[o];
+            }
+            setChildren(c, kids);
+            return;
+        }
+    }
+};
+
+ClusterTree::ClusterTree(const scene::Scene& scene, const ClusterSettings& settings)
+    : scene_(&scene) {
+    Timer timer;
+    size_t n = scene.patches.size();
+    HRAD_CHECK(n > 0);
+    order_.resize(n);
+    std::iota(order_.begin(), order_.end(), 0u);
+    TreeBuilder b(*this, scene, settings);
+    nodes_.reserve(2 * n / size_t(std::max(1, settings.leafSize)) + 16);
+    if (settings.builder == "bvh") {
+        b.bvh(0, uint32_t(n), 0);
+    } else if (settings.builder == "octree") {
+        scene::Bounds3 all = scene.bounds();
+        Vec3 e = all.extent();
+        double size = std::max({e.x, e.y, e.z}) * (1 + 1e-9) + 1e-12;
+        b.octree(0, uint32_t(n), 0, all.lo, size);
+    } else {
+        throwInputError({}, "unknown cluster builder '{}'; valid builders: {}", settings.builder,
+                        fmt::join(kBuilders, ", "));
+    }
+    finalize();
+    buildSeconds_ = timer.seconds();
+}
+
+void ClusterTree::finalize() {
+    const auto& P = scene_->patches;
+    areaPrefix_.resize(order_.size() + 1);
+    areaPrefix_[0] = 0;
+    for (size_t i = 0; i < order_.size(); ++i) areaPrefix_[i + 1] = areaPrefix_[i] + P[order_[i]].area;
+    parent_.assign(nodes_.size(), UINT32_MAX);
+    patchCluster_.assign(P.size(), UINT32_MAX);
+    // Children have larger indices than parents: accumulate bottom-up.
+    for (size_t ci = nodes_.size(); ci-- > 0;) {
+        ClusterNode& c = nodes_[ci];
+        for (uint32_t i = 0; i < c.childCount; ++i) parent_[children_[c.childBegin + i]] = uint32_t(ci);
+        for (uint32_t i = c.ownBegin; i < c.ownEnd; ++i) patchCluster_[order_[i]] = uint32_t(ci);
+        double a = 0;
+        RGB rho(0.0);
+        Vec3 cen(0.0), S(0.0);
+        std::array<double, 6> M{};
+        for (uint32_t i = c.patchBegin; i < c.patchEnd; ++i) {
+            const auto& p = P[order_[i]];
+            a += p.area;
+            rho += p.area * p.rho;
+            cen += p.area * p.centroid();
+            S += p.area * p.normal;
+            const Vec3& nn = p.normal;
+            M[0] += p.area * nn.x * nn.x;
+            M[1] += p.area * nn.x * nn.y;
+            M[2] += p.area * nn.x * nn.z;
+            M[3] += p.area * nn.y * nn.y;
+            M[4] += p.area * nn.y * nn.z;
+            M[5] += p.area * nn.z * nn.z;
+        }
+        c.area = a;
+        c.rho = a > 0 ? rho / a : RGB(0.0);
+        c.centroid = a > 0 ? cen / a : c.box.center();
+        c.normalSum = S;
+        c.normalMoment = M;
+        // Sphere around the centroid containing the whole box.
+        double r2 = 0;
+        for (int k = 0; k < 8; ++k) {
+            Vec3 corner(k & 1 ? c.box.hi.x : c.box.lo.x, k & 2 ? c.box.hi.y : c.box.lo.y,
+                        k & 4 ? c.box.hi.z : c.box.lo.z);
+            r2 = std::max(r2, glm::dot(corner - c.centroid, corner - c.centroid));
+        }
+        c.radius = std::sqrt(r2);
+    }
+}
+
+uint64_t ClusterTree::memoryBytes() const {
+    return nodes_.capacity() * sizeof(ClusterNode) + children_.capacity() * sizeof(uint32_t) +
+           order_.capacity() * sizeof(uint32_t) + areaPrefix_.capacity() * sizeof(double) +
+           parent_.capacity() * sizeof(uint32_t) + patchCluster_.capacity() * sizeof(uint32_t);
+}
+
+double ClusterTree::projectedArea(uint32_t ci, const Vec3& d) const {
+    const ClusterNode& c = nodes_[ci];
+    const auto& M = c.normalMoment;
+    double q = d.x * (M[0] * d.x + M[1] * d.y + M[2] * d.z) +
+               d.y * (M[1] * d.x + M[3] * d.y + M[4] * d.z) +
+               d.z * (M[2] * d.x + M[4] * d.y + M[5] * d.z);
+    double absPart = std::sqrt(std::max(0.0, c.area * q));  // >= sum A |n.d|
+    double v = 0.5 * (absPart + glm::dot(c.normalSum, d));
+    return std::clamp(v, 0.0, c.area);
+}
+
+Vec3 ClusterTree::samplePoint(uint32_t ci, double u0, double u1, double u2, uint32_t& patch) const {
+    const ClusterNode& c = nodes_[ci];
+    double lo = areaPrefix_[c.patchBegin], hi = areaPrefix_[c.patchEnd];
+    double target = lo + u0 * (hi - lo);
+    auto it = std::upper_bound(areaPrefix_.begin() + c.patchBegin + 1,
+                               areaPrefix_.begin() + c.patchEnd + 1, target);
+    size_t idx = size_t(it - areaPrefix_.begin()) - 1;
+    idx = std::min<size_t>(std::max<size_t>(idx, c.patchBegin), c.patchEnd - 1);
+    patch = order_[idx];
+    const auto& p = scene_->patches[patch];
+    // Uniform point on a triangle (a, b, c) from (u1, u2).
+    auto tri = [&](const Vec3& a, const Vec3& b, const Vec3& cc) {
+        double su = std::sqrt(u1);
+        return (1 - su) * a + su * (1 - u2) * b + su * u2 * cc;
+    };
+    if (p.kind == scene::PatchKind::Triangle) return tri(p.v[0], p.v[1], p.v[2]);
+    double a1 = glm::length(glm::cross(p.v[1] - p.v[0], p.v[2] - p.v[0]));
+    double a2 = glm::length(glm::cross(p.v[2] - p.v[0], p.v[3] - p.v[0]));
+    double pick = u2 * (a1 + a2);
+    if (pick < a1) {
+        u2 = a1 > 0 ? pick / a1 : 0.5;
+        return tri(p.v[0], p.v[1], p.v[2]);
+    }
+    u2 = a2 > 0 ? (pick - a1) / a2 : 0.5;
+    return tri(p.v[0], p.v[2], p.v[3]);
+}
+
+}  // namespace hrad::cluster

@@ -1,0 +1,106 @@
+// Cluster trees above the root patches (volume clustering).
+//
+// A cluster is a node of a tree whose leaves hold root patches: it knows its
+// bounding box, the total area and the area-weighted reflectance of the
+// surfaces below it, and the first and second moments of their area-weighted
+// normals, which is what the transfer models need (cluster/transfer.h).
+// Smits, Arvo & Greenberg 1994; Sillion 1995.
+//
+// Nodes are stored in depth-first pre-order (a parent's index is smaller than
+// its children's), node 0 is the root. The patches below node c are the
+// contiguous range order[patchBegin, patchEnd) of a permutation of the
+// scene's patches, so sampling a point on the surfaces of a cluster is a
+// binary search in a prefix sum of areas.
+//
+// Builders (cluster.builder):
+//   bvh     binned surface-area heuristic over patch bounds (16 bins per axis,
+//           centroid binning; Wald 2007 "On fast construction of SAH-based
+//           bounding volume hierarchies")
+//   octree  recursive subdivision of a cube into octants by patch centroid;
+//           chains of single children are collapsed
+// Settings:
+//   cluster.builder    string  "bvh"
+//   cluster.leaf_size  int     4     patches per leaf cluster (1..64)
+//   cluster.max_depth  int     40    depth cap (leaves may then hold more patches)
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/params.h"
+#include "core/rng.h"
+#include "scene/scene.h"
+
+namespace hrad::cluster {
+
+struct ClusterNode {
+    scene::Bounds3 box;
+    double area = 0.0;
+    RGB rho{0.0};         ///< area-weighted mean reflectance of the surfaces below
+    Vec3 centroid{0.0};   ///< area-weighted centroid of the surfaces below
+    double radius = 0.0;  ///< radius of a sphere around `centroid` containing the box
+    Vec3 normalSum{0.0};  ///< S = sum_k A_k n_k
+    std::array<double, 6> normalMoment{};  ///< M = sum_k A_k n_k n_k^T (xx, xy, xz, yy, yz, zz)
+    uint32_t childBegin = 0, childCount = 0;  ///< sub-clusters: children[childBegin..+childCount)
+    uint32_t patchBegin = 0, patchEnd = 0;    ///< all patches below: order[patchBegin..patchEnd)
+    uint32_t ownBegin = 0, ownEnd = 0;        ///< patches held directly (leaf clusters)
+    uint16_t depth = 0;
+};
+
+struct ClusterSettings {
+    std::string builder = "bvh";
+    int leafSize = 4;
+    int maxDepth = 40;
+    static ClusterSettings fromParams(const Params& p);
+    std::string describe() const;
+};
+
+class ClusterTree {
+  public:
+    /// Builds the tree with the selected builder. Throws InputError for an
+    /// unknown builder (listing the valid ones).
+    ClusterTree(const scene::Scene& scene, const ClusterSettings& settings);
+
+    const std::vector<ClusterNode>& nodes() const { return nodes_; }
+    const ClusterNode& node(uint32_t c) const { return nodes_[c]; }
+    uint32_t size() const { return uint32_t(nodes_.size()); }
+    uint32_t child(uint32_t c, uint32_t i) const { return children_[nodes_[c].childBegin + i]; }
+    uint32_t patchAt(uint32_t i) const { return order_[i]; }
+    /// Parent cluster of every cluster (UINT32_MAX for the root).
+    const std::vector<uint32_t>& parents() const { return parent_; }
+    /// Leaf cluster holding each patch.
+    const std::vector<uint32_t>& patchCluster() const { return patchCluster_; }
+    int depth() const { return depth_; }
+    double buildSeconds() const { return buildSeconds_; }
+    uint64_t memoryBytes() const;
+
+    /// Projected area of the surfaces below c towards unit direction d,
+    /// sum_k A_k max(0, n_k . d), estimated from the normal moments as
+    /// (sqrt(A d^T M d) + S . d) / 2. Exact when every |n_k . d| is equal (in
+    /// particular for coplanar surfaces, and for surfaces all facing away,
+    /// which then give 0); otherwise an upper bound by Cauchy-Schwarz.
+    double projectedArea(uint32_t c, const Vec3& d) const;
+
+    /// A point on the surfaces below c, chosen with probability proportional
+    /// to area; `patch` receives the patch it lies on.
+    Vec3 samplePoint(uint32_t c, double u0, double u1, double u2, uint32_t& patch) const;
+
+  private:
+    void finalize();
+    const scene::Scene* scene_;
+    std::vector<ClusterNode> nodes_;
+    std::vector<uint32_t> children_;
+    std::vector<uint32_t> order_;
+    std::vector<double> areaPrefix_;  ///< prefix sums of patch areas in `order_`
+    std::vector<uint32_t> parent_;
+    std::vector<uint32_t> patchCluster_;
+    int depth_ = 0;
+    double buildSeconds_ = 0.0;
+    friend struct TreeBuilder;
+};
+
+std::vector<std::string> builderNames();
+
+}  // namespace hrad::cluster
