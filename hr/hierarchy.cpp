@@ -43,16 +43,66 @@ Hierarchy::Hierarchy(const scene::Scene& scene, const cluster::ClusterTree* tree
             area_[k + c] = tree_->node(c).area;
         }
         // Clusters start with the area-weighted average emission below them.
-        for (uint32_t c = numClusters_; c-- > 0;) {
-            RGB sum(0.0);
-            for (uint32_t i = 0; i < numChildren(k + c); ++i) {
-                uint32_t ch = child(k + c, i);
-                sum += area_[ch] * B_[ch];
-            }
-            B_[k + c] = area_[k + c] > 0 ? sum / area_[k + c] : RGB(0.0);
-        }
+        pullClusters();
     }
     linkOffsets_.assign(size_t(n) + 1, 0);
+}
+
+void Hierarchy::pullClusters() {
+    uint32_t np = numPatches(), nc = numClusters_;
+    bool oriented = model_ == cluster::ClusterModel::Oriented;
+    if (oriented) moments_.assign(nc, RadiantMoments{});
+    // Children before parents (pre-order indices, so walk backwards).
+    for (uint32_t c = nc; c-- > 0;) {
+        uint32_t e = np + c;
+        RGB sum(0.0);
+        RadiantMoments mom;
+        for (uint32_t i = 0; i < numChildren(e); ++i) {
+            uint32_t ch = child(e, i);
+            sum += area_[ch] * B_[ch];
+            if (!oriented) continue;
+            if (isCluster(ch)) {
+                const RadiantMoments& cm = moments_[ch - np];
+                mom.ab += cm.ab;
+                for (int k = 0; k < 3; ++k) {
+                    mom.s[k] += cm.s[k];
+                    for (int j = 0; j < 6; ++j) mom.m[k][j] += cm.m[k][j];
+                }
+            } else {
+                const Vec3& n = scene_->patches[patch_[ch]].normal;
+                RGB w = area_[ch] * B_[ch];
+                mom.ab += w;
+                double nn[6] = {n.x * n.x, n.x * n.y, n.x * n.z, n.y * n.y, n.y * n.z, n.z * n.z};
+                for (int k = 0; k < 3; ++k) {
+                    mom.s[k] += w[k] * n;
+                    for (int j = 0; j < 6; ++j) mom.m[k][j] += w[k] * nn[j];
+                }
+            }
+        }
+        B_[e] = area_[e] > 0 ? sum / area_[e] : RGB(0.0);
+        if (oriented) moments_[c] = mom;
+    }
+}
+
+RGB Hierarchy::directionalB(uint32_t e, const Vec3& d) const {
+    if (!isCluster(e) || model_ != cluster::ClusterModel::Oriented) return B_[e];
+    uint32_t c = clusterIndex(e);
+    double proj = tree_->projectedArea(c, d);
+    if (!(proj > 0)) return B_[e];
+    const RadiantMoments& m = moments_[c];
+    RGB out;
+    for (int k = 0; k < 3; ++k) {
+        const auto& M = m.m[k];
+        double q = d.x * (M[0] * d.x + M[1] * d.y + M[2] * d.z) +
+                   d.y * (M[1] * d.x + M[3] * d.y + M[4] * d.z) +
+                   d.z * (M[2] * d.x + M[4] * d.y + M[5] * d.z);
+        // sum A B max(0, n.d) = (sum A B |n.d| + sum A B n.d) / 2, the first
+        // sum estimated as sqrt(sum A B * sum A B (n.d)^2) (Cauchy-Schwarz;
+        // exact when |n.d| is the same for all surfaces that carry light).
+        double p = 0.5 * (std::sqrt(std::max(0.0, m.ab[k] * q)) + glm::dot(m.s[k], d));
+        out[k] = std::clamp(p, 0.0, m.ab[k]) / proj;
+    }
+    return out;
 }
 
 uint32_t Hierarchy::numChildren(uint32_t e) const {
@@ -176,13 +226,30 @@ std::vector<uint32_t> Hierarchy::linkReceivers() const {
 
 void Hierarchy::gather() {
     uint32_t n = numElements();
+    bool oriented = model_ == cluster::ClusterModel::Oriented && numClusters_ > 0;
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 256), [&](const auto& range) {
         for (uint32_t r = range.begin(); r != range.end(); ++r) {
             RGB sum(0.0);
             // Fixed summation order within a row: results do not depend on
             // how the range is split between threads.
-            for (uint64_t i = linkBegin(r); i < linkEnd(r); ++i)
-                sum += double(links_[i].K) * B_[links_[i].sender];
+            bool haveCenter = false;
+            Vec3 cr(0.0);
+            for (uint64_t i = linkBegin(r); i < linkEnd(r); ++i) {
+                uint32_t s = links_[i].sender;
+                if (oriented && isCluster(s)) {
+                    // An oriented cluster sends what its surfaces facing the
+                    // receiver carry, not its mean radiosity.
+                    if (!haveCenter) {
+                        cr = center(r);
+                        haveCenter = true;
+                    }
+                    Vec3 d = cr - tree_->node(clusterIndex(s)).centroid;
+                    double len = glm::length(d);
+                    sum += double(links_[i].K) * (len > 0 ? directionalB(s, d / len) : B_[s]);
+                } else {
+                    sum += double(links_[i].K) * B_[s];
+                }
+            }
             if (patch_[r] == kNone)
                 // A cluster gathers irradiance (reflected per surface when
                 // pushed); oriented clusters push link by link instead.
@@ -264,15 +331,7 @@ void Hierarchy::pushPull() {
         }
     });
     // Pull through the clusters, children before parents.
-    for (uint32_t c = nc; c-- > 0;) {
-        uint32_t e = np + c;
-        RGB sum(0.0);
-        for (uint32_t i = 0; i < numChildren(e); ++i) {
-            uint32_t ch = child(e, i);
-            sum += area_[ch] * B_[ch];
-        }
-        B_[e] = area_[e] > 0 ? sum / area_[e] : RGB(0.0);
-    }
+    if (nc) pullClusters();
 }
 
 RGB Hierarchy::reflectedPower() const {
@@ -315,7 +374,7 @@ void Hierarchy::reportMemory(MemoryCounters& m) const {
     m.set("links", links_.capacity() * sizeof(Link));
     m.set("link_offsets", linkOffsets_.capacity() * sizeof(uint64_t));
     if (!clusterLinkDir_.empty()) m.set("cluster_link_directions", clusterLinkDir_.capacity() * sizeof(glm::vec3));
-    if (tree_) m.set("clusters", tree_->memoryBytes());
+    if (tree_) m.set("clusters", tree_->memoryBytes() + moments_.capacity() * sizeof(RadiantMoments));
 }
 
 // ---- field view ---------------------------------------------------------------

@@ -15,6 +15,7 @@
 // (DESIGN.md "Core model"; the 16-byte link is a measured target.)
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -136,8 +137,17 @@ class Hierarchy {
     uint64_t linkBytes() const;
     void reportMemory(MemoryCounters& m) const;
 
+    /// Radiosity leaving cluster node e towards unit direction d, averaged
+    /// over its projected area (oriented model: surfaces facing d weigh by
+    /// A_k cos; Smits et al. 1994). Falls back to the mean B when nothing
+    /// faces d. For elements and isotropic clusters: B(e).
+    RGB directionalB(uint32_t e, const Vec3& d) const;
+
   private:
     void prepareOrientedDirections();
+    /// Bottom-up over clusters: area-weighted mean B and, for the oriented
+    /// model, the radiosity-weighted normal moments used by directionalB().
+    void pullClusters();
     const scene::Scene* scene_;
     const cluster::ClusterTree* tree_ = nullptr;
     cluster::ClusterModel model_ = cluster::ClusterModel::None;
@@ -146,6 +156,14 @@ class Hierarchy {
     /// receiver to its sender, for the links of cluster rows (contiguous).
     std::vector<glm::vec3> clusterLinkDir_;
     uint64_t clusterLinkBase_ = 0;
+    /// Oriented model, per cluster and RGB channel: sum A_k B_k, sum A_k B_k n_k,
+    /// sum A_k B_k n_k n_k^T (xx, xy, xz, yy, yz, zz).
+    struct RadiantMoments {
+        RGB ab{0.0};
+        std::array<Vec3, 3> s{};
+        std::array<std::array<double, 6>, 3> m{};
+    };
+    std::vector<RadiantMoments> moments_;
     // Elements (structure of arrays).
     std::vector<uint32_t> patch_;
     std::vector<scene::ElementKey> key_;
