@@ -52,8 +52,9 @@
 // a blocker at level 4 (4,864 elements, 11.0 M non-zeros, 132 MB CSR) 62 CPU-s
 // (~30 s wall on two idle cores); the solve itself takes < 0.5 s (Southwell
 // 1.5 s). Cost grows as n^2: 20k elements are ~17x the 4.9k case (~20 CPU-min)
-// and ~2 GB of matrix (twice that for Southwell). Nothing is cached on disk
-// yet (DESIGN.md asks for a cache keyed by scene hash and settings).
+// and ~2 GB of matrix (twice that for Southwell). solveFullMatrix() itself
+// does not cache; reference/cache.h's cachedFullMatrix() stores converged
+// solutions on disk keyed by a hash of the scene contents and the settings.
 #pragma once
 
 #include <cstdint>

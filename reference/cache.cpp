@@ -1,0 +1,382 @@
+// Reference cache; see cache.h for the key and the file format.
+#include "reference/cache.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <sstream>
+#include <system_error>
+
+#include "core/error.h"
+#include "core/log.h"
+
+namespace hrad::reference {
+
+namespace {
+
+constexpr char kMagic[8] = {'H', 'R', 'A', 'D', 'R', 'E', 'F', '\0'};
+constexpr uint32_t kVersion = 1;
+constexpr uint64_t kFnvOffset = 0xcbf29ce484222325ULL;
+constexpr uint64_t kFnvPrime = 0x100000001b3ULL;
+
+struct Fnv {
+    uint64_t h = kFnvOffset;
+    void bytes(const void* data, size_t n) {
+        const auto* p = static_cast<const unsigned char*>(data);
+        for (size_t i = 0; i < n; ++i) {
+            h ^= p[i];
+            h *= kFnvPrime;
+        }
+    }
+    template <typename T>
+    void pod(const T& v) {
+        bytes(&v, sizeof(T));
+    }
+    void vec(const Vec3& v) {
+        pod(v.x);
+        pod(v.y);
+        pod(v.z);
+    }
+};
+
+/// Appends plain values to a byte buffer.
+struct Writer {
+    std::string buf;
+    template <typename T>
+    void pod(const T& v) {
+        buf.append(reinterpret_cast<const char*>(&v), sizeof(T));
+    }
+    void str(const std::string& s) {
+        pod(uint32_t(s.size()));
+        buf += s;
+    }
+    void rgbs(const std::vector<RGB>& v) {
+        for (const RGB& c : v) {
+            pod(c.r);
+            pod(c.g);
+            pod(c.b);
+        }
+    }
+};
+
+/// Bounds-checked reads from a byte buffer; any overrun sets `bad`.
+struct Reader {
+    const std::string& buf;
+    size_t pos = 0;
+    bool bad = false;
+    bool take(void* out, size_t n) {
+        if (bad || buf.size() - pos < n) {
+            bad = true;
+            return false;
+        }
+        std::memcpy(out, buf.data() + pos, n);
+        pos += n;
+        return true;
+    }
+    template <typename T>
+    T pod() {
+        T v{};
+        take(&v, sizeof(T));
+        return v;
+    }
+    std::string str() {
+        auto n = pod<uint32_t>();
+        if (bad || buf.size() - pos < n) {
+            bad = true;
+            return {};
+        }
+        std::string s = buf.substr(pos, n);
+        pos += n;
+        return s;
+    }
+    bool rgbs(std::vector<RGB>& v, size_t n) {
+        if (bad || (buf.size() - pos) / (3 * sizeof(double)) < n) {
+            bad = true;
+            return false;
+        }
+        v.resize(n);
+        for (RGB& c : v) {
+            c.r = pod<double>();
+            c.g = pod<double>();
+            c.b = pod<double>();
+        }
+        return !bad;
+    }
+};
+
+std::string hex64(uint64_t v) { return fmt::format("{:016x}", v); }
+
+std::map<std::string, std::string> parseMetadata(const std::string& text) {
+    std::map<std::string, std::string> out;
+    std::istringstream in(text);
+    std::string line;
+    while (std::getline(in, line)) {
+        auto eq = line.find('=');
+        if (eq != std::string::npos) out[line.substr(0, eq)] = line.substr(eq + 1);
+    }
+    return out;
+}
+
+double metaDouble(const std::map<std::string, std::string>& m, const char* key) {
+    auto it = m.find(key);
+    if (it == m.end()) return 0.0;
+    char* end = nullptr;
+    double v = std::strtod(it->second.c_str(), &end);
+    return end != it->second.c_str() ? v : 0.0;
+}
+
+uint64_t metaUint(const std::map<std::string, std::string>& m, const char* key) {
+    auto it = m.find(key);
+    if (it == m.end()) return 0;
+    return std::strtoull(it->second.c_str(), nullptr, 10);
+}
+
+std::filesystem::path cacheFile(const std::filesystem::path& dir, const std::string& prefix,
+                                const std::string& key) {
+    return dir / (prefix + "-" + key + ".bin");
+}
+
+/// saveReference that only warns (a read-only cache must not fail a solve).
+void trySave(const std::filesystem::path& path, const scene::UniformField& field,
+             const std::vector<RGB>* stdError, const std::string& key, const std::string& meta) {
+    try {
+        saveReference(path.string(), field, stdError, key, meta);
+        spdlog::info("reference cache: stored {}", path.string());
+    } catch (const std::exception& e) {
+        spdlog::warn("reference cache: could not store {}: {}", path.string(), e.what());
+    }
+}
+
+}  // namespace
+
+uint64_t sceneContentHash(const scene::Scene& scene) {
+    Fnv f;
+    f.pod(uint64_t(scene.patches.size()));
+    for (const scene::Patch& p : scene.patches) {
+        f.pod(uint8_t(p.kind));
+        for (int i = 0; i < p.numVertices(); ++i) f.vec(p.v[size_t(i)]);
+        f.vec(p.rho);
+        f.vec(p.emission);
+    }
+    return f.h;
+}
+
+std::string referenceCacheKey(const scene::Scene& scene, const std::string& kind,
+                              const std::string& settingsDescription) {
+    Fnv f;
+    f.bytes(kind.data(), kind.size());
+    f.bytes("\n", 1);
+    f.bytes(settingsDescription.data(), settingsDescription.size());
+    return hex64(sceneContentHash(scene)) + hex64(f.h);
+}
+
+void saveReference(const std::string& path, const scene::UniformField& field,
+                   const std::vector<RGB>* stdError, const std::string& key,
+                   const std::string& metadata) {
+    const scene::Scene& s = field.scene();
+    const size_t n = field.numElements();
+    if (stdError && stdError->size() != n)
+        throw Error(
+            fmt::format("saveReference: {} standard errors for {} elements", stdError->size(), n));
+    Writer w;
+    w.buf.append(kMagic, sizeof(kMagic));
+    w.pod(kVersion);
+    w.str(key);
+    w.str(metadata);
+    w.pod(uint64_t(s.patches.size()));
+    for (uint32_t p = 0; p < s.patches.size(); ++p) w.pod(uint8_t(field.level(p)));
+    w.pod(uint64_t(n));
+    w.pod(uint8_t(stdError ? 1 : 0));
+    w.rgbs(field.values());
+    if (stdError) w.rgbs(*stdError);
+    Fnv f;
+    f.bytes(w.buf.data(), w.buf.size());
+    w.pod(f.h);
+
+    std::filesystem::path target(path);
+    std::error_code ec;
+    if (target.has_parent_path()) std::filesystem::create_directories(target.parent_path(), ec);
+    if (ec)
+        throw Error(fmt::format("cannot create directory {}: {}", target.parent_path().string(),
+                                ec.message()));
+    // Unique temporary name in the same directory, then an atomic rename.
+    std::filesystem::path tmp = target;
+    tmp += fmt::format(".tmp{:x}",
+                       uint64_t(reinterpret_cast<uintptr_t>(&w)) ^
+                           uint64_t(std::chrono::steady_clock::now().time_since_epoch().count()));
+    {
+        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+        if (!out) throw Error(fmt::format("cannot write {}", tmp.string()));
+        out.write(w.buf.data(), std::streamsize(w.buf.size()));
+        out.close();
+        if (!out) {
+            std::filesystem::remove(tmp, ec);
+            throw Error(fmt::format("error writing {}", tmp.string()));
+        }
+    }
+    std::filesystem::rename(tmp, target, ec);
+    if (ec) {
+        std::filesystem::remove(tmp, ec);
+        throw Error(fmt::format("cannot rename {} to {}", tmp.string(), target.string()));
+    }
+}
+
+std::optional<CachedReference> loadReference(const std::string& path, const scene::Scene& scene,
+                                             const std::string& expectedKey) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return std::nullopt;  // no file: a plain miss
+    std::string buf((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (in.bad()) {
+        spdlog::warn("reference cache: cannot read {}; ignoring it", path);
+        return std::nullopt;
+    }
+    auto corrupt = [&](const std::string& why) -> std::optional<CachedReference> {
+        spdlog::warn("reference cache: {} is unusable ({}); ignoring it", path, why);
+        return std::nullopt;
+    };
+    Reader r{buf};
+    char magic[8];
+    if (!r.take(magic, sizeof(magic)) || std::memcmp(magic, kMagic, sizeof(kMagic)) != 0)
+        return corrupt("not a reference file");
+    auto version = r.pod<uint32_t>();
+    if (r.bad) return corrupt("truncated header");
+    if (version != kVersion)
+        return corrupt(fmt::format("format version {} != {}", version, kVersion));
+    std::string key = r.str();
+    if (r.bad) return corrupt("truncated header");
+    if (key != expectedKey) {
+        spdlog::debug("reference cache: {} has key {}, expected {}", path, key, expectedKey);
+        return std::nullopt;
+    }
+    CachedReference out;
+    out.metadata = r.str();
+    auto patches = r.pod<uint64_t>();
+    if (r.bad) return corrupt("truncated header");
+    if (patches != scene.patches.size())
+        return corrupt(fmt::format("{} patches, the scene has {}", patches, scene.patches.size()));
+    std::vector<uint8_t> levels(patches);
+    if (patches > 0 && !r.take(levels.data(), patches)) return corrupt("truncated levels");
+    uint64_t expectedElements = 0;
+    for (uint8_t l : levels) {
+        // 4^15 elements per patch (24 GB of values) is far beyond any
+        // reference; the cap also keeps the sizes below from overflowing.
+        if (l > 15) return corrupt(fmt::format("level {} out of range", l));
+        expectedElements += uint64_t(1) << (2 * l);
+    }
+    auto elements = r.pod<uint64_t>();
+    auto hasStdError = r.pod<uint8_t>();
+    if (r.bad) return corrupt("truncated header");
+    if (elements != expectedElements)
+        return corrupt(fmt::format("{} elements, levels give {}", elements, expectedElements));
+    if (hasStdError > 1) return corrupt("bad standard-error flag");
+    // Check the exact size before allocating anything proportional to it.
+    const uint64_t body = elements * 3 * sizeof(double) * (hasStdError ? 2 : 1);
+    if (buf.size() - r.pos != body + sizeof(uint64_t))
+        return corrupt(fmt::format("{} bytes after the header, expected {}", buf.size() - r.pos,
+                                   body + sizeof(uint64_t)));
+    std::vector<RGB> values, errors;
+    r.rgbs(values, elements);
+    if (hasStdError) r.rgbs(errors, elements);
+    size_t checked = r.pos;
+    auto stored = r.pod<uint64_t>();
+    if (r.bad) return corrupt("truncated data");
+    Fnv f;
+    f.bytes(buf.data(), checked);
+    if (f.h != stored) return corrupt("checksum mismatch");
+
+    out.field = std::make_unique<scene::UniformField>(scene, std::move(levels));
+    out.field->values() = std::move(values);
+    if (hasStdError) out.stdError = std::move(errors);
+    return out;
+}
+
+std::filesystem::path defaultCacheDir() {
+    if (const char* c = std::getenv("HRAD_CACHE"); c && *c) return std::filesystem::path(c);
+    if (const char* h = std::getenv("HOME"); h && *h)
+        return std::filesystem::path(h) / ".cache" / "hrad";
+    return std::filesystem::path(".hrad-cache");
+}
+
+FullMatrixResult cachedFullMatrix(const scene::Scene& scene,
+                                  const transport::Visibility& visibility,
+                                  const FullMatrixSettings& settings,
+                                  const std::filesystem::path& cacheDir, bool* hit,
+                                  bool showProgress) {
+    const std::string desc = settings.describe();
+    const std::string key = referenceCacheKey(scene, kFullMatrixKind, desc);
+    const std::filesystem::path path = cacheFile(cacheDir, "fullmatrix", key);
+    if (auto cached = loadReference(path.string(), scene, key)) {
+        if (hit) *hit = true;
+        auto m = parseMetadata(cached->metadata);
+        FullMatrixResult r;
+        r.field = std::move(cached->field);
+        r.stats.elements = r.field->numElements();
+        r.stats.formFactors = metaUint(m, "form_factors");
+        r.stats.rays = metaUint(m, "rays");
+        r.stats.ffSeconds = metaDouble(m, "ff_seconds");
+        r.stats.solveSeconds = metaDouble(m, "solve_seconds");
+        r.stats.iterations = int64_t(metaUint(m, "iterations"));
+        r.stats.residual = metaDouble(m, "residual");
+        r.stats.converged = true;  // only converged solves are stored
+        r.stats.matrixBytes = metaUint(m, "matrix_bytes");
+        spdlog::info("reference cache: full matrix from {}", path.string());
+        return r;
+    }
+    if (hit) *hit = false;
+    FullMatrixResult r = solveFullMatrix(scene, visibility, settings, showProgress);
+    if (!r.stats.converged) {
+        spdlog::warn("reference cache: full matrix did not converge; not stored");
+        return r;
+    }
+    std::string meta = fmt::format(
+        "kind={}\nscene={}\nsettings={}\nelements={}\nform_factors={}\nrays={}\nff_seconds={}\n"
+        "solve_seconds={}\niterations={}\nresidual={}\nmatrix_bytes={}\n",
+        kFullMatrixKind, scene.name, desc, r.stats.elements, r.stats.formFactors, r.stats.rays,
+        r.stats.ffSeconds, r.stats.solveSeconds, r.stats.iterations, r.stats.residual,
+        r.stats.matrixBytes);
+    trySave(path, *r.field, nullptr, key, meta);
+    return r;
+}
+
+MonteCarloResult cachedMonteCarlo(const scene::Scene& scene,
+                                  const transport::Visibility& visibility,
+                                  const MonteCarloSettings& settings,
+                                  const std::filesystem::path& cacheDir, bool* hit,
+                                  bool showProgress) {
+    const std::string desc = settings.describe();
+    const std::string key = referenceCacheKey(scene, kMonteCarloKind, desc);
+    const std::filesystem::path path = cacheFile(cacheDir, "montecarlo", key);
+    if (auto cached = loadReference(path.string(), scene, key)) {
+        if (cached->stdError) {
+            if (hit) *hit = true;
+            auto m = parseMetadata(cached->metadata);
+            MonteCarloResult r;
+            r.field = std::move(cached->field);
+            r.stdError = std::move(*cached->stdError);
+            r.stats.regions = r.field->numElements();
+            r.stats.paths = metaUint(m, "paths");
+            r.stats.rays = metaUint(m, "rays");
+            r.stats.seconds = metaDouble(m, "seconds");
+            r.stats.rounds = int(metaUint(m, "rounds"));
+            spdlog::info("reference cache: monte carlo from {}", path.string());
+            return r;
+        }
+        spdlog::warn("reference cache: {} has no standard errors; recomputing", path.string());
+    }
+    if (hit) *hit = false;
+    MonteCarloResult r = solveMonteCarlo(scene, visibility, settings, showProgress);
+    std::string meta = fmt::format(
+        "kind={}\nscene={}\nsettings={}\nregions={}\npaths={}\nrays={}\nseconds={}\n"
+        "rounds={}\n",
+        kMonteCarloKind, scene.name, desc, r.stats.regions, r.stats.paths, r.stats.rays,
+        r.stats.seconds, r.stats.rounds);
+    trySave(path, *r.field, &r.stdError, key, meta);
+    return r;
+}
+
+}  // namespace hrad::reference

@@ -1,0 +1,305 @@
+// Monte Carlo region reference; see montecarlo.h for the estimator and settings.
+#include "reference/montecarlo.h"
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/error.h"
+#include "core/log.h"
+#include "core/rng.h"
+#include "core/timer.h"
+#include "scene/element.h"
+
+namespace hrad::reference {
+
+namespace {
+
+/// Running mean and sum of squared deviations (Welford 1962), per channel.
+struct Welford {
+    uint64_t n = 0;
+    RGB mean{0.0}, m2{0.0};
+    void add(const RGB& x) {
+        ++n;
+        RGB d = x - mean;
+        mean += d / double(n);
+        m2 += d * (x - mean);
+    }
+    /// Standard error of the mean, sqrt(s^2 / n) with the unbiased s^2.
+    RGB stdError() const {
+        if (n < 2) return RGB(0.0);
+        RGB var = glm::max(m2, RGB(0.0)) / double(n - 1);
+        return glm::sqrt(var / double(n));
+    }
+};
+
+/// Uniform point on a triangle by the square-root mapping (Osada et al. 2002).
+Vec3 sampleTriangle(const Vec3& a, const Vec3& b, const Vec3& c, double u1, double u2) {
+    double su = std::sqrt(u1);
+    double b0 = 1.0 - su, b1 = u2 * su;
+    return b0 * a + b1 * b + (1.0 - b0 - b1) * c;
+}
+
+/// Uniform point by area on a planar convex polygon of 3 or 4 corners (a
+/// quad is the fan (c0,c1,c2), (c0,c2,c3), picked in proportion to area).
+struct PolygonSampler {
+    Vec3 c[4];
+    int n = 3;
+    double firstFraction = 1.0;  ///< area of (c0,c1,c2) / total
+
+    PolygonSampler() = default;
+    PolygonSampler(const Vec3* corners, int count) : n(count) {
+        for (int i = 0; i < count; ++i) c[i] = corners[i];
+        if (n == 4) {
+            double a0 = 0.5 * glm::length(glm::cross(c[1] - c[0], c[2] - c[0]));
+            double a1 = 0.5 * glm::length(glm::cross(c[2] - c[0], c[3] - c[0]));
+            firstFraction = a0 + a1 > 0 ? a0 / (a0 + a1) : 1.0;
+        }
+    }
+    Vec3 sample(Pcg32& rng) const {
+        double s = rng.nextDouble(), u1 = rng.nextDouble(), u2 = rng.nextDouble();
+        if (n == 3 || s < firstFraction) return sampleTriangle(c[0], c[1], c[2], u1, u2);
+        return sampleTriangle(c[0], c[2], c[3], u1, u2);
+    }
+};
+
+PolygonSampler patchSampler(const scene::Patch& p) {
+    return PolygonSampler(p.v.data(), p.numVertices());
+}
+
+/// Emitters chosen in proportion to their power luminance(E) * A.
+struct EmitterTable {
+    std::vector<uint32_t> patch;
+    std::vector<double> cdf;  ///< cdf[i] = P(choose one of 0..i); last is 1
+    std::vector<PolygonSampler> shape;
+    std::vector<double> probOfPatch;  ///< selection probability per scene patch (0: not an emitter)
+
+    explicit EmitterTable(const scene::Scene& s) : probOfPatch(s.patches.size(), 0.0) {
+        std::vector<double> w;
+        for (uint32_t i = 0; i < s.patches.size(); ++i) {
+            const scene::Patch& p = s.patches[i];
+            double power = luminance(p.emission) * p.area;
+            if (p.isEmitter() && power > 0) {
+                patch.push_back(i);
+                w.push_back(power);
+                shape.push_back(patchSampler(p));
+            }
+        }
+        double total = 0;
+        for (double x : w) total += x;
+        double acc = 0;
+        for (size_t k = 0; k < w.size(); ++k) {
+            acc += w[k];
+            cdf.push_back(acc / total);
+            probOfPatch[patch[k]] = w[k] / total;
+        }
+        if (!cdf.empty()) cdf.back() = 1.0;
+    }
+    bool empty() const { return patch.empty(); }
+    size_t pick(double u) const {
+        size_t k = size_t(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin());
+        return std::min(k, cdf.size() - 1);
+    }
+};
+
+/// Orthonormal basis around unit n (Duff et al. 2017, "Building an
+/// Orthonormal Basis, Revisited").
+void basis(const Vec3& n, Vec3& t, Vec3& b) {
+    double sign = std::copysign(1.0, n.z);
+    double a = -1.0 / (sign + n.z);
+    double c = n.x * n.y * a;
+    t = Vec3(1.0 + sign * n.x * n.x * a, sign * c, -sign * n.x);
+    b = Vec3(c, sign + n.y * n.y * a, -n.y);
+}
+
+/// Cosine-weighted direction about n (Malley's method), pdf cos t / pi.
+Vec3 sampleCosine(const Vec3& n, Pcg32& rng) {
+    double u1 = rng.nextDouble(), u2 = rng.nextDouble();
+    double r = std::sqrt(u1), phi = 2.0 * kPi * u2;
+    double z = std::sqrt(std::max(0.0, 1.0 - u1));
+    Vec3 t, b;
+    basis(n, t, b);
+    return glm::normalize(r * std::cos(phi) * t + r * std::sin(phi) * b + z * n);
+}
+
+/// One region's random walks. Not shared between tasks.
+class Walker {
+  public:
+    Walker(const scene::Scene& s, const transport::Visibility& vis, const EmitterTable& em,
+           const MonteCarloSettings& st)
+        : scene_(s), vis_(vis), em_(em), maxDepth_(st.maxDepth), mis_(st.mis) {}
+
+    uint64_t rays = 0;
+
+    /// H_est(x): gathered radiosity at x (on patch `patch`, front side).
+    RGB gather(Vec3 x, uint32_t patch, Pcg32& rng) {
+        RGB H(0.0), beta(1.0);
+        for (int depth = 0;; ++depth) {
+            const scene::Patch& p = scene_.patches[patch];
+            // Light paths ending after depth + 1 segments: NEE at x_depth ...
+            H += beta * direct(x, p.normal, patch, rng);
+            // ... and (with MIS) the emitter hit by the cosine ray below.
+            Vec3 dir = sampleCosine(p.normal, rng);
+            ++rays;
+            transport::RayHit hit = vis_.intersect(x, dir, 0.0, 1e300, patch);
+            if (!hit.hit) break;
+            const scene::Patch& q = scene_.patches[hit.patch];
+            double cosY = -glm::dot(dir, q.normal);
+            if (cosY <= 0) break;  // back face: B = 0 there
+            // Put the hit exactly on q's plane (Embree's t is float).
+            Vec3 y = hit.point - q.normal * glm::dot(hit.point - q.v[0], q.normal);
+            if (mis_ && q.isEmitter()) {
+                double pe = em_.probOfPatch[hit.patch];
+                Vec3 d = y - x;
+                double r2 = glm::dot(d, d);
+                double cosX = glm::dot(dir, p.normal);
+                double a = q.area * cosX * cosY, b = kPi * pe * r2;
+                if (a > 0) H += beta * q.emission * (a / (a + b));
+            }
+            if (maxDepth_ > 0 && depth + 2 > maxDepth_) break;  // next NEE: depth + 2 segments
+            beta *= q.rho;
+            double survive = maxComponent(q.rho);
+            if (survive <= 0) break;
+            if (depth + 1 >= kRouletteDepth) {
+                if (rng.nextDouble() >= survive) break;
+                beta /= survive;
+            }
+            x = y;
+            patch = hit.patch;
+        }
+        return H;
+    }
+
+  private:
+    /// Direct light at x by next-event estimation (MIS-weighted when mis_).
+    RGB direct(const Vec3& x, const Vec3& n, uint32_t patch, Pcg32& rng) {
+        if (em_.empty()) return RGB(0.0);
+        size_t k = em_.pick(rng.nextDouble());
+        Vec3 y = em_.shape[k].sample(rng);  // drawn even when unused: fixed stream use
+        uint32_t e = em_.patch[k];
+        if (e == patch) return RGB(0.0);  // planar: F = 0
+        const scene::Patch& ep = scene_.patches[e];
+        Vec3 d = y - x;
+        double r2 = glm::dot(d, d);
+        if (!(r2 > 0)) return RGB(0.0);
+        Vec3 w = d / std::sqrt(r2);
+        double cosX = glm::dot(n, w), cosY = -glm::dot(ep.normal, w);
+        if (cosX <= 0 || cosY <= 0) return RGB(0.0);
+        ++rays;
+        if (vis_.occluded(transport::Segment{x, y, patch, e})) return RGB(0.0);
+        double a = ep.area * cosX * cosY, b = kPi * em_.probOfPatch[e] * r2;
+        return ep.emission * (mis_ ? a / (a + b) : a / b);
+    }
+
+    const scene::Scene& scene_;
+    const transport::Visibility& vis_;
+    const EmitterTable& em_;
+    int maxDepth_;
+    bool mis_;
+};
+
+}  // namespace
+
+MonteCarloSettings MonteCarloSettings::fromParams(const Params& params, const std::string& prefix) {
+    MonteCarloSettings s;
+    auto key = [&](const char* k) { return prefix.empty() ? std::string(k) : prefix + "." + k; };
+    s.level = int(params.getInt(key("level"), s.level, 0, scene::kMaxLevel));
+    s.maxArea = params.getDouble(key("max_area"), s.maxArea, 0.0, 1e300);
+    s.maxLevel = int(params.getInt(key("max_level"), s.maxLevel, 0, scene::kMaxLevel));
+    s.samples = int(params.getInt(key("samples"), s.samples, 2, 1000000000));
+    s.timeBudget = params.getDouble(key("time_budget"), s.timeBudget, 0.0, 1e12);
+    s.maxDepth = int(params.getInt(key("max_depth"), s.maxDepth, 0, 1000000));
+    s.seed = uint64_t(
+        params.getInt(key("seed"), int64_t(s.seed), 0, std::numeric_limits<int64_t>::max()));
+    s.mis = params.getBool(key("mis"), s.mis);
+    return s;
+}
+
+std::string MonteCarloSettings::describe() const {
+    return fmt::format(
+        "level={} max_area={} max_level={} samples={} time_budget={} max_depth={} seed={} mis={}",
+        level, maxArea, maxLevel, samples, timeBudget, maxDepth, seed, mis);
+}
+
+MonteCarloResult solveMonteCarlo(const scene::Scene& scene, const transport::Visibility& visibility,
+                                 const MonteCarloSettings& settings, bool showProgress) {
+    if (settings.samples < 2)
+        throwInputError({},
+                        "mc.samples = {}: need at least 2 paths per region for a standard "
+                        "error",
+                        settings.samples);
+    if (settings.level < 0 || settings.level > scene::kMaxLevel)
+        throwInputError({}, "mc.level = {} out of range [0, {}]", settings.level, scene::kMaxLevel);
+    Timer timer;
+    MonteCarloResult result;
+    result.field = std::make_unique<scene::UniformField>(
+        scene, scene::uniformLevels(scene, settings.level, settings.maxArea, settings.maxLevel));
+    scene::UniformField& field = *result.field;
+    const size_t n = field.numElements();
+    std::vector<uint32_t> patchOf(n);
+    for (uint32_t p = 0; p < scene.patches.size(); ++p)
+        for (size_t i = 0; i < field.count(p); ++i) patchOf[field.offset(p) + i] = p;
+
+    EmitterTable emitters(scene);
+    if (emitters.empty()) spdlog::warn("monte carlo reference: the scene has no emitter");
+    std::vector<Welford> acc(n);
+    std::vector<uint64_t> rays(n, 0);
+
+    const bool budgeted = settings.timeBudget > 0;
+    // Fixed mode: progress over regions; budget mode: over the budget in ms.
+    ProgressBar bar(fmt::format("monte carlo ({} regions)", n),
+                    budgeted ? uint64_t(settings.timeBudget * 1000.0) : uint64_t(n), showProgress);
+    int rounds = 0;
+    for (;;) {
+        const uint64_t round = uint64_t(rounds);
+        tbb::parallel_for(
+            tbb::blocked_range<size_t>(0, n, 1), [&](const tbb::blocked_range<size_t>& r) {
+                for (size_t k = r.begin(); k != r.end(); ++k) {
+                    uint32_t pi = patchOf[k];
+                    const scene::Patch& p = scene.patches[pi];
+                    Vec3 corners[4];
+                    int nc = scene::elementCorners(
+                        p, scene::keyDomain(p.kind, field.key(pi, k - field.offset(pi))), corners);
+                    PolygonSampler region(corners, nc);
+                    Pcg32 rng(hashIds(settings.seed, uint64_t(k), round));
+                    Walker walker(scene, visibility, emitters, settings);
+                    const bool reflects = maxComponent(p.rho) > 0;
+                    for (int s = 0; s < settings.samples; ++s) {
+                        RGB b = p.emission;
+                        if (reflects) b += p.rho * walker.gather(region.sample(rng), pi, rng);
+                        acc[k].add(b);
+                    }
+                    rays[k] += walker.rays;
+                    if (!budgeted) bar.add(1);
+                }
+            });
+        ++rounds;
+        if (!budgeted) break;
+        double t = timer.seconds();
+        bar.add(uint64_t(1000.0 * t / rounds));  // approximate: one round's share
+        if (t + t / rounds > settings.timeBudget) break;
+    }
+    bar.done();
+
+    result.stdError.resize(n);
+    uint64_t totalRays = 0;
+    for (size_t k = 0; k < n; ++k) {
+        field.value(k) = acc[k].mean;
+        result.stdError[k] = acc[k].stdError();
+        totalRays += rays[k];
+    }
+    result.stats.regions = n;
+    result.stats.paths = uint64_t(n) * uint64_t(settings.samples) * uint64_t(rounds);
+    result.stats.rays = totalRays;
+    result.stats.rounds = rounds;
+    result.stats.seconds = timer.seconds();
+    spdlog::debug("monte carlo: {} regions, {} rounds, {} paths, {} rays, {:.2f} s", n, rounds,
+                  result.stats.paths, totalRays, result.stats.seconds);
+    return result;
+}
+
+}  // namespace hrad::reference
