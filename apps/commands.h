@@ -4,6 +4,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "core/params.h"
 
@@ -18,11 +19,47 @@ struct SolveOptions {
     bool writePly = true;
 };
 
+struct SweepCliOptions {
+    std::string study;
+    std::string store;  ///< "" = <study folder>/results/<study name>.sqlite
+    int jobs = 1;
+    std::string shard;  ///< "i/N" or ""
+    bool resume = false;
+    bool retryFailed = false;
+    bool dryRun = false;
+    double maxSeconds = 0.0;
+    std::string maxMemory;  ///< "4G" or ""
+    int threads = 0;
+    bool progress = false;
+    std::string cacheDir;
+    bool noCache = false;
+};
+
+struct ReferenceCliOptions {
+    std::string scene;
+    std::string kind = "full-matrix";
+    std::string cacheDir;
+    bool progress = true;
+};
+
 /// `hrad info SCENE`: counts, area, power, bounds, materials, load time.
 int runInfo(const std::string& scene, Params& params);
 
 /// `hrad solve SCENE ...`: solve and write image.exr, image.png, solution.ply,
 /// summary.json into the output folder.
 int runSolve(const SolveOptions& options, Params& params);
+
+/// `hrad sweep STUDY.toml`: validate, expand and run a study into a results
+/// store (experiments/sweep.h); --dry-run prints the points only.
+int runSweepCommand(const SweepCliOptions& options);
+
+/// `hrad results export STORE --csv DIR`: one CSV per table.
+int runResultsExport(const std::string& store, const std::string& csvDir);
+/// `hrad results merge OUT IN...`: joins shard stores without duplicates.
+int runResultsMerge(const std::string& out, const std::vector<std::string>& inputs);
+
+/// `hrad reference SCENE --kind ...`: computes (or finds) a cached reference
+/// and prints where it is. `params` holds fm.* / mc.* and loader keys.
+int runReference(const ReferenceCliOptions& options, Params& params);
 
 }  // namespace hrad::app

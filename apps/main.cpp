@@ -69,6 +69,45 @@ int main(int argc, char** argv) {
     solve->add_flag("--no-ply", noPly, "do not write solution.ply");
     solve->add_flag("--no-progress", quietProgress, "no progress lines on stderr");
 
+    // sweep
+    auto* sweep = app.add_subcommand("sweep", "run a study (TOML) into a results store (SQLite)");
+    app::SweepCliOptions sw;
+    sweep->add_option("study", sw.study, "study file (see experiments/studies/README.md)")->required();
+    sweep->add_option("--store", sw.store, "results store (default: <study dir>/results/<name>.sqlite)");
+    sweep->add_option("-j,--jobs", sw.jobs, "points run at once (child processes)")->check(CLI::PositiveNumber);
+    sweep->add_option("--shard", sw.shard, "run only points with index % N == i (i/N, 0 <= i < N)");
+    sweep->add_flag("--resume", sw.resume, "continue into an existing store, skipping finished points");
+    sweep->add_flag("--retry-failed", sw.retryFailed, "with --resume: rerun points recorded as failed");
+    sweep->add_flag("--dry-run", sw.dryRun, "validate and print the expanded points, run nothing");
+    sweep->add_option("--max-seconds", sw.maxSeconds, "wall-time limit per point (0: none)");
+    sweep->add_option("--max-memory", sw.maxMemory, "address-space limit per point, e.g. 4G");
+    sweep->add_option("--cache", sw.cacheDir, "reference cache folder (default $HRAD_CACHE or ~/.cache/hrad)");
+    sweep->add_flag("--no-cache", sw.noCache, "compute references in every point, never cache");
+    sweep->add_flag("--progress", sw.progress, "show the children's progress and logs");
+
+    // results
+    auto* results = app.add_subcommand("results", "results-store tools");
+    results->require_subcommand(1);
+    auto* rexport = results->add_subcommand("export", "write one CSV per table");
+    std::string exportStore, exportDir;
+    rexport->add_option("store", exportStore, "results store")->required();
+    rexport->add_option("--csv", exportDir, "output folder")->required();
+    auto* rmerge = results->add_subcommand("merge", "join shard stores without duplicates");
+    std::string mergeOut;
+    std::vector<std::string> mergeIn;
+    rmerge->add_option("out", mergeOut, "store to create or extend")->required();
+    rmerge->add_option("inputs", mergeIn, "shard stores")->required();
+
+    // reference
+    auto* refCmd = app.add_subcommand("reference", "compute (or find) a cached reference solution");
+    app::ReferenceCliOptions ro;
+    refCmd->add_option("scene", ro.scene, "built-in name or file")->required();
+    refCmd->add_option("--kind", ro.kind, "full-matrix | montecarlo")
+        ->check(CLI::IsMember({"full-matrix", "montecarlo"}));
+    refCmd->add_option("--cache", ro.cacheDir, "cache folder (default $HRAD_CACHE or ~/.cache/hrad)");
+    bool refQuiet = false;
+    refCmd->add_flag("--no-progress", refQuiet, "no progress lines on stderr");
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -77,7 +116,7 @@ int main(int argc, char** argv) {
 
     initLogging(logLevel);
     std::unique_ptr<tbb::global_control> threadLimit;
-    if (threads > 0)
+    if (threads > 0 && !*sweep)
         threadLimit = std::make_unique<tbb::global_control>(
             tbb::global_control::max_allowed_parallelism, size_t(threads));
 
@@ -100,6 +139,19 @@ int main(int argc, char** argv) {
             so.writePly = !noPly;
             so.progress = !quietProgress;
             return app::runSolve(so, params);
+        }
+        if (*sweep) {
+            if (!sets.empty())
+                throwInputError({"command line (--set)", 0, 0},
+                                "hrad sweep takes its settings from the study file, not --set");
+            sw.threads = threads;
+            return app::runSweepCommand(sw);
+        }
+        if (*rexport) return app::runResultsExport(exportStore, exportDir);
+        if (*rmerge) return app::runResultsMerge(mergeOut, mergeIn);
+        if (*refCmd) {
+            ro.progress = !refQuiet;
+            return app::runReference(ro, params);
         }
     } catch (const InputError& e) {
         std::fprintf(stderr, "hrad: %s\n", e.what());

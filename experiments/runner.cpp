@@ -1,0 +1,412 @@
+#include "experiments/runner.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <optional>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "core/memory.h"
+#include "core/timer.h"
+#include "hr/solver.h"
+#include "reference/fullmatrix.h"
+#include "reference/metrics.h"
+#include "reference/montecarlo.h"
+#include "render/camera.h"
+#include "render/image.h"
+#include "render/ply_export.h"
+#include "render/render.h"
+#include "scene/loader.h"
+#include "transport/visibility.h"
+
+#if __has_include("reference/cache.h")
+#include "reference/cache.h"
+#define HRAD_HAVE_REFERENCE_CACHE 1
+#else
+#define HRAD_HAVE_REFERENCE_CACHE 0
+#endif
+
+namespace hrad::experiments {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+bool referenceCacheAvailable() { return HRAD_HAVE_REFERENCE_CACHE != 0; }
+
+std::string buildType() { return HRAD_BUILD_TYPE; }
+std::string codeVersion() { return HRAD_VERSION; }
+
+std::string hostName() {
+    char buf[256] = {};
+    if (gethostname(buf, sizeof buf - 1) != 0) return "unknown";
+    return buf;
+}
+
+std::string isoDateUtc() {
+    std::time_t t = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&t, &tm);
+    char buf[32];
+    std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return buf;
+}
+
+namespace {
+
+json rgbJson(const RGB& c) { return json::array({c.r, c.g, c.b}); }
+
+json paramsJson(const Params& p) {
+    json j = json::object();
+    for (const auto& [k, e] : p.entries()) std::visit([&](const auto& v) { j[k] = v; }, e.value);
+    return j;
+}
+
+json metricsJson(const reference::ErrorMetrics& m) {
+    return json{{"l1_lum", m.l1Lum}, {"l2_lum", m.l2Lum}, {"linf_lum", m.linfLum},
+                {"l1_rgb", m.l1Rgb}, {"l2_rgb", m.l2Rgb}, {"linf_rgb", m.linfRgb},
+                {"regions", m.regions}};
+}
+
+/// Every setting of a point, read once and validated (shared by validatePoint
+/// and runPoint so that a dry run checks exactly what a run reads).
+struct Resolved {
+    std::string solver;
+    std::optional<hr::HrSettings> hr;
+    std::optional<reference::FullMatrixSettings> fm;
+    render::RenderSettings render;
+    double exposure = 0.0;
+
+    std::string refKind = "none";
+    std::optional<reference::FullMatrixSettings> refFm;
+    std::optional<reference::MonteCarloSettings> refMc;
+};
+
+Resolved resolve(const PointSpec& p) {
+    Resolved r;
+    const Params& s = p.settings;
+    r.solver = s.getEnum("solver", "hr", {"hr", "full-matrix"});
+    if (r.solver == "hr") r.hr = hr::HrSettings::fromParams(s);
+    if (r.solver == "full-matrix") r.fm = reference::FullMatrixSettings::fromParams(s, "fm");
+    r.render = render::RenderSettings::fromParams(s, "render");
+    r.exposure = s.getDouble("render.exposure", 0.0, 0.0, 1e300);
+
+    const Params& ref = p.reference;
+    r.refKind = ref.getEnum("kind", "none", {"none", "full-matrix", "montecarlo"});
+    if (r.refKind == "full-matrix") r.refFm = reference::FullMatrixSettings::fromParams(ref, "fm");
+    if (r.refKind == "montecarlo") r.refMc = reference::MonteCarloSettings::fromParams(ref, "mc");
+    ref.reportUnused();
+    return r;
+}
+
+/// Reads the loader's keys without loading anything: loadScene reads every
+/// key before it looks at the spec, and a spec with an unknown extension is
+/// then rejected with the spec as its location, which we recognise.
+void probeLoaderKeys(const Params& params) {
+    static const char* kProbe = "<hrad settings probe>.none";
+    try {
+        scene::loadScene(kProbe, params);
+    } catch (const InputError& e) {
+        if (e.where().file != kProbe) throw;
+    }
+}
+
+std::string referenceDescription(const Resolved& r) {
+    if (r.refFm) return "full-matrix " + r.refFm->describe();
+    if (r.refMc) return "montecarlo " + r.refMc->describe();
+    return "none";
+}
+
+/// A reference field (and, for Monte Carlo, its standard errors).
+struct Reference {
+    std::unique_ptr<scene::UniformField> field;
+    std::vector<RGB> stdError;
+    bool cached = false;
+    json stats = json::object();
+};
+
+std::string cacheDirFor(const RunContext& ctx) {
+#if HRAD_HAVE_REFERENCE_CACHE
+    if (!ctx.cacheDir.empty()) return ctx.cacheDir;
+    return fs::path(reference::defaultCacheDir()).string();
+#else
+    return ctx.cacheDir;
+#endif
+}
+
+Reference computeReference(const scene::Scene& sc, const transport::Visibility& vis,
+                           const Resolved& r, const RunContext& ctx) {
+    Reference out;
+    bool useCache = ctx.useCache && HRAD_HAVE_REFERENCE_CACHE;
+    if (r.refFm) {
+        reference::FullMatrixResult res;
+#if HRAD_HAVE_REFERENCE_CACHE
+        if (useCache)
+            res = reference::cachedFullMatrix(sc, vis, *r.refFm, cacheDirFor(ctx), &out.cached,
+                                             ctx.progress);
+        else
+#endif
+            res = reference::solveFullMatrix(sc, vis, *r.refFm, ctx.progress);
+        out.field = std::move(res.field);
+        out.stats = json{{"elements", res.stats.elements},
+                         {"form_factors", res.stats.formFactors},
+                         {"residual", res.stats.residual},
+                         {"converged", res.stats.converged}};
+    } else if (r.refMc) {
+        reference::MonteCarloResult res;
+#if HRAD_HAVE_REFERENCE_CACHE
+        if (useCache)
+            res = reference::cachedMonteCarlo(sc, vis, *r.refMc, cacheDirFor(ctx), &out.cached,
+                                             ctx.progress);
+        else
+#endif
+            res = reference::solveMonteCarlo(sc, vis, *r.refMc, ctx.progress);
+        out.field = std::move(res.field);
+        out.stdError = std::move(res.stdError);
+        out.stats = json{{"regions", res.stats.regions},
+                         {"paths", res.stats.paths},
+                         {"rounds", res.stats.rounds}};
+    }
+    return out;
+}
+
+/// Relative L2 norm of the Monte Carlo standard errors (see runner.h).
+std::pair<double, double> mcUncertainty(const Reference& ref) {
+    double numL = 0, denL = 0, numC = 0, denC = 0;
+    const scene::UniformField& f = *ref.field;
+    for (size_t k = 0; k < f.numElements() && k < ref.stdError.size(); ++k) {
+        double a = f.area(k);
+        const RGB& s = ref.stdError[k];
+        const RGB& v = f.value(k);
+        numL += a * luminance(s) * luminance(s);
+        denL += a * luminance(v) * luminance(v);
+        numC += a * double(glm::dot(s, s));
+        denC += a * double(glm::dot(v, v));
+    }
+    auto ratio = [](double n, double d) { return d > 0 ? std::sqrt(n / d) : (n > 0 ? INFINITY : 0.0); };
+    return {ratio(numL, denL), ratio(numC, denC)};
+}
+
+}  // namespace
+
+void validatePoint(const PointSpec& p) {
+    resolve(p);
+    probeLoaderKeys(p.settings);
+    p.settings.reportUnused();
+}
+
+std::string referenceId(const PointSpec& p) {
+    Resolved r = resolve(p);
+    if (r.refKind == "none") return "";
+    return p.sceneLabel + "|" + referenceDescription(r);
+}
+
+json prepareReference(const PointSpec& p, const RunContext& ctx) {
+    Resolved r = resolve(p);
+    json out = json::object();
+    if (r.refKind == "none") return out;
+    Timer t;
+    scene::Scene sc = scene::loadScene(p.scene, p.settings);
+    transport::Visibility vis(sc);
+    Reference ref = computeReference(sc, vis, r, ctx);
+    out["reference"] = referenceDescription(r);
+    out["cached"] = ref.cached;
+    out["cache_dir"] = cacheDirFor(ctx);
+#if HRAD_HAVE_REFERENCE_CACHE
+    // The file name reference/cache.cpp uses: <kind>-<key>.bin.
+    std::string key = r.refFm ? reference::referenceCacheKey(sc, reference::kFullMatrixKind,
+                                                             r.refFm->describe())
+                              : reference::referenceCacheKey(sc, reference::kMonteCarloKind,
+                                                             r.refMc->describe());
+    out["cache_file"] = (fs::path(cacheDirFor(ctx)) /
+                         fmt::format("{}-{}.bin", r.refFm ? "fullmatrix" : "montecarlo", key))
+                            .string();
+#endif
+    out["seconds"] = t.seconds();
+    out["stats"] = ref.stats;
+    return out;
+}
+
+json runPoint(const PointSpec& p, const RunContext& ctx) {
+    Timer total;
+    json summary;
+    summary["hrad_version"] = codeVersion();
+    summary["build_type"] = buildType();
+    summary["host"] = hostName();
+    summary["date"] = isoDateUtc();
+    summary["scene"] = p.scene;
+    summary["scene_label"] = p.sceneLabel;
+
+    // ---- settings: read and validate everything before any work ----------------
+    Resolved r = resolve(p);
+    Timer tLoad;
+    scene::Scene sc = scene::loadScene(p.scene, p.settings);
+    double loadSeconds = tLoad.seconds();
+    p.settings.reportUnused();
+    summary["settings"] = paramsJson(p.settings);
+    summary["reference_settings"] = paramsJson(p.reference);
+    summary["scene_info"] = json{{"name", sc.name},
+                                 {"patches", sc.patches.size()},
+                                 {"triangles", sc.count(scene::PatchKind::Triangle)},
+                                 {"quads", sc.count(scene::PatchKind::Quad)},
+                                 {"emitters", sc.numEmitters()},
+                                 {"total_area", sc.totalArea()},
+                                 {"emitted_power", rgbJson(sc.emittedPower())},
+                                 {"dropped_degenerate", sc.stats.droppedDegenerate}};
+    spdlog::info("loaded {}: {} patches in {:.2f} s", sc.name, sc.patches.size(), loadSeconds);
+    if ((p.outputs.exr || p.outputs.ply) && ctx.artefactDir.empty())
+        throw Error("outputs requested but no artefact folder given");
+
+    Timer tVis;
+    transport::Visibility vis(sc);
+    double visSeconds = tVis.seconds();
+
+    json timings = {{"load", loadSeconds}, {"visibility_build", visSeconds}};
+    MemoryCounters memory;
+    memory.set("visibility", vis.memoryBytes());
+
+    const scene::RadiosityField* field = nullptr;
+    hr::HrResult hrRes;
+    reference::FullMatrixResult fmRes;
+    Timer tSolve;
+    if (r.solver == "hr") {
+        summary["solver"] = "hr";
+        summary["solver_settings"] = r.hr->describe();
+        hr::HrSolver s(sc, vis, *r.hr);
+        hrRes = s.solve(ctx.progress);
+        field = hrRes.field.get();
+        const hr::Hierarchy& h = *hrRes.hierarchy;
+        summary["oracle"] = hrRes.oracleDescription;
+        summary["converged"] = hrRes.converged;
+        summary["link_cap_hit"] = hrRes.linkCapHit;
+        summary["min_area"] = hrRes.minArea;
+        summary["counts"] = json{{"elements", h.numElements()},
+                                 {"leaves", h.numLeaves()},
+                                 {"links", h.numLinks()},
+                                 {"initial_links", hrRes.initialLinks},
+                                 {"initial_pairs", hrRes.initialPairs},
+                                 {"links_ss", hrRes.linksSS},
+                                 {"links_sc", hrRes.linksSC},
+                                 {"links_cs", hrRes.linksCS},
+                                 {"links_cc", hrRes.linksCC},
+                                 {"rays", hrRes.totalRays},
+                                 {"form_factors", hrRes.totalFormFactors},
+                                 {"iterations", hrRes.history.size()}};
+        if (hrRes.clusterTree) timings["cluster_build"] = hrRes.clusterBuildSeconds;
+        timings["linking"] = hrRes.linkingSeconds;
+        timings["refine"] = hrRes.refineSeconds;
+        timings["gather"] = hrRes.gatherSeconds;
+        timings["push_pull"] = hrRes.pushPullSeconds;
+        for (const auto& [k, v] : hrRes.memory.all()) memory.set(k, v);
+        json hist = json::array();
+        for (const auto& it : hrRes.history)
+            hist.push_back(json{{"iteration", it.iteration},
+                                {"stage", it.stage},
+                                {"eps", std::isnan(it.eps) ? json(nullptr) : json(it.eps)},
+                                {"links", it.links},
+                                {"elements", it.elements},
+                                {"leaves", it.leaves},
+                                {"refined_links", it.refinedLinks},
+                                {"rays", it.rays},
+                                {"form_factors", it.formFactors},
+                                {"residual", it.residual},
+                                {"reflected_power", rgbJson(it.reflectedPower)},
+                                {"refine_s", it.refineSeconds},
+                                {"gather_s", it.gatherSeconds},
+                                {"push_pull_s", it.pushPullSeconds},
+                                {"element_bytes", it.elementBytes},
+                                {"link_bytes", it.linkBytes}});
+        summary["history"] = hist;
+        if (h.numLinks())
+            summary["bytes_per_link"] = json{
+                {"link_storage", double(h.linkBytes()) / double(h.numLinks())},
+                {"all", double(h.linkBytes() + h.elementBytes()) / double(h.numLinks())}};
+    } else {
+        summary["solver"] = "full-matrix";
+        summary["solver_settings"] = r.fm->describe();
+        fmRes = reference::solveFullMatrix(sc, vis, *r.fm, ctx.progress);
+        field = fmRes.field.get();
+        const auto& st = fmRes.stats;
+        summary["counts"] = json{{"elements", st.elements},
+                                 {"leaves", st.elements},
+                                 {"form_factors", st.formFactors},
+                                 {"rays", st.rays},
+                                 {"iterations", st.iterations}};
+        summary["residual"] = st.residual;
+        summary["converged"] = st.converged;
+        timings["form_factors"] = st.ffSeconds;
+        timings["solve"] = st.solveSeconds;
+        memory.set("matrix", st.matrixBytes);
+    }
+    timings["solve_total"] = tSolve.seconds();
+    summary["radiosity_power"] = rgbJson(field->totalPower());
+    summary["timings"] = timings;
+    auto memoryJson = [&] {
+        json mem = json::object();
+        for (const auto& [k, v] : memory.all()) mem[k] = v;
+        mem["peak_rss"] = peakRssBytes();
+        return mem;
+    };
+    summary["memory"] = memoryJson();
+    if (ctx.checkpoint) ctx.checkpoint(summary);
+
+    // ---- error against the reference --------------------------------------------
+    if (r.refKind != "none") {
+        Timer tRef;
+        Reference ref = computeReference(sc, vis, r, ctx);
+        timings["reference"] = tRef.seconds();
+        Timer tErr;
+        reference::ErrorMetrics err = reference::computeError(*field, *ref.field);
+        json e = metricsJson(err);
+        e["reference"] = referenceDescription(r);
+        e["reference_seconds"] = timings["reference"];
+        e["reference_cached"] = ref.cached;
+        e["reference_stats"] = ref.stats;
+        if (r.refMc) {
+            auto [uLum, uRgb] = mcUncertainty(ref);
+            e["mc_stderr_l2_lum"] = uLum;
+            e["mc_stderr_l2_rgb"] = uRgb;
+        }
+        timings["error"] = tErr.seconds();
+        summary["error"] = e;
+        spdlog::info("error vs {}: L2(lum) = {:.4g}, L1(lum) = {:.4g}", referenceDescription(r),
+                     err.l2Lum, err.l1Lum);
+    }
+    if (p.outputs.historyError)
+        summary["history_error"] =
+            "not computed: HrSolver has no per-iteration hook; only the final error is reported";
+    summary["timings"] = timings;
+    if (ctx.checkpoint) ctx.checkpoint(summary);
+
+    // ---- artefacts -------------------------------------------------------------------
+    json artefacts = json::object();
+    if (p.outputs.exr || p.outputs.ply) {
+        fs::create_directories(ctx.artefactDir);
+        if (p.outputs.ply) {
+            fs::path ply = ctx.artefactDir / "solution.ply";
+            render::writePly(*field, ply.string(), r.exposure);
+            artefacts["ply"] = ply.string();
+        }
+        if (p.outputs.exr) {
+            Timer tr;
+            scene::Camera cam = render::cameraFor(sc);
+            render::Image img = render::renderField(sc, vis, *field, cam, r.render);
+            fs::path exr = ctx.artefactDir / "image.exr", png = ctx.artefactDir / "image.png";
+            render::writeExr(img, exr.string());
+            render::writePng(img, png.string(), r.exposure);
+            artefacts["exr"] = exr.string();
+            artefacts["png"] = png.string();
+            timings["render"] = tr.seconds();
+            summary["timings"] = timings;
+        }
+    }
+    summary["artefacts"] = artefacts;
+    summary["memory"] = memoryJson();
+    summary["wall_seconds"] = total.seconds();
+    return summary;
+}
+
+}  // namespace hrad::experiments

@@ -1,0 +1,101 @@
+// Running one point: load, solve, compare with a reference, write artefacts,
+// and describe everything in one JSON summary. `hrad solve` and `hrad sweep`
+// both go through runPoint(), so a sweep row and a solve's summary.json hold
+// the same fields.
+//
+// Point settings (PointSpec::settings):
+//   solver        string  "hr"   "hr" | "full-matrix"
+//   hr.*, oracle.*, ff.*, cluster.*     hr::HrSettings (solver = hr)
+//   fm.*                                reference::FullMatrixSettings (solver = full-matrix)
+//   mgf.*, obj.*, ply.*, validate       scene::loadScene
+//   render.*      render::RenderSettings, plus render.exposure (PNG and PLY)
+// Reference settings (PointSpec::reference, the study's [reference] table):
+//   kind          string  "none"  "none" | "full-matrix" | "montecarlo"
+//   fm.*          reference::FullMatrixSettings (kind = full-matrix)
+//   mc.*          reference::MonteCarloSettings (kind = montecarlo)
+// Every key is read by the component it belongs to, then reportUnused()
+// rejects the rest, with the file:line the key came from.
+//
+// Summary JSON (the fields of summary.json and of a results-store row):
+//   hrad_version, build_type, host, date, scene, scene_label, settings,
+//   reference_settings, scene_info{...}, solver, solver_settings, oracle,
+//   converged, link_cap_hit, min_area,
+//   counts{elements, leaves, links, initial_links, initial_pairs, links_ss, links_sc,
+//          links_cs, links_cc (surface/cluster receiver-sender), rays, form_factors, iterations},
+//   timings{load, visibility_build, [cluster_build], linking, refine, gather,
+//           push_pull, solve_total, reference, error, render}   (seconds)
+//   history[{iteration, stage, eps, links, elements, leaves, refined_links,
+//            rays, form_factors, residual, reflected_power, refine_s, gather_s,
+//            push_pull_s, element_bytes, link_bytes}]
+//   memory{<category>: bytes, peak_rss}, bytes_per_link, radiosity_power,
+//   error{l1_lum, l2_lum, linf_lum, l1_rgb, l2_rgb, linf_rgb, regions,
+//         reference, reference_seconds, reference_cached,
+//         [mc_stderr_l2_lum, mc_stderr_l2_rgb]}, artefacts{...}, wall_seconds
+//
+// Error per iteration (outputs.history_error): HrSolver has no per-iteration
+// hook, so only the final error is computed; the summary then says so in
+// "history_error" and the iterations table leaves its error column NULL.
+//
+// The Monte Carlo reference's own uncertainty is reported as the relative L2
+// norm of its standard errors, the same weighting as the L2 error:
+//   mc_stderr_l2 = sqrt(sum_k A_k |sigma_k|^2) / sqrt(sum_k A_k |R_k|^2)
+// (for luminance |sigma_k| = luminance(sigma_k), an upper bound of the
+// luminance's standard error since the channel errors may be correlated). An
+// L2 error of the same order as this number is not resolved by the reference.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "experiments/study.h"
+
+namespace hrad::experiments {
+
+struct RunContext {
+    /// Reference cache folder; "" = reference::defaultCacheDir().
+    std::string cacheDir;
+    /// false: compute the reference in memory, never touch the cache.
+    bool useCache = true;
+    bool progress = false;
+    /// Where exr/ply artefacts go ("" with outputs requested: an error).
+    std::filesystem::path artefactDir;
+    /// Called with the summary so far after the solve and after the error
+    /// (hrad solve writes summary.json each time: nothing is lost if a later
+    /// step fails).
+    std::function<void(const nlohmann::json&)> checkpoint;
+};
+
+/// Builds every component's settings from the point's Params exactly as
+/// runPoint does, without loading the scene or solving, then reports unused
+/// keys. Throws InputError (with the study's file:line) for unknown keys,
+/// unknown strategy names and out-of-range values.
+void validatePoint(const PointSpec& point);
+
+/// Runs the point and returns its summary (see above). Throws on failure.
+nlohmann::json runPoint(const PointSpec& point, const RunContext& context);
+
+/// Computes (or finds in the cache) the point's reference only; returns a
+/// description {"reference": ..., "cached": bool, "cache_dir": ..., "seconds": ...}.
+nlohmann::json prepareReference(const PointSpec& point, const RunContext& context);
+
+/// Same key the cache uses for the point's reference: scene label + kind +
+/// settings description ("" when kind = none).
+std::string referenceId(const PointSpec& point);
+
+/// True when reference/cache.h was available at compile time (otherwise every
+/// point recomputes its reference in memory).
+bool referenceCacheAvailable();
+
+/// Build type baked in at compile time ("Release", "Debug", ...).
+std::string buildType();
+/// git describe of the source tree at configure time.
+std::string codeVersion();
+/// Host name of this machine.
+std::string hostName();
+/// Current UTC time, ISO 8601.
+std::string isoDateUtc();
+
+}  // namespace hrad::experiments

@@ -1,0 +1,346 @@
+#include "experiments/store.h"
+
+#include <sqlite3.h>
+
+#include <fstream>
+
+#include <fmt/format.h>
+
+#include "core/error.h"
+#include "experiments/runner.h"
+#include "hr/solver.h"
+
+namespace hrad::experiments {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+const char* kSchema = R"sql(
+CREATE TABLE IF NOT EXISTS studies (
+  hash TEXT PRIMARY KEY, name TEXT, path TEXT, added TEXT, text TEXT);
+CREATE TABLE IF NOT EXISTS runs (
+  key TEXT PRIMARY KEY, study TEXT, point_index INTEGER, scene TEXT, solver TEXT,
+  oracle TEXT, eps REAL, settings TEXT, reference TEXT,
+  version TEXT, build_type TEXT, host TEXT, date TEXT, wall_s REAL,
+  load_s REAL, visibility_s REAL, cluster_build_s REAL, linking_s REAL, refine_s REAL,
+  gather_s REAL, push_pull_s REAL, solve_s REAL, reference_s REAL, error_s REAL, render_s REAL,
+  peak_rss INTEGER, elements INTEGER, leaves INTEGER, links INTEGER, rays INTEGER,
+  form_factors INTEGER, iterations INTEGER, converged INTEGER,
+  links_ss INTEGER, links_sc INTEGER, links_cs INTEGER, links_cc INTEGER,
+  l1_lum REAL, l2_lum REAL, linf_lum REAL, l1_rgb REAL, l2_rgb REAL, linf_rgb REAL,
+  mc_stderr_l2_lum REAL, mc_stderr_l2_rgb REAL, regions INTEGER, reference_desc TEXT,
+  bytes TEXT, summary TEXT);
+CREATE TABLE IF NOT EXISTS iterations (
+  run_key TEXT, iteration INTEGER, stage INTEGER, eps REAL, links INTEGER,
+  elements INTEGER, leaves INTEGER, refined_links INTEGER, rays INTEGER,
+  form_factors INTEGER, residual REAL, refine_s REAL, gather_s REAL, push_pull_s REAL,
+  element_bytes INTEGER, link_bytes INTEGER, l2_lum REAL,
+  PRIMARY KEY (run_key, iteration));
+CREATE TABLE IF NOT EXISTS failures (
+  key TEXT PRIMARY KEY, study TEXT, point_index INTEGER, scene TEXT, settings TEXT,
+  kind TEXT, message TEXT, version TEXT, host TEXT, date TEXT, wall_s REAL, peak_rss INTEGER);
+)sql";
+
+const char* kTables[] = {"studies", "runs", "iterations", "failures"};
+
+/// A prepared statement with positional binding of JSON values.
+class Stmt {
+  public:
+    Stmt(sqlite3* db, const std::string& sql) : db_(db) {
+        if (sqlite3_prepare_v2(db, sql.c_str(), -1, &st_, nullptr) != SQLITE_OK)
+            throw Error(fmt::format("sqlite: {} in: {}", sqlite3_errmsg(db), sql));
+    }
+    ~Stmt() { sqlite3_finalize(st_); }
+    Stmt& bind(int i, const json& v) {
+        if (v.is_null())
+            sqlite3_bind_null(st_, i);
+        else if (v.is_boolean())
+            sqlite3_bind_int64(st_, i, v.get<bool>() ? 1 : 0);
+        else if (v.is_number_integer())
+            sqlite3_bind_int64(st_, i, v.get<int64_t>());
+        else if (v.is_number_unsigned())
+            sqlite3_bind_int64(st_, i, int64_t(v.get<uint64_t>()));
+        else if (v.is_number())
+            sqlite3_bind_double(st_, i, v.get<double>());
+        else if (v.is_string())
+            sqlite3_bind_text(st_, i, v.get_ref<const std::string&>().c_str(), -1, SQLITE_TRANSIENT);
+        else
+            sqlite3_bind_text(st_, i, v.dump().c_str(), -1, SQLITE_TRANSIENT);
+        return *this;
+    }
+    bool step() {
+        int rc = sqlite3_step(st_);
+        if (rc == SQLITE_ROW) return true;
+        if (rc == SQLITE_DONE) return false;
+        throw Error(fmt::format("sqlite: {}", sqlite3_errmsg(db_)));
+    }
+    void reset() {
+        sqlite3_reset(st_);
+        sqlite3_clear_bindings(st_);
+    }
+    sqlite3_stmt* get() { return st_; }
+
+  private:
+    sqlite3* db_;
+    sqlite3_stmt* st_ = nullptr;
+};
+
+json at(const json& j, const char* a, const char* b = nullptr) {
+    auto it = j.find(a);
+    if (it == j.end()) return nullptr;
+    if (!b) return *it;
+    auto jt = it->find(b);
+    return jt == it->end() ? json(nullptr) : *jt;
+}
+
+std::string insertSql(const char* table, const std::vector<const char*>& cols,
+                      const char* verb = "INSERT") {
+    std::string names, marks;
+    for (size_t i = 0; i < cols.size(); ++i) {
+        names += (i ? ", " : "") + std::string(cols[i]);
+        marks += i ? ", ?" : "?";
+    }
+    return fmt::format("{} INTO {} ({}) VALUES ({})", verb, table, names, marks);
+}
+
+std::string csvField(sqlite3_stmt* st, int c) {
+    switch (sqlite3_column_type(st, c)) {
+        case SQLITE_NULL: return "";
+        case SQLITE_INTEGER: return std::to_string(sqlite3_column_int64(st, c));
+        case SQLITE_FLOAT: return fmt::format("{}", sqlite3_column_double(st, c));
+        default: {
+            const char* t = reinterpret_cast<const char*>(sqlite3_column_text(st, c));
+            std::string s = t ? t : "";
+            if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+            std::string q = "\"";
+            for (char ch : s) q += ch == '"' ? std::string("\"\"") : std::string(1, ch);
+            return q + "\"";
+        }
+    }
+}
+
+uint64_t fnv1a(const std::string& s) {
+    uint64_t h = 1469598103934665603ull;
+    for (unsigned char c : s) {
+        h ^= c;
+        h *= 1099511628211ull;
+    }
+    return h;
+}
+
+}  // namespace
+
+ResultStore::ResultStore(const fs::path& path, bool readOnly) : path_(path) {
+    int flags = readOnly ? SQLITE_OPEN_READONLY : (SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE);
+    if (!readOnly && path.has_parent_path()) fs::create_directories(path.parent_path());
+    if (sqlite3_open_v2(path.string().c_str(), &db_, flags, nullptr) != SQLITE_OK) {
+        std::string msg = db_ ? sqlite3_errmsg(db_) : "out of memory";
+        sqlite3_close(db_);
+        db_ = nullptr;
+        throw Error(fmt::format("cannot open results store {}: {}", path.string(), msg));
+    }
+    sqlite3_busy_timeout(db_, 30000);
+    if (!readOnly) {
+        exec("PRAGMA journal_mode=WAL");
+        exec("PRAGMA synchronous=NORMAL");
+        exec(kSchema);
+    }
+}
+
+ResultStore::~ResultStore() {
+    if (db_) sqlite3_close(db_);
+}
+
+void ResultStore::exec(const std::string& sql) const {
+    char* err = nullptr;
+    if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
+        std::string msg = err ? err : "?";
+        sqlite3_free(err);
+        throw Error(fmt::format("sqlite ({}): {}", path_.string(), msg));
+    }
+}
+
+std::string ResultStore::addStudy(const std::string& name, const std::string& path,
+                                  const std::string& text) {
+    std::string hash = fmt::format("{:016x}", fnv1a(text));
+    Stmt st(db_, insertSql("studies", {"hash", "name", "path", "added", "text"}, "INSERT OR IGNORE"));
+    st.bind(1, hash).bind(2, name).bind(3, path).bind(4, isoDateUtc()).bind(5, text);
+    st.step();
+    return hash;
+}
+
+void ResultStore::addRun(const std::string& key, const std::string& study, int64_t pointIndex,
+                         const json& s) {
+    static const std::vector<const char*> cols = {
+        "key", "study", "point_index", "scene", "solver", "oracle", "eps", "settings",
+        "reference", "version", "build_type", "host", "date", "wall_s", "load_s",
+        "visibility_s", "cluster_build_s", "linking_s", "refine_s", "gather_s", "push_pull_s",
+        "solve_s", "reference_s", "error_s", "render_s", "peak_rss", "elements", "leaves",
+        "links", "rays", "form_factors", "iterations", "converged", "links_ss", "links_sc",
+        "links_cs", "links_cc", "l1_lum", "l2_lum",
+        "linf_lum", "l1_rgb", "l2_rgb", "linf_rgb", "mc_stderr_l2_lum", "mc_stderr_l2_rgb",
+        "regions", "reference_desc", "bytes", "summary"};
+    json settings = at(s, "settings");
+    json oracle = nullptr;
+    if (at(s, "solver") == "hr")
+        oracle = settings.contains("hr.oracle") ? settings["hr.oracle"] : json(hr::HrSettings{}.oracle);
+    json eps = settings.is_object() && settings.contains("oracle.eps") ? settings["oracle.eps"] : json(nullptr);
+    std::vector<json> vals = {key,
+                              study,
+                              pointIndex,
+                              at(s, "scene_label"),
+                              at(s, "solver"),
+                              oracle,
+                              eps,
+                              settings.dump(),
+                              at(s, "reference_settings").dump(),
+                              at(s, "hrad_version"),
+                              at(s, "build_type"),
+                              at(s, "host"),
+                              at(s, "date"),
+                              at(s, "wall_seconds"),
+                              at(s, "timings", "load"),
+                              at(s, "timings", "visibility_build"),
+                              at(s, "timings", "cluster_build"),
+                              at(s, "timings", "linking"),
+                              at(s, "timings", "refine"),
+                              at(s, "timings", "gather"),
+                              at(s, "timings", "push_pull"),
+                              at(s, "timings", "solve_total"),
+                              at(s, "timings", "reference"),
+                              at(s, "timings", "error"),
+                              at(s, "timings", "render"),
+                              at(s, "memory", "peak_rss"),
+                              at(s, "counts", "elements"),
+                              at(s, "counts", "leaves"),
+                              at(s, "counts", "links"),
+                              at(s, "counts", "rays"),
+                              at(s, "counts", "form_factors"),
+                              at(s, "counts", "iterations"),
+                              at(s, "converged"),
+                              at(s, "counts", "links_ss"),
+                              at(s, "counts", "links_sc"),
+                              at(s, "counts", "links_cs"),
+                              at(s, "counts", "links_cc"),
+                              at(s, "error", "l1_lum"),
+                              at(s, "error", "l2_lum"),
+                              at(s, "error", "linf_lum"),
+                              at(s, "error", "l1_rgb"),
+                              at(s, "error", "l2_rgb"),
+                              at(s, "error", "linf_rgb"),
+                              at(s, "error", "mc_stderr_l2_lum"),
+                              at(s, "error", "mc_stderr_l2_rgb"),
+                              at(s, "error", "regions"),
+                              at(s, "error", "reference"),
+                              at(s, "memory").dump(),
+                              s.dump()};
+    exec("BEGIN IMMEDIATE");
+    try {
+        Stmt st(db_, insertSql("runs", cols, "INSERT OR REPLACE"));
+        for (size_t i = 0; i < vals.size(); ++i) st.bind(int(i + 1), vals[i]);
+        st.step();
+        Stmt del(db_, "DELETE FROM iterations WHERE run_key = ?");
+        del.bind(1, key).step();
+        Stmt it(db_, insertSql("iterations",
+                               {"run_key", "iteration", "stage", "eps", "links", "elements",
+                                "leaves", "refined_links", "rays", "form_factors", "residual",
+                                "refine_s", "gather_s", "push_pull_s", "element_bytes",
+                                "link_bytes", "l2_lum"}));
+        json hist = at(s, "history");
+        if (hist.is_array()) {
+            for (const json& h : hist) {
+                it.reset();
+                it.bind(1, key);
+                int i = 2;
+                for (const char* f : {"iteration", "stage", "eps", "links", "elements", "leaves",
+                                      "refined_links", "rays", "form_factors", "residual",
+                                      "refine_s", "gather_s", "push_pull_s", "element_bytes",
+                                      "link_bytes", "l2_lum"})
+                    it.bind(i++, at(h, f));
+                it.step();
+            }
+        }
+        Stmt fdel(db_, "DELETE FROM failures WHERE key = ?");
+        fdel.bind(1, key).step();
+        exec("COMMIT");
+    } catch (...) {
+        exec("ROLLBACK");
+        throw;
+    }
+}
+
+void ResultStore::addFailure(const FailureRecord& f) {
+    Stmt st(db_, insertSql("failures",
+                           {"key", "study", "point_index", "scene", "settings", "kind", "message",
+                            "version", "host", "date", "wall_s", "peak_rss"},
+                           "INSERT OR REPLACE"));
+    st.bind(1, f.key).bind(2, f.study).bind(3, f.pointIndex).bind(4, f.scene);
+    st.bind(5, f.settingsJson).bind(6, f.kind).bind(7, f.message).bind(8, codeVersion());
+    st.bind(9, hostName()).bind(10, isoDateUtc()).bind(11, f.wallSeconds).bind(12, f.peakRss);
+    st.step();
+}
+
+std::set<std::string> ResultStore::runKeys() const {
+    std::set<std::string> out;
+    Stmt st(db_, "SELECT key FROM runs");
+    while (st.step()) out.insert(reinterpret_cast<const char*>(sqlite3_column_text(st.get(), 0)));
+    return out;
+}
+
+std::set<std::string> ResultStore::failureKeys() const {
+    std::set<std::string> out;
+    Stmt st(db_, "SELECT key FROM failures");
+    while (st.step()) out.insert(reinterpret_cast<const char*>(sqlite3_column_text(st.get(), 0)));
+    return out;
+}
+
+int64_t ResultStore::count(const std::string& table) const {
+    Stmt st(db_, "SELECT COUNT(*) FROM " + table);
+    st.step();
+    return sqlite3_column_int64(st.get(), 0);
+}
+
+void ResultStore::exportCsv(const fs::path& dir) const {
+    fs::create_directories(dir);
+    for (const char* table : kTables) {
+        fs::path file = dir / (std::string(table) + ".csv");
+        std::ofstream out(file, std::ios::binary);
+        if (!out) throw Error(fmt::format("cannot write {}", file.string()));
+        Stmt st(db_, fmt::format("SELECT * FROM {} ORDER BY rowid", table));
+        int n = sqlite3_column_count(st.get());
+        for (int c = 0; c < n; ++c) out << (c ? "," : "") << sqlite3_column_name(st.get(), c);
+        out << "\n";
+        while (st.step()) {
+            for (int c = 0; c < n; ++c) out << (c ? "," : "") << csvField(st.get(), c);
+            out << "\n";
+        }
+    }
+}
+
+int64_t ResultStore::mergeFrom(const fs::path& other) {
+    if (!fs::exists(other)) throw Error(fmt::format("no such results store: {}", other.string()));
+    int64_t before = count("runs");
+    Stmt attach(db_, "ATTACH DATABASE ? AS src");
+    attach.bind(1, other.string()).step();
+    try {
+        exec("BEGIN IMMEDIATE");
+        exec("INSERT OR IGNORE INTO studies SELECT * FROM src.studies");
+        exec("INSERT OR IGNORE INTO runs SELECT * FROM src.runs");
+        exec("INSERT OR IGNORE INTO iterations SELECT * FROM src.iterations "
+             "WHERE run_key IN (SELECT key FROM runs)");
+        exec("INSERT OR IGNORE INTO failures SELECT * FROM src.failures "
+             "WHERE key NOT IN (SELECT key FROM runs)");
+        exec("DELETE FROM failures WHERE key IN (SELECT key FROM runs)");
+        exec("COMMIT");
+    } catch (...) {
+        sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+        exec("DETACH DATABASE src");
+        throw;
+    }
+    exec("DETACH DATABASE src");
+    return count("runs") - before;
+}
+
+}  // namespace hrad::experiments

@@ -1,0 +1,406 @@
+#include "experiments/study.h"
+
+#include <algorithm>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <toml++/toml.h>
+
+#include "experiments/runner.h"
+#include "scene/loader.h"
+
+namespace hrad::experiments {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+SourceLocation loc(const std::string& file, const toml::source_region& r) {
+    return SourceLocation{file, int(r.begin.line), int(r.begin.column)};
+}
+
+/// A TOML scalar as a Params value; arrays, tables and dates are errors.
+Params::Value toValue(const toml::node& n, const std::string& key, const std::string& file) {
+    if (auto v = n.as_boolean()) return v->get();
+    if (auto v = n.as_integer()) return int64_t(v->get());
+    if (auto v = n.as_floating_point()) return v->get();
+    if (auto v = n.as_string()) return v->get();
+    throwInputError(loc(file, n.source()),
+                    "'{}' must be a boolean, number or string (a list belongs in [sweep])", key);
+}
+
+/// Table entries in file order (toml++ tables are sorted maps).
+std::vector<std::pair<std::string, const toml::node*>> ordered(const toml::table& t) {
+    std::vector<std::pair<std::string, const toml::node*>> out;
+    for (auto&& [k, v] : t) out.emplace_back(std::string(k.str()), &v);
+    std::stable_sort(out.begin(), out.end(), [](const auto& a, const auto& b) {
+        const auto& ra = a.second->source().begin;
+        const auto& rb = b.second->source().begin;
+        return ra.line != rb.line ? ra.line < rb.line : ra.column < rb.column;
+    });
+    return out;
+}
+
+/// Flattens nested tables into dotted keys: [solver.oracle] eps -> "oracle.eps".
+void flatten(const toml::table& t, const std::string& prefix,
+             std::vector<std::pair<std::string, const toml::node*>>& out) {
+    for (const auto& [k, n] : ordered(t)) {
+        std::string key = prefix.empty() ? k : prefix + "." + k;
+        if (const toml::table* sub = n->as_table())
+            flatten(*sub, key, out);
+        else
+            out.emplace_back(key, n);
+    }
+}
+
+struct Axis {
+    /// Keys varied together (one for a [sweep] axis, several for a zip group).
+    std::vector<std::string> keys;
+    /// values[i][k]: value of keys[k] at step i, with its location.
+    std::vector<std::vector<std::pair<Params::Value, SourceLocation>>> values;
+};
+
+Axis axisFromList(const std::string& key, const toml::node& n, const std::string& file,
+                  const char* where) {
+    const toml::array* arr = n.as_array();
+    if (!arr)
+        throwInputError(loc(file, n.source()),
+                        "{} '{}' must be a list of values (constants belong in [solver])", where,
+                        key);
+    if (arr->empty()) throwInputError(loc(file, n.source()), "{} '{}' is an empty list", where, key);
+    Axis a;
+    a.keys.push_back(key);
+    for (const toml::node& e : *arr)
+        a.values.push_back({{toValue(e, key, file), loc(file, e.source())}});
+    return a;
+}
+
+bool getBoolNode(const toml::node& n, const std::string& key, const std::string& file) {
+    if (auto v = n.as_boolean()) return v->get();
+    throwInputError(loc(file, n.source()), "'{}' must be true or false", key);
+}
+
+uint64_t fnv1a(const std::string& s, uint64_t h = 1469598103934665603ull) {
+    for (unsigned char c : s) {
+        h ^= c;
+        h *= 1099511628211ull;
+    }
+    return h;
+}
+
+}  // namespace
+
+Study loadStudy(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throwInputError(SourceLocation{path.string(), 0, 0}, "cannot read study file");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    Study s = parseStudy(ss.str(), path.string(), path.parent_path());
+    s.path = path;
+    return s;
+}
+
+Study parseStudy(const std::string& text, const std::string& file, const fs::path& baseDir) {
+    toml::table root;
+    try {
+        root = toml::parse(text, file);
+    } catch (const toml::parse_error& e) {
+        throwInputError(loc(file, e.source()), "TOML syntax error: {}", e.description());
+    }
+
+    Study study;
+    study.text = text;
+    study.name = fs::path(file).stem().string();
+
+    static const std::set<std::string> topKeys = {"name",   "description", "scenes", "solver",
+                                                  "reference", "outputs", "limits",  "sweep",
+                                                  "zip"};
+    for (const auto& [k, n] : ordered(root))
+        if (!topKeys.count(k))
+            throwInputError(loc(file, n->source()),
+                            "unknown top-level key '{}' (expected one of: name, description, "
+                            "scenes, solver, reference, outputs, limits, sweep, zip)",
+                            k);
+
+    auto stringOf = [&](const toml::node& n, const std::string& key) {
+        if (auto v = n.as_string()) return std::string(v->get());
+        throwInputError(loc(file, n.source()), "'{}' must be a string", key);
+    };
+    if (auto* n = root.get("name")) study.name = stringOf(*n, "name");
+    if (auto* n = root.get("description")) study.description = stringOf(*n, "description");
+    if (study.name.empty()) throwInputError(SourceLocation{file, 1, 1}, "study name is empty");
+
+    // ---- scenes ------------------------------------------------------------------
+    struct SceneEntry {
+        std::string spec, label;
+        /// Per-scene overrides ({ scene = "...", solver = {...}, reference = {...} }).
+        std::vector<std::pair<std::string, const toml::node*>> solver, reference;
+    };
+    std::vector<SceneEntry> scenes;
+    const toml::node* scenesNode = root.get("scenes");
+    if (!scenesNode) throwInputError(SourceLocation{file, 1, 1}, "missing 'scenes' (a list of scene names or files)");
+    std::vector<const toml::node*> sceneNodes;
+    if (const toml::array* arr = scenesNode->as_array()) {
+        for (const toml::node& e : *arr) sceneNodes.push_back(&e);
+    } else {
+        sceneNodes.push_back(scenesNode);
+    }
+    if (sceneNodes.empty()) throwInputError(loc(file, scenesNode->source()), "'scenes' is empty");
+    for (const toml::node* e : sceneNodes) {
+        SceneEntry se;
+        std::string label;
+        if (const toml::table* t = e->as_table()) {
+            // { scene = "cornell", solver = { ... }, reference = { ... } }
+            for (const auto& [k, n] : ordered(*t)) {
+                if (k == "scene") {
+                    label = stringOf(*n, "scene");
+                } else if ((k == "solver" || k == "reference") && n->as_table()) {
+                    flatten(*n->as_table(), "", k == "solver" ? se.solver : se.reference);
+                } else {
+                    throwInputError(loc(file, n->source()),
+                                    "unknown key '{}' in a scene entry (expected scene, solver, "
+                                    "reference tables)",
+                                    k);
+                }
+            }
+            if (label.empty())
+                throwInputError(loc(file, e->source()), "scene entry without 'scene = \"...\"'");
+        } else {
+            label = stringOf(*e, "scenes");
+        }
+        se.spec = se.label = label;
+        if (!scene::isBuiltinName(label)) {
+            fs::path p(label);
+            if (p.is_relative()) p = baseDir / p;
+            p = p.lexically_normal();
+            if (!fs::is_regular_file(p))
+                throwInputError(loc(file, e->source()),
+                                "scene file '{}' not found (resolved to '{}'; paths are relative to "
+                                "the study file's folder)",
+                                label, p.string());
+            se.spec = p.string();
+        }
+        scenes.push_back(se);
+    }
+
+    // ---- base settings -------------------------------------------------------------
+    Params base, baseRef;
+    auto requireTable = [&](const char* key) -> const toml::table* {
+        const toml::node* n = root.get(key);
+        if (!n) return nullptr;
+        if (const toml::table* t = n->as_table()) return t;
+        throwInputError(loc(file, n->source()), "'{}' must be a table ([{}])", key, key);
+    };
+    std::map<std::string, SourceLocation> setAt;  // key -> where first set (solver/sweep/zip)
+    auto claim = [&](const std::string& key, const SourceLocation& where) {
+        auto [it, fresh] = setAt.emplace(key, where);
+        if (!fresh)
+            throwInputError(where, "setting '{}' is set twice (also at {})", key, it->second.str());
+    };
+    if (const toml::table* t = requireTable("solver")) {
+        std::vector<std::pair<std::string, const toml::node*>> flat;
+        flatten(*t, "", flat);
+        for (const auto& [k, n] : flat) {
+            SourceLocation w = loc(file, n->source());
+            claim(k, w);
+            base.set(k, toValue(*n, k, file), w);
+        }
+    }
+    if (const toml::table* t = requireTable("reference")) {
+        std::vector<std::pair<std::string, const toml::node*>> flat;
+        flatten(*t, "", flat);
+        for (const auto& [k, n] : flat) {
+            SourceLocation w = loc(file, n->source());
+            claim("reference." + k, w);
+            baseRef.set(k, toValue(*n, k, file), w);
+        }
+    }
+    OutputOptions outputs;
+    if (const toml::table* t = requireTable("outputs")) {
+        for (const auto& [k, n] : ordered(*t)) {
+            if (k == "exr")
+                outputs.exr = getBoolNode(*n, k, file);
+            else if (k == "ply")
+                outputs.ply = getBoolNode(*n, k, file);
+            else if (k == "history_error")
+                outputs.historyError = getBoolNode(*n, k, file);
+            else if (k == "dir")
+                outputs.dir = stringOf(*n, k);
+            else
+                throwInputError(loc(file, n->source()),
+                                "unknown key 'outputs.{}' (expected exr, ply, history_error, dir)", k);
+        }
+    }
+    if (const toml::table* t = requireTable("limits")) {
+        for (const auto& [k, n] : ordered(*t)) {
+            if (k == "max_seconds") {
+                auto v = n->value<double>();
+                if (!v || !(*v >= 0))
+                    throwInputError(loc(file, n->source()), "'limits.max_seconds' must be a number >= 0");
+                study.limits.maxSeconds = *v;
+            } else if (k == "max_memory_mb") {
+                auto v = n->value<int64_t>();
+                if (!v || *v < 0)
+                    throwInputError(loc(file, n->source()), "'limits.max_memory_mb' must be an integer >= 0");
+                study.limits.maxMemoryBytes = uint64_t(*v) << 20;
+            } else {
+                throwInputError(loc(file, n->source()),
+                                "unknown key 'limits.{}' (expected max_seconds, max_memory_mb)", k);
+            }
+        }
+    }
+
+    // ---- axes ------------------------------------------------------------------------
+    std::vector<Axis> axes;
+    if (const toml::table* t = requireTable("sweep")) {
+        std::vector<std::pair<std::string, const toml::node*>> flat;
+        flatten(*t, "", flat);
+        for (const auto& [k, n] : flat) {
+            claim(k, loc(file, n->source()));
+            axes.push_back(axisFromList(k, *n, file, "sweep axis"));
+        }
+    }
+    if (const toml::node* z = root.get("zip")) {
+        std::vector<const toml::table*> groups;
+        if (const toml::array* arr = z->as_array()) {
+            for (const toml::node& g : *arr) {
+                if (!g.as_table())
+                    throwInputError(loc(file, g.source()), "each [[zip]] entry must be a table");
+                groups.push_back(g.as_table());
+            }
+        } else if (const toml::table* t = z->as_table()) {
+            groups.push_back(t);  // a single [zip] table
+        } else {
+            throwInputError(loc(file, z->source()), "'zip' must be a table or [[zip]] tables");
+        }
+        for (const toml::table* g : groups) {
+            std::vector<std::pair<std::string, const toml::node*>> flat;
+            flatten(*g, "", flat);
+            if (flat.empty()) throwInputError(loc(file, g->source()), "empty [[zip]] group");
+            Axis group;
+            size_t len = 0;
+            std::string firstKey;
+            for (const auto& [k, n] : flat) {
+                claim(k, loc(file, n->source()));
+                Axis a = axisFromList(k, *n, file, "zip key");
+                if (group.keys.empty()) {
+                    len = a.values.size();
+                    firstKey = k;
+                    group.values.resize(len);
+                } else if (a.values.size() != len) {
+                    throwInputError(loc(file, n->source()),
+                                    "zip key '{}' has {} values but '{}' in the same group has {} "
+                                    "(zipped lists must have equal lengths)",
+                                    k, a.values.size(), firstKey, len);
+                }
+                group.keys.push_back(k);
+                for (size_t i = 0; i < len; ++i) group.values[i].push_back(a.values[i][0]);
+            }
+            axes.push_back(std::move(group));
+        }
+    }
+    for (const SceneEntry& se : scenes) {
+        auto check = [&](const std::string& key, const toml::node* n) {
+            for (const Axis& a : axes)
+                for (const auto& k : a.keys)
+                    if (k == key)
+                        throwInputError(loc(file, n->source()),
+                                        "setting '{}' of scene '{}' is also a sweep axis", key,
+                                        se.label);
+        };
+        for (const auto& [k, n] : se.solver) check(k, n);
+        for (const auto& [k, n] : se.reference) check("reference." + k, n);
+    }
+    for (const Axis& a : axes)
+        for (const auto& k : a.keys)
+            if (k == "scene" || k == "scenes")
+                throwInputError(a.values[0][0].second, "vary scenes with the top-level 'scenes' list");
+
+    // ---- expansion: scenes x axis_1 x ... x axis_n (last fastest) --------------------
+    size_t combos = 1;
+    for (const Axis& a : axes) combos *= a.values.size();
+    for (const SceneEntry& se : scenes) {
+        for (size_t c = 0; c < combos; ++c) {
+            PointSpec p;
+            p.index = study.points.size();
+            p.scene = se.spec;
+            p.sceneLabel = se.label;
+            p.settings = base;
+            p.reference = baseRef;
+            for (const auto& [k, n] : se.solver) p.settings.set(k, toValue(*n, k, file), loc(file, n->source()));
+            for (const auto& [k, n] : se.reference) p.reference.set(k, toValue(*n, k, file), loc(file, n->source()));
+            p.outputs = outputs;
+            // Mixed-radix digits of c, last axis least significant.
+            size_t rest = c;
+            std::vector<size_t> digit(axes.size());
+            for (size_t a = axes.size(); a-- > 0;) {
+                digit[a] = rest % axes[a].values.size();
+                rest /= axes[a].values.size();
+            }
+            for (size_t a = 0; a < axes.size(); ++a) {
+                const Axis& ax = axes[a];
+                for (size_t k = 0; k < ax.keys.size(); ++k) {
+                    const auto& [value, where] = ax.values[digit[a]][k];
+                    const std::string& key = ax.keys[k];
+                    if (key.rfind("reference.", 0) == 0)
+                        p.reference.set(key.substr(10), value, where);
+                    else
+                        p.settings.set(key, value, where);
+                    p.varying.emplace_back(key, Params::valueToString(value));
+                }
+            }
+            study.points.push_back(std::move(p));
+        }
+    }
+    return study;
+}
+
+void validateStudy(const Study& study) {
+    for (const PointSpec& p : study.points) {
+        try {
+            validatePoint(p);
+        } catch (const InputError& e) {
+            throw InputError(e.where(), fmt::format("{} (point {} of study '{}', scene {})",
+                                                    e.message(), p.index, study.name, p.sceneLabel));
+        }
+    }
+}
+
+std::string paramsToJsonText(const Params& params) {
+    nlohmann::json j = nlohmann::json::object();
+    for (const auto& [k, e] : params.entries()) std::visit([&](const auto& v) { j[k] = v; }, e.value);
+    return j.dump();
+}
+
+std::string pointKey(const PointSpec& point) {
+    std::string content = "scene=" + point.sceneLabel + "\n";
+    if (!scene::isBuiltinName(point.scene)) {
+        // The scene file's bytes (not its absolute path) so that shards on
+        // other machines agree; included files (MGF 'i') are not hashed.
+        std::ifstream in(point.scene, std::ios::binary);
+        std::stringstream ss;
+        ss << in.rdbuf();
+        content += fmt::format("scene_hash={:016x}\n", fnv1a(ss.str()));
+    }
+    content += "settings=" + paramsToJsonText(point.settings) + "\n";
+    content += "reference=" + paramsToJsonText(point.reference) + "\n";
+    // Two independent 64-bit FNV-1a hashes: 128 bits, collisions negligible.
+    return fmt::format("{:016x}{:016x}", fnv1a(content), fnv1a(content, 0x84222325cbf29ce4ull));
+}
+
+std::string describePoints(const Study& study) {
+    std::string out = fmt::format("study '{}': {} point(s)\n", study.name, study.points.size());
+    for (const PointSpec& p : study.points) {
+        std::string vary;
+        for (const auto& [k, v] : p.varying) vary += fmt::format(" {}={}", k, v);
+        out += fmt::format("  #{:<4} {}  scene={}{}\n", p.index, pointKey(p).substr(0, 12),
+                           p.sceneLabel, vary);
+    }
+    return out;
+}
+
+}  // namespace hrad::experiments

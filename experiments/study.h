@@ -1,0 +1,104 @@
+// Study files: a TOML description of a parameter sweep, and its expansion
+// into points (DESIGN.md "Experiments"; schema in experiments/studies/README.md).
+//
+//   name        = "oracles"                 optional, default: file stem
+//   description = "..."                     optional, free text
+//   scenes      = ["cornell", "office:2", "../scenes/x.mgf"]
+//                 built-in names, or files relative to the study file's folder
+//   [solver]    base settings of every point: any key `hrad solve --set`
+//               accepts ("solver", "hr.oracle", "oracle.eps", "ff.vis_rays",
+//               "cluster.model", "mgf.resolution", "render.width", ...).
+//               Nested tables flatten to dotted keys ([solver.oracle] eps = 1
+//               is "oracle.eps").
+//   [reference] kind = "full-matrix" | "montecarlo" | "none", plus the keys
+//               of that reference ("fm.level", "fm.max_area", "mc.samples"...)
+//   [outputs]   exr, ply, history_error (bools), dir (string, default "runs",
+//               relative to the results store)
+//   [limits]    max_seconds (number), max_memory_mb (integer): per point,
+//               overridden by --max-seconds / --max-memory
+//   [sweep]     key = [v1, v2, ...]: every list is an axis of a Cartesian
+//               product. Keys starting with "reference." vary the reference.
+//   [[zip]]     a group of keys whose lists (equal lengths) vary together; the
+//               groups are crossed with each other and with the [sweep] axes.
+//
+// Points are ordered scene-major, then axes in file order ([sweep] keys in
+// the order written, then the [[zip]] groups), the last axis varying fastest.
+// The order is deterministic, so `--shard i/N` selects the same points on
+// every machine.
+//
+// Every value remembers its file:line (toml++ source regions), so the real
+// components' fromParams + reportUnused report a misspelt or out-of-range
+// setting at the line of the study that set it.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "core/params.h"
+
+namespace hrad::experiments {
+
+/// Which artefacts and extra metrics each run produces.
+struct OutputOptions {
+    bool exr = false;           ///< image.exr + image.png of the solution
+    bool ply = false;           ///< solution.ply
+    bool historyError = false;  ///< error after every iteration (needs a solver hook: see runner.h)
+    std::string dir = "runs";   ///< artefact folder, relative to the results store
+};
+
+/// One point of a study: everything a run needs.
+struct PointSpec {
+    size_t index = 0;         ///< position in the expanded study (0-based)
+    std::string scene;        ///< what scene::loadScene receives (resolved path or built-in name)
+    std::string sceneLabel;   ///< as written in the study (stable across machines)
+    Params settings;          ///< solver, loader and render settings
+    Params reference;         ///< "kind" and the reference's own keys (fm.*, mc.*)
+    OutputOptions outputs;
+    /// Keys varied by the sweep and their values at this point ("hr.oracle=ff").
+    std::vector<std::pair<std::string, std::string>> varying;
+};
+
+struct Limits {
+    double maxSeconds = 0.0;  ///< 0: none
+    uint64_t maxMemoryBytes = 0;
+};
+
+struct Study {
+    std::string name;
+    std::string description;
+    std::filesystem::path path;  ///< the study file ("" for a study parsed from text)
+    std::string text;            ///< the study file's contents (stored with the results)
+    std::vector<PointSpec> points;
+    Limits limits;
+};
+
+/// Parses and expands a study. Throws InputError with file:line for syntax
+/// errors, unknown top-level keys, bad types, zip groups of unequal lengths,
+/// keys set twice, missing scene files. Does not validate setting names or
+/// ranges: see validateStudy().
+Study loadStudy(const std::filesystem::path& path);
+/// Same from text; relative scene paths resolve against `baseDir`, locations
+/// name `displayName`.
+Study parseStudy(const std::string& text, const std::string& displayName,
+                 const std::filesystem::path& baseDir);
+
+/// Dry validation of every point without solving: builds each component's
+/// settings from the point's Params exactly as a run does and reports unused
+/// keys (experiments::validatePoint). Throws the first InputError, prefixed
+/// with the point index.
+void validateStudy(const Study& study);
+
+/// Stable key of a point: a hash of its scene (label and, for files, the file
+/// contents) and its resolved settings and reference settings. Finished
+/// points with the same key are skipped on resume.
+std::string pointKey(const PointSpec& point);
+
+/// Params as a JSON object text {"key": value, ...} (sorted keys).
+std::string paramsToJsonText(const Params& params);
+
+/// One line per point for --dry-run.
+std::string describePoints(const Study& study);
+
+}  // namespace hrad::experiments

@@ -1,0 +1,324 @@
+#include "experiments/sweep.h"
+
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/time.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstring>
+#include <deque>
+#include <fstream>
+#include <map>
+#include <new>
+#include <sstream>
+#include <thread>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <tbb/global_control.h>
+
+#include "core/timer.h"
+#include "experiments/runner.h"
+#include "experiments/store.h"
+
+namespace hrad::experiments {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::pair<int, int> parseShard(const std::string& text) {
+    int i = -1, n = 0;
+    char slash = 0;
+    std::istringstream ss(text);
+    if (!(ss >> i >> slash >> n) || slash != '/' || !ss.eof() || n < 1 || i < 0 || i >= n)
+        throwInputError({"command line (--shard)", 0, 0},
+                        "--shard expects i/N with 0 <= i < N, got '{}'", text);
+    return {i, n};
+}
+
+uint64_t parseBytes(const std::string& text) {
+    char* end = nullptr;
+    double v = std::strtod(text.c_str(), &end);
+    std::string unit = end ? std::string(end) : "";
+    double mult = 1;
+    if (unit == "" || unit == "B") mult = 1;
+    else if (unit == "K" || unit == "KiB" || unit == "k") mult = 1024.0;
+    else if (unit == "M" || unit == "MiB") mult = 1024.0 * 1024;
+    else if (unit == "G" || unit == "GiB") mult = 1024.0 * 1024 * 1024;
+    else v = -1;
+    if (!(v >= 0) || end == text.c_str())
+        throwInputError({"command line (--max-memory)", 0, 0},
+                        "expected a size such as 512M or 4G, got '{}'", text);
+    return uint64_t(v * mult);
+}
+
+namespace {
+
+struct Task {
+    bool isReference = false;
+    const PointSpec* point = nullptr;
+    std::string key;       ///< point key, or reference id
+    fs::path resultFile;
+};
+
+struct Running {
+    Task task;
+    Timer timer;
+};
+
+/// The child: limits, thread count, the work, its result in a file. Never returns.
+[[noreturn]] void childMain(const Task& task, const RunContext& ctx, int threads,
+                            double maxSeconds, uint64_t maxMemory, bool progress) {
+    json result;
+    try {
+        if (!progress) spdlog::set_level(spdlog::level::warn);
+        if (maxMemory > 0) {
+            rlimit rl{rlim_t(maxMemory), rlim_t(maxMemory)};
+            setrlimit(RLIMIT_AS, &rl);
+        }
+        if (maxSeconds > 0) {
+            // Wall-clock limit: SIGALRM's default action ends the child; the
+            // parent sees the signal and records a timeout.
+            itimerval it{};
+            it.it_value.tv_sec = time_t(maxSeconds);
+            it.it_value.tv_usec = suseconds_t((maxSeconds - std::floor(maxSeconds)) * 1e6);
+            setitimer(ITIMER_REAL, &it, nullptr);
+        }
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+        if (task.isReference)
+            result = {{"ok", true}, {"reference", prepareReference(*task.point, ctx)}};
+        else
+            result = {{"ok", true}, {"summary", runPoint(*task.point, ctx)}};
+    } catch (const std::bad_alloc&) {
+        result = {{"ok", false},
+                  {"kind", "memory"},
+                  {"message", fmt::format("out of memory (std::bad_alloc; --max-memory {} bytes)",
+                                          maxMemory)}};
+    } catch (const InputError& e) {
+        result = {{"ok", false}, {"kind", "input"}, {"message", e.what()}};
+    } catch (const std::exception& e) {
+        result = {{"ok", false}, {"kind", "error"}, {"message", e.what()}};
+    } catch (...) {
+        result = {{"ok", false}, {"kind", "error"}, {"message", "unknown exception"}};
+    }
+    try {
+        fs::path tmp = task.resultFile;
+        tmp += ".tmp";
+        {
+            std::ofstream out(tmp, std::ios::binary);
+            out << result.dump();
+            if (!out) _exit(3);
+        }
+        fs::rename(tmp, task.resultFile);
+    } catch (...) {
+        _exit(3);
+    }
+    // _exit: no atexit handlers, no destructors of state shared with the
+    // parent (its SQLite connection, its logger).
+    _exit(0);
+}
+
+std::string signalName(int sig) {
+    const char* s = strsignal(sig);
+    return s ? s : fmt::format("signal {}", sig);
+}
+
+}  // namespace
+
+SweepReport runSweep(const Study& study, const SweepOptions& opt) {
+    validateStudy(study);
+
+    SweepReport report;
+    report.points = study.points.size();
+    ResultStore store(opt.store);
+    int64_t existing = store.count("runs") + store.count("failures");
+    if (existing > 0 && !opt.resume)
+        throw Error(fmt::format("results store {} already holds {} run(s) and {} failure(s); pass "
+                                "--resume to continue it (finished points are skipped)",
+                                opt.store.string(), store.count("runs"), store.count("failures")));
+    std::string studyHash =
+        store.addStudy(study.name, study.path.empty() ? "" : fs::absolute(study.path).string(), study.text);
+    std::set<std::string> done = store.runKeys();
+    std::set<std::string> failed = store.failureKeys();
+
+    fs::path work = opt.store;
+    work += ".work";
+    fs::create_directories(work);
+    fs::path artefactRoot =
+        (opt.store.has_parent_path() ? opt.store.parent_path() : fs::path(".")) /
+        (study.points.empty() ? fs::path("runs") : fs::path(study.points[0].outputs.dir)) / study.name;
+
+    double maxSeconds = opt.maxSeconds > 0 ? opt.maxSeconds : study.limits.maxSeconds;
+    uint64_t maxMemory = opt.maxMemoryBytes > 0 ? opt.maxMemoryBytes : study.limits.maxMemoryBytes;
+    int jobs = std::max(1, opt.jobs);
+    int cores = std::max(1u, std::thread::hardware_concurrency());
+    int threads = opt.threads > 0 ? opt.threads : std::max(1, cores / jobs);
+
+    // ---- select this shard's unfinished points ----------------------------------------
+    std::vector<Task> todo;
+    std::map<std::string, std::vector<const PointSpec*>> byReference;
+    for (const PointSpec& p : study.points) {
+        if (int(p.index % size_t(opt.shardCount)) != opt.shardIndex) continue;
+        ++report.selected;
+        std::string key = pointKey(p);
+        if (done.count(key) || (!opt.retryFailed && failed.count(key))) {
+            ++report.skipped;
+            continue;
+        }
+        todo.push_back(Task{false, &p, key, work / (key + ".json")});
+        std::string refId = referenceId(p);
+        if (!refId.empty()) byReference[refId].push_back(&p);
+    }
+    spdlog::info("study '{}': {} point(s), {} in shard {}/{}, {} already done, {} to run",
+                 study.name, report.points, report.selected, opt.shardIndex, opt.shardCount,
+                 report.skipped, todo.size());
+
+    RunContext base;
+    base.cacheDir = opt.cacheDir;
+    base.useCache = opt.useCache;
+    base.progress = opt.progress;
+
+    // Runs tasks `jobs` at a time; calls finish(task, result json or failure).
+    auto runTasks = [&](std::vector<Task> tasks,
+                        const std::function<void(const Task&, const json&, uint64_t peak, double secs)>& finish,
+                        bool limited) {
+        std::deque<Task> queue(tasks.begin(), tasks.end());
+        std::map<pid_t, Running> running;
+        while (!queue.empty() || !running.empty()) {
+            while (!queue.empty() && int(running.size()) < jobs) {
+                Task t = queue.front();
+                queue.pop_front();
+                fs::remove(t.resultFile);
+                RunContext ctx = base;
+                if (!t.isReference) ctx.artefactDir = artefactRoot / t.key;
+                std::fflush(nullptr);
+                pid_t pid = fork();
+                if (pid < 0) throw Error(fmt::format("fork failed: {}", std::strerror(errno)));
+                if (pid == 0)
+                    childMain(t, ctx, threads, limited ? maxSeconds : 0.0, limited ? maxMemory : 0,
+                              opt.progress);
+                running.emplace(pid, Running{t, Timer()});
+            }
+            int status = 0;
+            rusage ru{};
+            pid_t pid = wait4(-1, &status, 0, &ru);
+            if (pid < 0) {
+                if (errno == EINTR) continue;
+                throw Error(fmt::format("wait4 failed: {}", std::strerror(errno)));
+            }
+            auto it = running.find(pid);
+            if (it == running.end()) continue;  // not ours
+            Task t = it->second.task;
+            double secs = it->second.timer.seconds();
+            running.erase(it);
+            uint64_t peak = uint64_t(ru.ru_maxrss) * 1024;  // kilobytes on Linux
+            json result;
+            if (WIFEXITED(status) && WEXITSTATUS(status) == 0 && fs::exists(t.resultFile)) {
+                std::ifstream in(t.resultFile, std::ios::binary);
+                try {
+                    result = json::parse(in);
+                } catch (const std::exception& e) {
+                    result = {{"ok", false}, {"kind", "error"},
+                              {"message", fmt::format("unreadable result: {}", e.what())}};
+                }
+                fs::remove(t.resultFile);
+            } else if (WIFSIGNALED(status)) {
+                int sig = WTERMSIG(status);
+                if (sig == SIGALRM)
+                    result = {{"ok", false}, {"kind", "timeout"},
+                              {"message", fmt::format("exceeded the time limit of {} s", maxSeconds)}};
+                else
+                    result = {{"ok", false}, {"kind", sig == SIGKILL ? "killed" : "signal"},
+                              {"message", fmt::format("child killed by signal {} ({}){}", sig,
+                                                      signalName(sig),
+                                                      sig == SIGKILL ? "; out of memory?" : "")}};
+            } else {
+                result = {{"ok", false}, {"kind", "error"},
+                          {"message", fmt::format("child exited with status {} without a result",
+                                                  WIFEXITED(status) ? WEXITSTATUS(status) : -1)}};
+            }
+            finish(t, result, peak, secs);
+        }
+    };
+
+    // ---- references, once per (scene, reference settings) ---------------------------
+    std::map<std::string, std::string> referenceFailure;  // refId -> message
+    if (opt.useCache && referenceCacheAvailable() && !byReference.empty()) {
+        std::vector<Task> refTasks;
+        int n = 0;
+        for (const auto& [refId, pts] : byReference)
+            refTasks.push_back(Task{true, pts.front(), refId, work / fmt::format("reference-{}.json", n++)});
+        runTasks(refTasks,
+                 [&](const Task& t, const json& r, uint64_t, double secs) {
+                     if (r.value("ok", false)) {
+                         const json& d = r["reference"];
+                         spdlog::info("reference {}: {} ({:.2f} s)", t.key,
+                                      d.value("cached", false) ? "cached" : "computed", secs);
+                     } else {
+                         referenceFailure[t.key] = r.value("message", "?");
+                         spdlog::warn("reference {} failed: {}", t.key, referenceFailure[t.key]);
+                     }
+                 },
+                 false);
+    }
+
+    // ---- points ---------------------------------------------------------------------
+    std::vector<Task> pointTasks;
+    auto recordFailure = [&](const Task& t, const std::string& kind, const std::string& message,
+                             double secs, uint64_t peak) {
+        FailureRecord f;
+        f.key = t.key;
+        f.study = studyHash;
+        f.pointIndex = int64_t(t.point->index);
+        f.scene = t.point->sceneLabel;
+        f.settingsJson = paramsToJsonText(t.point->settings);
+        f.kind = kind;
+        f.message = message;
+        f.wallSeconds = secs;
+        f.peakRss = peak;
+        store.addFailure(f);
+        ++report.failed;
+        spdlog::warn("point #{} ({}) failed [{}]: {}", t.point->index, t.point->sceneLabel, kind,
+                     message);
+        if (opt.onPointDone) opt.onPointDone(*t.point, false);
+    };
+    for (const Task& t : todo) {
+        std::string refId = referenceId(*t.point);
+        auto it = referenceFailure.find(refId);
+        if (it != referenceFailure.end())
+            recordFailure(t, "reference", "reference failed: " + it->second, 0.0, 0);
+        else
+            pointTasks.push_back(t);
+    }
+    size_t total = pointTasks.size(), count = 0;
+    runTasks(pointTasks,
+             [&](const Task& t, const json& r, uint64_t peak, double secs) {
+                 ++count;
+                 if (!r.value("ok", false)) {
+                     recordFailure(t, r.value("kind", "error"), r.value("message", "?"), secs, peak);
+                     return;
+                 }
+                 json summary = r["summary"];
+                 // The child's own VmHWM is in memory.peak_rss; wait4's value
+                 // is the same measure taken by the kernel at exit.
+                 summary["memory"]["peak_rss_wait4"] = peak;
+                 store.addRun(t.key, studyHash, int64_t(t.point->index), summary);
+                 ++report.finished;
+                 std::string vary;
+                 for (const auto& [k, v] : t.point->varying) vary += fmt::format(" {}={}", k, v);
+                 json l2 = summary.contains("error") ? summary["error"].value("l2_lum", json(nullptr))
+                                                     : json(nullptr);
+                 spdlog::info("[{}/{}] #{} {}{}: {:.2f} s{}", count, total, t.point->index,
+                              t.point->sceneLabel, vary, summary.value("wall_seconds", 0.0),
+                              l2.is_number() ? fmt::format(", L2(lum) {:.4g}", l2.get<double>()) : "");
+                 if (opt.onPointDone) opt.onPointDone(*t.point, true);
+             },
+             true);
+    std::error_code ec;
+    fs::remove(work, ec);  // only when empty
+    return report;
+}
+
+}  // namespace hrad::experiments

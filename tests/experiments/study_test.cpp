@@ -1,0 +1,201 @@
+// Study files: expansion of products and zips, and validation errors that
+// name the study file and line.
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "experiments/study.h"
+#include "tests/test_util.h"
+
+namespace hrad::experiments {
+namespace {
+
+Study parse(const std::string& text) { return parseStudy(text, "study.toml", "."); }
+
+/// The InputError message of validating (or parsing) `text`, "" if none.
+std::string errorOf(const std::string& text, const std::filesystem::path& base = ".") {
+    try {
+        Study s = parseStudy(text, "study.toml", base);
+        validateStudy(s);
+    } catch (const InputError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+TEST(Study, ProductOfAxesTimesScenes) {
+    Study s = parse(R"(
+scenes = ["furnace", "cornell"]
+[solver]
+"hr.max_iterations" = 5
+[sweep]
+"oracle.eps" = [0.1, 0.01, 0.001]
+"ff.vis_rays" = [4, 16]
+)");
+    ASSERT_EQ(s.points.size(), 2u * 3u * 2u);
+    // Scene-major, then axes in file order, last fastest.
+    EXPECT_EQ(s.points[0].sceneLabel, "furnace");
+    EXPECT_EQ(s.points[6].sceneLabel, "cornell");
+    EXPECT_DOUBLE_EQ(s.points[0].settings.getDouble("oracle.eps", 0), 0.1);
+    EXPECT_EQ(s.points[0].settings.getInt("ff.vis_rays", 0), 4);
+    EXPECT_EQ(s.points[1].settings.getInt("ff.vis_rays", 0), 16);
+    EXPECT_DOUBLE_EQ(s.points[1].settings.getDouble("oracle.eps", 0), 0.1);
+    EXPECT_DOUBLE_EQ(s.points[5].settings.getDouble("oracle.eps", 0), 0.001);
+    EXPECT_EQ(s.points[11].settings.getInt("hr.max_iterations", 0), 5);
+    // All (scene, eps, rays) combinations are distinct points with distinct keys.
+    std::set<std::string> keys;
+    for (const auto& p : s.points) keys.insert(pointKey(p));
+    EXPECT_EQ(keys.size(), s.points.size());
+    EXPECT_EQ(s.points[3].index, 3u);
+}
+
+TEST(Study, ZipGroupsVaryTogetherAndCrossWithSweep) {
+    Study s = parse(R"(
+scenes = ["furnace"]
+[sweep]
+"ff.vis_rays" = [4, 8]
+[[zip]]
+"hr.oracle" = ["bfa", "ff", "uniform"]
+oracle = { level = [1, 2, 3] }
+[[zip]]
+"hr.max_level" = [3, 4]
+"hr.min_iterations" = [1, 2]
+)");
+    // 2 (sweep) x 3 (first zip) x 2 (second zip)
+    ASSERT_EQ(s.points.size(), 12u);
+    for (const auto& p : s.points) {
+        std::string o = p.settings.getString("hr.oracle", "");
+        int64_t level = p.settings.getInt("oracle.level", 0);
+        EXPECT_EQ(level, o == "bfa" ? 1 : o == "ff" ? 2 : 3) << o;
+        EXPECT_EQ(p.settings.getInt("hr.min_iterations", 0), p.settings.getInt("hr.max_level", 0) - 2);
+    }
+    EXPECT_EQ(s.points[0].varying.size(), 5u);
+}
+
+TEST(Study, NestedTablesFlattenAndReferenceKeysSeparate) {
+    Study s = parse(R"(
+scenes = "furnace"
+[solver.hr]
+oracle = "ff"
+[solver.oracle]
+eps = 0.05
+[reference]
+kind = "full-matrix"
+fm.level = 1
+[sweep]
+"reference.fm.tolerance" = [1e-5, 1e-6]
+)");
+    ASSERT_EQ(s.points.size(), 2u);
+    EXPECT_EQ(s.points[0].settings.getString("hr.oracle", ""), "ff");
+    EXPECT_DOUBLE_EQ(s.points[0].settings.getDouble("oracle.eps", 0), 0.05);
+    EXPECT_EQ(s.points[0].reference.getInt("fm.level", 0), 1);
+    EXPECT_DOUBLE_EQ(s.points[1].reference.getDouble("fm.tolerance", 0), 1e-6);
+    EXPECT_FALSE(s.points[1].settings.has("reference.fm.tolerance"));
+    validateStudy(s);
+}
+
+TEST(StudyValidation, UnknownSettingNamesFileAndLine) {
+    std::string msg = errorOf("scenes = [\"furnace\"]\n[solver]\n\"hr.orcale\" = \"bfa\"\n");
+    EXPECT_NE(msg.find("study.toml:3"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("hr.orcale"), std::string::npos) << msg;
+}
+
+TEST(StudyValidation, UnknownKeyInSweepPointsAtItsValue) {
+    std::string msg = errorOf(
+        "scenes = [\"furnace\"]\n[sweep]\n\"oracle.eps\" = [0.1,\n  0.2]\n\"ff.vis_ray\" = [1]\n");
+    EXPECT_NE(msg.find("study.toml:5"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("ff.vis_ray"), std::string::npos) << msg;
+}
+
+TEST(StudyValidation, BadOracleNameListsValidNames) {
+    std::string msg = errorOf("scenes = [\"furnace\"]\n\n[sweep]\n\"hr.oracle\" = [\"bfa\", \"nope\"]\n");
+    EXPECT_NE(msg.find("study.toml:4"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("nope"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("bfa"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("point 1"), std::string::npos) << msg;
+}
+
+TEST(StudyValidation, OutOfRangeEps) {
+    std::string msg = errorOf("scenes = [\"furnace\"]\n[solver]\n\"oracle.eps\" = 2.5\n");
+    EXPECT_NE(msg.find("study.toml:3"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("out of range"), std::string::npos) << msg;
+}
+
+TEST(StudyValidation, SettingOfAnotherOracleIsUnknown) {
+    // uniform reads oracle.level, not oracle.eps: the zip makes one bad point.
+    std::string msg = errorOf(
+        "scenes = [\"furnace\"]\n[solver]\n\"oracle.eps\" = 0.1\n[sweep]\n\"hr.oracle\" = [\"bfa\", \"uniform\"]\n");
+    EXPECT_NE(msg.find("study.toml:3"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("eps"), std::string::npos) << msg;
+}
+
+TEST(StudyValidation, MissingSceneFile) {
+    auto dir = test::tempDir("study_missing_scene");
+    std::string msg = errorOf("name = \"x\"\nscenes = [\"furnace\",\n  \"nothere/box.obj\"]\n", dir);
+    EXPECT_NE(msg.find("study.toml:3"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("not found"), std::string::npos) << msg;
+}
+
+TEST(StudyValidation, RelativeSceneResolvesAgainstStudyFolder) {
+    auto dir = test::tempDir("study_relative_scene");
+    test::writeFile(dir / "scenes" / "tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    test::writeFile(dir / "studies" / "s.toml", "scenes = [\"../scenes/tri.obj\"]\n");
+    Study s = loadStudy(dir / "studies" / "s.toml");
+    ASSERT_EQ(s.points.size(), 1u);
+    EXPECT_EQ(std::filesystem::path(s.points[0].scene), (dir / "scenes" / "tri.obj").lexically_normal());
+    EXPECT_EQ(s.points[0].sceneLabel, "../scenes/tri.obj");
+    EXPECT_EQ(s.name, "s");
+}
+
+TEST(StudyValidation, UnknownTopLevelKeyAndBadReferenceKind) {
+    std::string msg = errorOf("scenes = [\"furnace\"]\nsolvr = 1\n");
+    EXPECT_NE(msg.find("study.toml:2"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("solvr"), std::string::npos) << msg;
+    msg = errorOf("scenes = [\"furnace\"]\n[reference]\nkind = \"exact\"\n");
+    EXPECT_NE(msg.find("study.toml:3"), std::string::npos) << msg;
+    msg = errorOf("scenes = [\"furnace\"]\n[reference]\nkind = \"montecarlo\"\n\"fm.level\" = 2\n");
+    EXPECT_NE(msg.find("study.toml:4"), std::string::npos) << msg;
+}
+
+TEST(StudyValidation, ZipOfUnequalLengthsAndKeysSetTwice) {
+    std::string msg = errorOf(
+        "scenes = [\"furnace\"]\n[[zip]]\n\"oracle.eps\" = [0.1, 0.2]\n\"hr.max_level\" = [1, 2, 3]\n");
+    EXPECT_NE(msg.find("study.toml:4"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("equal lengths"), std::string::npos) << msg;
+    msg = errorOf("scenes = [\"furnace\"]\n[solver]\n\"oracle.eps\" = 0.1\n[sweep]\n\"oracle.eps\" = [0.1]\n");
+    EXPECT_NE(msg.find("study.toml:5"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("twice"), std::string::npos) << msg;
+}
+
+TEST(StudyValidation, TomlSyntaxErrorHasLine) {
+    std::string msg = errorOf("scenes = [\"furnace\"]\n[solver\n");
+    EXPECT_NE(msg.find("study.toml:2"), std::string::npos) << msg;
+}
+
+}  // namespace
+}  // namespace hrad::experiments
+
+namespace hrad::experiments {
+namespace {
+
+TEST(Study, SceneEntriesOverrideBaseSettings) {
+    Study s = parse(R"(
+scenes = ["furnace", { scene = "cornell", reference = { "fm.level" = 3 }, solver = { "oracle.eps" = 0.5 } }]
+[solver]
+"oracle.eps" = 0.1
+[reference]
+kind = "full-matrix"
+"fm.level" = 1
+[sweep]
+"ff.vis_rays" = [4, 8]
+)");
+    ASSERT_EQ(s.points.size(), 4u);
+    EXPECT_EQ(s.points[0].reference.getInt("fm.level", 0), 1);
+    EXPECT_EQ(s.points[2].reference.getInt("fm.level", 0), 3);
+    EXPECT_DOUBLE_EQ(s.points[3].settings.getDouble("oracle.eps", 0), 0.5);
+    EXPECT_EQ(s.points[3].settings.where("oracle.eps").line, 2);
+    validateStudy(s);
+}
+
+}  // namespace
+}  // namespace hrad::experiments
