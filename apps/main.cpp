@@ -59,6 +59,11 @@ int main(int argc, char** argv) {
     solve->add_option("--oracle", oracle, "refinement oracle (hr): bfa, ff, uniform");
     solve->add_option("--eps", eps, "oracle threshold (oracle.eps)");
     solve->add_option("--min-area", minArea, "minimum element area (hr.min_area)");
+    std::string clusterModel, clusterBuilder;
+    solve->add_option("--cluster", clusterModel,
+                      "volume clustering (cluster.model): none, isotropic, oriented");
+    solve->add_option("--cluster-builder", clusterBuilder,
+                      "cluster tree builder (cluster.builder): bvh, octree");
     solve->add_option("-o,--output", so.outDir, "output folder")->capture_default_str();
     solve->add_option("--reference-level", refLevel,
                       "also solve a full-matrix reference at this uniform level and report the error");
@@ -130,6 +135,9 @@ int main(int argc, char** argv) {
             if (!oracle.empty()) params.set("hr.oracle", oracle, flag("--oracle"));
             if (eps >= 0) params.set("oracle.eps", eps, flag("--eps"));
             if (minArea >= 0) params.set("hr.min_area", minArea, flag("--min-area"));
+            if (!clusterModel.empty()) params.set("cluster.model", clusterModel, flag("--cluster"));
+            if (!clusterBuilder.empty())
+                params.set("cluster.builder", clusterBuilder, flag("--cluster-builder"));
             if (refLevel >= 0) params.set("metrics.reference_level", int64_t(refLevel), flag("--reference-level"));
             if (width > 0) params.set("render.width", int64_t(width), flag("--width"));
             if (height > 0) params.set("render.height", int64_t(height), flag("--height"));

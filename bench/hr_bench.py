@@ -73,7 +73,7 @@ def main():
     cases = []  # (label, scene, extra args)
     for eps in (["1e-3", "1e-4"] if args.quick else ["1e-2", "1e-3", "1e-4"]):
         cases.append((f"cornell eps={eps}", "cornell",
-                      ["--eps", eps, "--reference-level", "4"]))
+                      ["--eps", eps, "--reference-level", "3"]))
     for n in ([1, 2] if args.quick else [1, 2, 4]):
         cases.append((f"office:{n} eps=1e-3", f"office:{n}", ["--eps", "1e-3"]))
     rp = os.path.join(args.scenes_dir, "renderpark-mgf")
@@ -83,6 +83,8 @@ def main():
             if os.path.exists(path):
                 for eps in (["1e-3"] if args.quick else ["1e-3", "1e-4"]):
                     cases.append((f"{rel} eps={eps}", path, ["--eps", eps]))
+                    cases.append((f"{rel} eps={eps} oriented clusters", path,
+                                  ["--eps", eps, "--cluster", "oriented"]))
     else:
         print(f"note: {rp} absent; RenderPark cases skipped", file=sys.stderr)
 
@@ -124,7 +126,7 @@ def main():
     lines.append("")
     lines.append("`link B/link`: bytes of link storage (16-byte records + CSR offsets) per link;"
                  " `all B/link`: links plus elements per link. `L2 lum vs FM`: area-weighted"
-                 " relative L2 error of luminance against a full-matrix solve at uniform level 4"
+                 " relative L2 error of luminance against a full-matrix solve at uniform level 3"
                  " (Cornell only). `solve s`: linking + refinement + gather + push-pull, without"
                  " loading, the Embree build and the reference solve. Peak RSS is the process's,"
                  " so for Cornell it includes the full-matrix reference.")
