@@ -57,18 +57,18 @@ int main(int argc, char** argv) {
     solve->add_option("scene", so.scene, "built-in name or file")->required();
     solve->add_option("--solver", solver, "hr | full-matrix");
     solve->add_option("--oracle", oracle, "refinement oracle (hr): bfa, ff, uniform");
-    solve->add_option("--eps", eps, "oracle threshold (oracle.eps)");
-    solve->add_option("--min-area", minArea, "minimum element area (hr.min_area)");
+    auto* epsOpt = solve->add_option("--eps", eps, "oracle threshold (oracle.eps)");
+    auto* minAreaOpt = solve->add_option("--min-area", minArea, "minimum element area (hr.min_area)");
     std::string clusterModel, clusterBuilder;
     solve->add_option("--cluster", clusterModel,
                       "volume clustering (cluster.model): none, isotropic, oriented");
     solve->add_option("--cluster-builder", clusterBuilder,
                       "cluster tree builder (cluster.builder): bvh, octree");
     solve->add_option("-o,--output", so.outDir, "output folder")->capture_default_str();
-    solve->add_option("--reference-level", refLevel,
+    auto* refLevelOpt = solve->add_option("--reference-level", refLevel,
                       "also solve a full-matrix reference at this uniform level and report the error");
-    solve->add_option("--width", width, "image width");
-    solve->add_option("--height", height, "image height");
+    auto* widthOpt = solve->add_option("--width", width, "image width");
+    auto* heightOpt = solve->add_option("--height", height, "image height");
     solve->add_flag("--interpolate", interpolate, "vertex-interpolated reconstruction in the image");
     solve->add_flag("--no-images", noImages, "do not render image.exr / image.png");
     solve->add_flag("--no-ply", noPly, "do not write solution.ply");
@@ -133,14 +133,14 @@ int main(int argc, char** argv) {
             auto flag = [&](const char* name) { return SourceLocation{std::string("command line (") + name + ")", 0, 0}; };
             if (!solver.empty()) params.set("solver", solver, flag("--solver"));
             if (!oracle.empty()) params.set("hr.oracle", oracle, flag("--oracle"));
-            if (eps >= 0) params.set("oracle.eps", eps, flag("--eps"));
-            if (minArea >= 0) params.set("hr.min_area", minArea, flag("--min-area"));
+            if (*epsOpt) params.set("oracle.eps", eps, flag("--eps"));
+            if (*minAreaOpt) params.set("hr.min_area", minArea, flag("--min-area"));
             if (!clusterModel.empty()) params.set("cluster.model", clusterModel, flag("--cluster"));
             if (!clusterBuilder.empty())
                 params.set("cluster.builder", clusterBuilder, flag("--cluster-builder"));
-            if (refLevel >= 0) params.set("metrics.reference_level", int64_t(refLevel), flag("--reference-level"));
-            if (width > 0) params.set("render.width", int64_t(width), flag("--width"));
-            if (height > 0) params.set("render.height", int64_t(height), flag("--height"));
+            if (*refLevelOpt) params.set("metrics.reference_level", int64_t(refLevel), flag("--reference-level"));
+            if (*widthOpt) params.set("render.width", int64_t(width), flag("--width"));
+            if (*heightOpt) params.set("render.height", int64_t(height), flag("--height"));
             if (interpolate) params.set("render.interpolate", true, flag("--interpolate"));
             so.threads = threads;
             so.writeImages = !noImages;

@@ -27,10 +27,11 @@ from hr_bench import machine  # noqa: E402
 
 
 def solve(hrad, scene, sets, outdir, timeout):
-    cmd = [hrad, "--log", "quiet", "solve", scene, "-o", outdir, "--no-images", "--no-ply",
-           "--no-progress"]
+    # --set is a global option: it goes before the subcommand.
+    cmd = [hrad, "--log", "quiet"]
     for s in sets:
         cmd += ["--set", s]
+    cmd += ["solve", scene, "-o", outdir, "--no-images", "--no-ply", "--no-progress"]
     try:
         p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
