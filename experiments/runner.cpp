@@ -392,7 +392,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         }
         if (p.outputs.exr) {
             Timer tr;
-            scene::Camera cam = render::cameraFor(sc);
+            scene::Camera cam = render::cameraFor(sc, vis);
             render::Image img = render::renderField(sc, vis, *field, cam, r.render);
             fs::path exr = ctx.artefactDir / "image.exr", png = ctx.artefactDir / "image.png";
             render::writeExr(img, exr.string());

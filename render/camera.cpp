@@ -61,6 +61,96 @@ scene::Camera cameraFor(const scene::Scene& scene) {
     return scene.camera ? *scene.camera : autoCamera(scene);
 }
 
+namespace {
+bool isOpen(const scene::Scene& scene) {
+    Vec3 S(0.0);
+    double area = 0.0;
+    for (const auto& p : scene.patches) {
+        S += p.area * p.normal;
+        area += p.area;
+    }
+    return glm::length(S) > 1e-3 * area;
+}
+}  // namespace
+
+scene::Camera interiorCamera(const scene::Scene& scene, const transport::Visibility& vis) {
+    scene::Camera best = autoCamera(scene);
+    scene::Bounds3 b = scene.bounds();
+    if (!b.valid()) return best;
+    Vec3 e = b.extent();
+    int upAxis = e.x <= e.y && e.x <= e.z ? 0 : (e.y <= e.z ? 1 : 2);
+    int a1 = (upAxis + 1) % 3, a2 = (upAxis + 2) % 3;
+    double diag = b.diagonal(), minDist = 0.03 * diag;
+    double fovY = 60.0, tanY = std::tan(0.5 * fovY * kPi / 180.0), tanX = tanY * 1.0;
+    double bestScore = -1.0;
+    for (double hf : {0.35, 0.55})
+        for (int i = 0; i < 5; ++i)
+            for (int j = 0; j < 5; ++j) {
+                Vec3 eye;
+                eye[upAxis] = b.lo[upAxis] + hf * e[upAxis];
+                eye[a1] = b.lo[a1] + (i + 0.5) / 5.0 * e[a1];
+                eye[a2] = b.lo[a2] + (j + 0.5) / 5.0 * e[a2];
+                for (int k = 0; k < 8; ++k) {
+                    double ang = k * kPi / 4.0;
+                    Vec3 fwd(0.0), up(0.0);
+                    fwd[a1] = std::cos(ang);
+                    fwd[a2] = std::sin(ang);
+                    up[upAxis] = 1.0;
+                    Vec3 right = glm::normalize(glm::cross(fwd, up));
+                    int hits = 0;
+                    double dist = 0.0;
+                    for (int py = 0; py < 5; ++py)
+                        for (int px = 0; px < 7; ++px) {
+                            double sx = ((px + 0.5) / 7.0 * 2 - 1) * tanX;
+                            double sy = ((py + 0.5) / 5.0 * 2 - 1) * tanY;
+                            Vec3 d = glm::normalize(fwd + sx * right + sy * up);
+                            transport::RayHit h = vis.intersect(eye, d, 0.0, 4.0 * diag);
+                            if (!h.hit || h.t < minDist) continue;
+                            if (glm::dot(scene.patches[h.patch].normal, d) >= 0) continue;
+                            ++hits;
+                            dist += h.t;
+                        }
+                    double score = hits / 35.0 + (hits ? dist / hits / diag : 0.0);
+                    // A view that sees any back face from inside is outside
+                    // some closed part: require most rays on front faces.
+                    if (hits >= 25 && score > bestScore) {
+                        bestScore = score;
+                        best.eye = eye;
+                        best.target = eye + fwd;
+                        best.up = up;
+                        best.fovYDegrees = fovY;
+                    }
+                }
+            }
+    return best;
+}
+
+double frontFaceFraction(const scene::Scene& scene, const transport::Visibility& vis,
+                         const scene::Camera& cam) {
+    CameraFrame f(cam, 16, 16);
+    int front = 0;
+    for (int y = 0; y < 16; ++y)
+        for (int x = 0; x < 16; ++x) {
+            Vec3 d = f.direction(x + 0.5, y + 0.5);
+            transport::RayHit h = vis.intersect(cam.eye, d);
+            if (h.hit && glm::dot(scene.patches[h.patch].normal, d) < 0) ++front;
+        }
+    return front / 256.0;
+}
+
+scene::Camera cameraFor(const scene::Scene& scene, const transport::Visibility& visibility) {
+    if (scene.camera) return *scene.camera;
+    scene::Camera outside = autoCamera(scene);
+    // From outside, a closed scene (or a building open only at a few doors)
+    // shows back faces: then look from inside instead.
+    if (isOpen(scene) && frontFaceFraction(scene, visibility, outside) >= 0.5) return outside;
+    scene::Camera inside = interiorCamera(scene, visibility);
+    return frontFaceFraction(scene, visibility, inside) >=
+                   frontFaceFraction(scene, visibility, outside)
+               ? inside
+               : outside;
+}
+
 CameraFrame::CameraFrame(const scene::Camera& camera, int w, int h) : width(w), height(h) {
     HRAD_CHECK(w > 0 && h > 0);
     eye = camera.eye;

@@ -3,6 +3,7 @@
 
 #include "core/types.h"
 #include "scene/scene.h"
+#include "transport/visibility.h"
 
 namespace hrad::render {
 
@@ -26,6 +27,23 @@ scene::Camera autoCamera(const scene::Scene& scene);
 
 /// scene.camera when present, else autoCamera(scene).
 scene::Camera cameraFor(const scene::Scene& scene);
+
+/// A view from inside a closed scene (buildings, rooms): candidate eyes on a
+/// 5 x 5 x 2 grid inside the bounding box (up = the axis of smallest extent,
+/// eyes at 35 % and 55 % of the height), 8 horizontal view directions each;
+/// a fan of 7 x 5 rays scores a view by the fraction of rays that hit a front
+/// face farther than 3 % of the box diagonal, plus their mean free distance.
+/// The best view wins (ties: first candidate). Deterministic.
+scene::Camera interiorCamera(const scene::Scene& scene, const transport::Visibility& visibility);
+
+/// scene.camera when present; else autoCamera for an open scene (non-zero
+/// vector area, e.g. the Cornell box seen through its open side) whose view
+/// sees front faces on at least half of a 16 x 16 probe; else the one of
+/// interiorCamera and autoCamera that sees more front faces.
+scene::Camera cameraFor(const scene::Scene& scene, const transport::Visibility& visibility);
+/// Fraction of a 16 x 16 grid of primary rays that hit a front face.
+double frontFaceFraction(const scene::Scene& scene, const transport::Visibility& visibility,
+                         const scene::Camera& camera);
 
 /// A primary ray through the image: pixel coordinates (x right, y down,
 /// continuous, [0,width] x [0,height]) to a unit direction from camera.eye.

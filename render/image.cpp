@@ -85,7 +85,11 @@ Image readExr(const std::string& path) {
 void writePng(const Image& image, const std::string& path, double exposure) {
     HRAD_CHECK(image.width > 0 && image.height > 0 &&
                image.pixels.size() == size_t(image.width) * size_t(image.height));
-    if (!(exposure > 0)) exposure = autoExposure(image.pixels);
+    // Automatic exposure: the 99th percentile maps to 1, unless that leaves
+    // the median darker than 0.35 (scenes whose lamps fill more than 1 % of
+    // the frame): then the median maps to 0.35 and the lamps clip.
+    if (!(exposure > 0))
+        exposure = std::max(autoExposure(image.pixels), 0.35 * autoExposure(image.pixels, {}, 0.5));
     std::vector<uint8_t> buf(image.pixels.size() * 3);
     for (size_t i = 0; i < image.pixels.size(); ++i) {
         auto c = toneMap(image.pixels[i], exposure);
