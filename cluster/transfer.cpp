@@ -4,13 +4,14 @@
 
 namespace hrad::cluster {
 
-std::vector<std::string> clusterModelNames() { return {"none", "isotropic", "oriented"}; }
+std::vector<std::string> clusterModelNames() { return {"auto", "none", "isotropic", "oriented"}; }
 
 ClusterModel parseClusterModel(const std::string& name) {
     if (name == "none") return ClusterModel::None;
     if (name == "isotropic") return ClusterModel::Isotropic;
     if (name == "oriented") return ClusterModel::Oriented;
-    throw InputError({}, "unknown cluster model '" + name + "'; valid: none, isotropic, oriented");
+    if (name == "auto") return ClusterModel::Auto;
+    throw InputError({}, "unknown cluster model '" + name + "'; valid: auto, none, isotropic, oriented");
 }
 
 const char* clusterModelName(ClusterModel m) {
@@ -18,6 +19,7 @@ const char* clusterModelName(ClusterModel m) {
         case ClusterModel::None: return "none";
         case ClusterModel::Isotropic: return "isotropic";
         case ClusterModel::Oriented: return "oriented";
+        case ClusterModel::Auto: return "auto";
     }
     return "?";
 }

@@ -22,12 +22,16 @@
 // the link stores K without it.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
 namespace hrad::cluster {
 
-enum class ClusterModel { None, Isotropic, Oriented };
+/// Auto resolves per scene: None up to kAutoClusterPatches root patches,
+/// Oriented above (O(k^2) initial linking is unaffordable there).
+enum class ClusterModel { None, Isotropic, Oriented, Auto };
+inline constexpr size_t kAutoClusterPatches = 2000;
 
 ClusterModel parseClusterModel(const std::string& name);
 const char* clusterModelName(ClusterModel m);

@@ -280,6 +280,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         field = hrRes.field.get();
         const hr::Hierarchy& h = *hrRes.hierarchy;
         summary["oracle"] = hrRes.oracleDescription;
+        summary["cluster_model"] = hrRes.clusterModel;
         summary["converged"] = hrRes.converged;
         summary["link_cap_hit"] = hrRes.linkCapHit;
         summary["min_area"] = hrRes.minArea;

@@ -59,7 +59,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.maxLinks = uint64_t(p.getInt("hr.max_links", int64_t(s.maxLinks), 1, int64_t(1) << 40));
     s.ff = transport::FormFactorSettings::fromParams(p, "ff");
     s.clusterModel = cluster::parseClusterModel(
-        p.getEnum("cluster.model", "none", cluster::clusterModelNames()));
+        p.getEnum("cluster.model", "auto", cluster::clusterModelNames()));
     s.cluster = cluster::ClusterSettings::fromParams(p);
     s.clusterVisRays = int(p.getInt("cluster.vis_rays", s.clusterVisRays, 0, 1024));
     // Validate the oracle settings now (unknown keys included), so a bad
@@ -419,6 +419,14 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
 HrResult HrSolver::solve(bool progress) {
     HrResult res;
     res.minArea = minArea_;
+    if (s_.clusterModel == cluster::ClusterModel::Auto) {
+        s_.clusterModel = scene_->patches.size() > cluster::kAutoClusterPatches
+                              ? cluster::ClusterModel::Oriented
+                              : cluster::ClusterModel::None;
+        spdlog::info("cluster.model = auto: {} for {} patches", cluster::clusterModelName(s_.clusterModel),
+                     scene_->patches.size());
+    }
+    res.clusterModel = cluster::clusterModelName(s_.clusterModel);
     if (s_.clusterModel != cluster::ClusterModel::None) {
         res.clusterTree = std::make_unique<cluster::ClusterTree>(*scene_, s_.cluster);
         res.clusterBuildSeconds = res.clusterTree->buildSeconds();

@@ -29,7 +29,9 @@
 //   hr.tolerance       double  1e-4    relative change of reflected power to stop
 //   hr.max_links       int     2e8     refinement stops (with a warning) past this many links
 //   ff.*                               form-factor settings (transport/formfactor.h)
-//   cluster.model      string  "none"  none | isotropic | oriented (cluster/transfer.h); with
+//   cluster.model      string  "auto"  none | isotropic | oriented (cluster/transfer.h), or
+//                                       auto: none up to 2,000 patches, oriented above (the
+//                                       choice is logged and recorded in the result); with
 //                                       clustering the solve starts from the root cluster's
 //                                       self-link instead of linking all pairs of patches
 //   cluster.builder, cluster.leaf_size, cluster.max_depth   (cluster/tree.h)
@@ -64,7 +66,7 @@ struct HrSettings {
     double tolerance = 1e-4;
     uint64_t maxLinks = 200'000'000;
     transport::FormFactorSettings ff;
-    cluster::ClusterModel clusterModel = cluster::ClusterModel::None;
+    cluster::ClusterModel clusterModel = cluster::ClusterModel::Auto;
     cluster::ClusterSettings cluster;
     int clusterVisRays = 8;
 
@@ -100,6 +102,7 @@ struct HrResult {
     uint64_t initialLinks = 0;
     uint64_t initialPairs = 0;  ///< node pairs evaluated by initial linking (k(k-1) without clusters)
     std::unique_ptr<cluster::ClusterTree> clusterTree;
+    std::string clusterModel;  ///< the model used (auto resolved)
     double clusterBuildSeconds = 0.0;
     /// Links by kind after the solve: surface-surface, surface receiving from a
     /// cluster, cluster receiving from a surface, cluster-cluster.
