@@ -23,7 +23,7 @@ import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "bench"))
-from hr_bench import machine  # noqa: E402
+from hr_bench import machine, write_report  # noqa: E402
 
 
 def solve(hrad, scene, sets, outdir, timeout):
@@ -143,11 +143,7 @@ def main():
                     lines.append(row(f"{label} eps={eps}", s, err))
         else:
             lines.append("\n(../shared/scenes absent: large scenes skipped)")
-    text = "\n".join(lines) + "\n"
-    os.makedirs(os.path.dirname(args.out), exist_ok=True)
-    with open(args.out, "w") as f:
-        f.write(text)
-    print(text)
+    write_report(lines, args.out)
 
 
 if __name__ == "__main__":

@@ -57,6 +57,15 @@ def run(hrad, scene, extra, outdir):
     return s, " ".join(cmd), None
 
 
+def write_report(lines, out):
+    """Writes the Markdown lines to `out` (creating its folder) and prints them."""
+    text = "\n".join(lines) + "\n"
+    os.makedirs(os.path.dirname(out), exist_ok=True)
+    with open(out, "w") as f:
+        f.write(text)
+    print(text)
+
+
 def fmt_bytes(b):
     return f"{b / 1048576:.1f}"
 
@@ -130,11 +139,7 @@ def main():
                  " (Cornell only). `solve s`: linking + refinement + gather + push-pull, without"
                  " loading, the Embree build and the reference solve. Peak RSS is the process's,"
                  " so for Cornell it includes the full-matrix reference.")
-    text = "\n".join(lines) + "\n"
-    os.makedirs(os.path.dirname(args.out), exist_ok=True)
-    with open(args.out, "w") as f:
-        f.write(text)
-    print(text)
+    write_report(lines, args.out)
 
 
 if __name__ == "__main__":

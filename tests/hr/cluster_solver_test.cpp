@@ -6,6 +6,7 @@
 #include "core/rng.h"
 #include "hr/solver.h"
 #include "scene/loader.h"
+#include "tests/hr/settings.h"
 #include "tests/scenes.h"
 
 using namespace hrad;
@@ -13,17 +14,7 @@ using namespace hrad::hr;
 
 namespace {
 HrSettings clustered(const std::string& model, const std::string& oracle, double eps) {
-    Params p;
-    p.set("cluster.model", model);
-    p.set("hr.oracle", oracle);
-    if (oracle == "uniform")
-        p.set("oracle.level", int64_t(2));
-    else
-        p.set("oracle.eps", eps);
-    p.set("hr.tolerance", 1e-7);
-    HrSettings s = HrSettings::fromParams(p);
-    p.reportUnused();
-    return s;
+    return test::hrSettings(oracle, eps, model);
 }
 }  // namespace
 

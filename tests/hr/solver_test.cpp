@@ -6,6 +6,7 @@
 #include <tbb/global_control.h>
 
 #include "hr/solver.h"
+#include "tests/hr/settings.h"
 #include "tests/scenes.h"
 
 using namespace hrad;
@@ -13,17 +14,7 @@ using namespace hrad::hr;
 
 namespace {
 HrSettings settingsFor(const std::string& oracle, double eps) {
-    Params p;
-    p.set("hr.oracle", oracle);
-    if (oracle == "uniform")
-        p.set("oracle.level", int64_t(2));
-    else
-        p.set("oracle.eps", eps);
-    p.set("hr.tolerance", 1e-7);
-    p.set("hr.min_area_rel", 1e-4);
-    HrSettings s = HrSettings::fromParams(p);
-    p.reportUnused();
-    return s;
+    return test::hrSettings(oracle, eps, "none", 1e-4);
 }
 }  // namespace
 
