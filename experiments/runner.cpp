@@ -269,6 +269,8 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     memory.set("visibility", vis.memoryBytes());
 
     const scene::RadiosityField* field = nullptr;
+    std::optional<Reference> earlyRef;
+    double earlyRefSeconds = 0.0;
     hr::HrResult hrRes;
     reference::FullMatrixResult fmRes;
     Timer tSolve;
@@ -276,6 +278,17 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         summary["solver"] = "hr";
         summary["solver_settings"] = r.hr->describe();
         hr::HrSolver s(sc, vis, *r.hr);
+        if (p.outputs.historyError && r.refKind != "none") {
+            // The reference is needed during the solve: compute (or load) it
+            // first; the error block below reuses it.
+            Timer tRef;
+            earlyRef = computeReference(sc, vis, r, ctx);
+            earlyRefSeconds = tRef.seconds();
+            s.setIterationHook([&](const hr::Hierarchy& hh, hr::IterationRecord& rec) {
+                hr::HierarchyField f(hh);
+                rec.l2Lum = reference::computeError(f, *earlyRef->field).l2Lum;
+            });
+        }
         hrRes = s.solve(ctx.progress);
         field = hrRes.field.get();
         const hr::Hierarchy& h = *hrRes.hierarchy;
@@ -319,7 +332,8 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                                 {"gather_s", it.gatherSeconds},
                                 {"push_pull_s", it.pushPullSeconds},
                                 {"element_bytes", it.elementBytes},
-                                {"link_bytes", it.linkBytes}});
+                                {"link_bytes", it.linkBytes},
+                                {"l2_lum", std::isnan(it.l2Lum) ? json(nullptr) : json(it.l2Lum)}});
         summary["history"] = hist;
         if (h.numLinks())
             summary["bytes_per_link"] = json{
@@ -357,8 +371,8 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     // ---- error against the reference --------------------------------------------
     if (r.refKind != "none") {
         Timer tRef;
-        Reference ref = computeReference(sc, vis, r, ctx);
-        timings["reference"] = tRef.seconds();
+        Reference ref = earlyRef ? std::move(*earlyRef) : computeReference(sc, vis, r, ctx);
+        timings["reference"] = earlyRef ? earlyRefSeconds : tRef.seconds();
         Timer tErr;
         reference::ErrorMetrics err = reference::computeError(*field, *ref.field);
         json e = metricsJson(err);
@@ -378,7 +392,9 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     }
     if (p.outputs.historyError)
         summary["history_error"] =
-            "not computed: HrSolver has no per-iteration hook; only the final error is reported";
+            r.solver != "hr"        ? "not computed: only the hierarchical solver iterates"
+            : r.refKind == "none"   ? "not computed: the study has no reference"
+                                    : "history[].l2_lum: L2 (luminance) after every iteration";
     summary["timings"] = timings;
     if (ctx.checkpoint) ctx.checkpoint(summary);
 

@@ -32,9 +32,10 @@
 //         reference, reference_seconds, reference_cached,
 //         [mc_stderr_l2_lum, mc_stderr_l2_rgb]}, artefacts{...}, wall_seconds
 //
-// Error per iteration (outputs.history_error): HrSolver has no per-iteration
-// hook, so only the final error is computed; the summary then says so in
-// "history_error" and the iterations table leaves its error column NULL.
+// Error per iteration (outputs.history_error): the reference is computed
+// before the solve and an HrSolver iteration hook records the L2 luminance
+// error after every iteration (history[].l2_lum, the iterations table's
+// l2_lum column); the hook's time is in no phase's timing.
 //
 // The Monte Carlo reference's own uncertainty is reported as the relative L2
 // norm of its standard errors, the same weighting as the L2 error:

@@ -44,7 +44,7 @@ namespace hrad::experiments {
 struct OutputOptions {
     bool exr = false;           ///< image.exr + image.png of the solution
     bool ply = false;           ///< solution.ply
-    bool historyError = false;  ///< error after every iteration (needs a solver hook: see runner.h)
+    bool historyError = false;  ///< L2 error after every iteration (hr solver with a reference)
     std::string dir = "runs";   ///< artefact folder, relative to the results store
 };
 

@@ -495,6 +495,7 @@ HrResult HrSolver::solve(bool progress) {
                     "({:.2f} s)",
                     rec.iteration, rec.links, rec.elements, rec.refinedLinks, rec.residual,
                     rec.refineSeconds + rec.gatherSeconds + rec.pushPullSeconds);
+            if (hook_) hook_(h, rec);
             res.history.push_back(rec);
             if (rec.refinedLinks == 0 && it + 1 >= s_.minIterations && rec.residual < s_.tolerance) {
                 stageConverged = true;

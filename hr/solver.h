@@ -38,6 +38,8 @@
 //   cluster.vis_rays   int     8       visibility rays for links that touch a cluster
 #pragma once
 
+#include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -90,6 +92,8 @@ struct IterationRecord {
     RGB reflectedPower{0.0};
     double refineSeconds = 0.0, gatherSeconds = 0.0, pushPullSeconds = 0.0;
     uint64_t elementBytes = 0, linkBytes = 0;
+    /// Error after this iteration when an iteration hook computes it (NaN otherwise).
+    double l2Lum = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct HrResult {
@@ -121,6 +125,12 @@ class HrSolver {
     /// Runs the whole solve. `progress` enables progress lines on stderr.
     HrResult solve(bool progress = false);
 
+    /// Called after every iteration's push-pull with the hierarchy and that
+    /// iteration's record (e.g. to compute the error against a reference and
+    /// store it in rec.l2Lum). Its time is not counted in any phase.
+    using IterationHook = std::function<void(const Hierarchy&, IterationRecord&)>;
+    void setIterationHook(IterationHook hook) { hook_ = std::move(hook); }
+
   private:
     struct Pending;
     void initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vector<Link>& links,
@@ -142,6 +152,7 @@ class HrSolver {
     transport::FormFactorEngine engine_;
     double minArea_ = 0.0;
     double emittedPower_ = 1.0;
+    IterationHook hook_;
 };
 
 }  // namespace hrad::hr

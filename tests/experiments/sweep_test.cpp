@@ -83,6 +83,42 @@ TEST(Sweep, RunsEveryPointWithMetricsAndHistory) {
     sqlite3_finalize(st);
 }
 
+// outputs.history_error: the L2 error after every iteration is stored, and
+// the last iteration's error is the run's final error.
+TEST(Sweep, HistoryErrorIsRecordedPerIteration) {
+    auto dir = test::tempDir("sweep_history");
+    Study study = parseStudy(R"(
+scenes = ["plates:perpendicular:1:1:1"]
+[solver]
+"hr.max_iterations" = 6
+"oracle.eps" = 0.01
+[reference]
+kind = "full-matrix"
+"fm.level" = 2
+[outputs]
+history_error = true
+)",
+                             "hist.toml", dir);
+    SweepReport r = runSweep(study, options(dir, "hist.sqlite"));
+    ASSERT_EQ(r.finished, 1u);
+    ResultStore s(dir / "hist.sqlite", true);
+    sqlite3_stmt* st = nullptr;
+    sqlite3_prepare_v2(s.handle(),
+                       "SELECT COUNT(*), SUM(i.l2_lum IS NULL) FROM iterations i", -1, &st,
+                       nullptr);
+    ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
+    EXPECT_GT(sqlite3_column_int(st, 0), 1);
+    EXPECT_EQ(sqlite3_column_int(st, 1), 0) << "every iteration has an error";
+    sqlite3_finalize(st);
+    sqlite3_prepare_v2(s.handle(),
+                       "SELECT r.l2_lum, i.l2_lum FROM runs r JOIN iterations i ON i.run_key = "
+                       "r.key ORDER BY i.iteration DESC LIMIT 1",
+                       -1, &st, nullptr);
+    ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
+    EXPECT_DOUBLE_EQ(sqlite3_column_double(st, 0), sqlite3_column_double(st, 1));
+    sqlite3_finalize(st);
+}
+
 TEST(Sweep, ResumeAfterKillLosesAndDuplicatesNothing) {
     auto dir = test::tempDir("sweep_resume");
     Study study = parseStudy(kStudy, "tiny.toml", dir);

@@ -1,0 +1,311 @@
+"""The figures. Each takes a Store and an output stem (no extension), writes
+stem.pdf + stem.png and a stem.json sidecar with the plotted numbers (for
+tests and for quoting numbers in text), and returns the sidecar dict."""
+import json
+import math
+import os
+
+import numpy as np
+
+from . import style
+from .store import StoreError
+
+LABELS = {
+    "l2_lum": "relative $L_2$ error (luminance)",
+    "l1_lum": "relative $L_1$ error (luminance)",
+    "linf_lum": r"relative $L_\infty$ error (luminance)",
+    "l2_rgb": "relative $L_2$ error (RGB)",
+    "wall_s": "wall time per point (s)",
+    "compute_s": "solve time (s)",
+    "linking_s": "initial linking time (s)",
+    "refine_s": "refinement time (s)",
+    "peak_rss": "peak RSS (bytes)",
+    "peak_rss_mib": "peak RSS (MiB)",
+    "links": "links",
+    "elements": "elements",
+    "leaves": "leaf elements",
+    "patches": "input patches",
+    "residual": "residual (rel. unshot power)",
+    "iteration": "iteration",
+}
+
+# Derived column -> the store columns it is computed from (store._derive).
+SOURCES = {
+    "compute_s": ["wall_s"],
+    "peak_rss_mib": ["peak_rss"],
+    "method": ["solver", "oracle", "settings"],
+    "cluster_model": ["settings"],
+    "fm_level": ["settings"],
+    "oracle_level": ["settings"],
+    "patches": ["summary"],
+}
+
+
+def raw_columns(cols):
+    out = []
+    for c in cols:
+        for r in SOURCES.get(c, [c]):
+            if r not in out:
+                out.append(r)
+    return out
+
+
+def _require_runs(store, cols, what):
+    store.require("runs", raw_columns(cols), what)
+    for c in cols:  # derived columns exist once their sources do
+        if c not in store.runs.columns:
+            raise StoreError(f"{store.path}: table 'runs' lacks column {c} needed for {what}")
+
+
+def _rows(store, cols, what, groups=()):
+    _require_runs(store, list(cols) + list(groups), what)
+    df = store.runs.copy()
+    num = list(cols)
+    for c in num:
+        df[c] = df[c].astype(float)
+    df = df.dropna(subset=num)
+    for c in num:
+        df = df[df[c] > 0] if c != "iteration" else df
+    if df.empty:
+        raise StoreError(f"{store.path}: no runs with positive values of {', '.join(num)} "
+                         f"for {what}")
+    return df
+
+
+def _logscale(ax, values, axis):
+    v = np.asarray([x for x in values if x > 0], dtype=float)
+    if len(v) and v.max() / v.min() >= 10:
+        (ax.set_xscale if axis == "x" else ax.set_yscale)("log")
+
+
+def pareto_front(x, y):
+    """Indices of the points not dominated (smaller x and smaller y better),
+    ordered by x."""
+    order = sorted(range(len(x)), key=lambda i: (x[i], y[i]))
+    front, best = [], math.inf
+    for i in order:
+        if y[i] < best:
+            front.append(i)
+            best = y[i]
+    return front
+
+
+def _groups(df, group):
+    keys = group if isinstance(group, list) else [group]
+    for k in keys:
+        if k not in df.columns:
+            raise StoreError(f"group column '{k}' not in runs")
+    for name, g in df.groupby(keys if len(keys) > 1 else keys[0], sort=True, dropna=False):
+        label = " / ".join(str(n) for n in (name if isinstance(name, tuple) else (name,)))
+        yield label, g
+
+
+def _sidecar(stem, data):
+    with open(stem + ".json", "w") as f:
+        json.dump(data, f, indent=1, sort_keys=True, default=float)
+    return data
+
+
+def error_vs(store, stem, x="compute_s", y="l2_lum", group="method"):
+    """Error vs cost, one curve per method, Pareto front over all points."""
+    gcols = group if isinstance(group, list) else [group]
+    df = _rows(store, [x, y], f"error vs {x}", gcols)
+    fig, ax = style.figure()
+    side = {"x": x, "y": y, "curves": {}, "pareto": []}
+    for i, (label, g) in enumerate(_groups(df, group)):
+        g = g.sort_values(x)
+        ax.plot(g[x], g[y], label=label, **style.style_for(i))
+        side["curves"][label] = {"x": g[x].tolist(), "y": g[y].tolist()}
+    xs, ys = df[x].tolist(), df[y].tolist()
+    front = pareto_front(xs, ys)
+    fx, fy = [xs[i] for i in front], [ys[i] for i in front]
+    ax.step(fx, fy, where="post", color="0.3", lw=0.8, ls="--", zorder=1)
+    ax.plot(fx, fy, ls="none", marker="o", ms=8, mfc="none", mec="0.3", mew=0.8,
+            label="Pareto front", zorder=1)
+    side["pareto"] = [{"x": a, "y": b} for a, b in zip(fx, fy)]
+    _logscale(ax, xs, "x")
+    _logscale(ax, ys, "y")
+    ax.set_xlabel(LABELS.get(x, x))
+    ax.set_ylabel(LABELS.get(y, y))
+    ax.legend(loc="best")
+    style.save(fig, stem)
+    return _sidecar(stem, side)
+
+
+def loglog_slope(x, y):
+    """Least-squares slope of log10 y on log10 x."""
+    lx, ly = np.log10(np.asarray(x, float)), np.log10(np.asarray(y, float))
+    return float(np.polyfit(lx, ly, 1)[0])
+
+
+def scaling(store, stem, x="patches", ys=("links", "compute_s"), group="method"):
+    """ys vs input size on log-log axes, one panel per y, fitted slopes in
+    the legends."""
+    ys = list(ys)
+    gcols = group if isinstance(group, list) else [group]
+    df = _rows(store, [x] + ys, f"scaling vs {x}", gcols)
+    fig, axes = style.figure(height=2.0 * len(ys), nrows=len(ys), sharex=True)
+    axes = np.atleast_1d(axes)
+    side = {"x": x, "panels": {}}
+    for ax, y in zip(axes, ys):
+        side["panels"][y] = {}
+        for i, (label, g) in enumerate(_groups(df, group)):
+            g = g.groupby(x, as_index=False)[y].mean().sort_values(x)
+            entry = {"x": g[x].tolist(), "y": g[y].tolist(), "slope": None}
+            lab = label
+            if g[x].nunique() >= 2:
+                entry["slope"] = loglog_slope(g[x], g[y])
+                lab = f"{label} (slope {entry['slope']:.2f})"
+                fx = np.array([g[x].min(), g[x].max()], float)
+                c = np.polyfit(np.log10(g[x]), np.log10(g[y]), 1)
+                ax.plot(fx, 10 ** np.polyval(c, np.log10(fx)), color=style.style_for(i)["color"],
+                        lw=0.6, ls=":")
+            entry["label"] = lab
+            ax.plot(g[x], g[y], label=lab, **style.style_for(i))
+            side["panels"][y][label] = entry
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_ylabel(LABELS.get(y, y))
+        ax.legend(loc="upper left")
+    axes[-1].set_xlabel(LABELS.get(x, x))
+    style.save(fig, stem)
+    return _sidecar(stem, side)
+
+
+def _run_label(r):
+    parts = [str(r.get("method", r.get("solver", "")))]
+    if isinstance(r.get("eps"), (int, float)) and not math.isnan(r["eps"]):
+        parts.append(f"eps={r['eps']:g}")
+    for k, name in (("oracle_level", "level"), ("fm_level", "fm.level")):
+        v = r.get(k)
+        if isinstance(v, (int, float)) and not math.isnan(v):
+            parts.append(f"{name}={int(v)}")
+    if "scene" in r and isinstance(r["scene"], str):
+        parts.insert(0, r["scene"])
+    return " ".join(parts)
+
+
+def convergence(store, stem, max_runs=8, where=None):
+    """Per-iteration links and residual, one line per run."""
+    it = store.require("iterations", ["run_key", "iteration", "links", "residual"],
+                       "the convergence plot")
+    _require_runs(store, ["key", "method"], "the convergence plot")
+    runs = store.runs
+    if where is not None:
+        runs = runs.query(where)
+    runs = runs[runs["key"].isin(set(it["run_key"]))]
+    if runs.empty:
+        raise StoreError(f"{store.path}: no runs with iterations rows for the convergence plot")
+    if len(runs) > max_runs:  # evenly spread over the store's order
+        idx = np.linspace(0, len(runs) - 1, max_runs).round().astype(int)
+        runs = runs.iloc[sorted(set(idx))]
+    fig, (a1, a2) = style.figure(height=3.6, nrows=2, sharex=True)
+    side = {"runs": {}}
+    for i, (_, r) in enumerate(runs.iterrows()):
+        g = it[it["run_key"] == r["key"]].sort_values("iteration")
+        lab = _run_label(r)
+        st = style.style_for(i)
+        a1.plot(g["iteration"], g["links"], label=lab, ms=2.5, **st)
+        a2.plot(g["iteration"], g["residual"], ms=2.5, **st)
+        side["runs"][r["key"]] = {"label": lab, "iteration": g["iteration"].tolist(),
+                                  "links": g["links"].tolist(), "residual": g["residual"].tolist()}
+    _logscale(a1, it["links"].dropna(), "y")
+    a2.set_yscale("log")
+    a1.set_ylabel(LABELS["links"])
+    a2.set_ylabel(LABELS["residual"])
+    a2.set_xlabel(LABELS["iteration"])
+    a1.legend(loc="best", fontsize=5.5)
+    style.save(fig, stem)
+    return _sidecar(stem, side)
+
+
+def run_images(store):
+    """(row, png path) for every run with an image.png under
+    <store dir>/runs/<study name>/<key>/."""
+    _require_runs(store, ["key", "study"], "the image grid")
+    out = []
+    for _, r in store.runs.iterrows():
+        p = os.path.join(store.dir, "runs", store.study_name(r["study"]), r["key"], "image.png")
+        if os.path.exists(p):
+            out.append((r, p))
+    return out
+
+
+def image_grid(store, stem, cols=3, max_images=9, where=None):
+    """Renders (the PNGs hrad writes next to image.exr) in a grid, each
+    captioned with method, parameter and error."""
+    import matplotlib.image as mpimg
+    ims = run_images(store)
+    if where is not None:
+        keep = set(store.runs.query(where)["key"])
+        ims = [(r, p) for r, p in ims if r["key"] in keep]
+    if not ims:
+        raise StoreError(f"{store.path}: no run images found under "
+                         f"{os.path.join(store.dir, 'runs')} (study needs [outputs] exr = true)")
+    ims = ims[:max_images]
+    rows = math.ceil(len(ims) / cols)
+    w = style.COLUMN_WIDTH
+    fig, axes = style.figure(width=w, height=w / cols * rows * 1.12, nrows=rows, ncols=cols,
+                             squeeze=False)
+    side = {"images": []}
+    for ax in axes.flat:
+        ax.axis("off")
+    for ax, (r, p) in zip(axes.flat, ims):
+        ax.imshow(mpimg.imread(p))
+        cap = (_run_label(r).replace(str(r.get("scene", "")) + " ", "")
+               .replace(" + clusters", "+cl").replace("eps=", r"$\varepsilon$=")
+               .replace("full matrix", "FM"))
+        if isinstance(r.get("l2_lum"), float) and not math.isnan(r["l2_lum"]):
+            cap += f"\n$L_2$ {r['l2_lum']:.3g}"
+        ax.set_title(cap, fontsize=5, pad=2)
+        side["images"].append({"key": r["key"], "png": os.path.relpath(p, store.dir), "caption": cap})
+    fig.subplots_adjust(wspace=0.04, hspace=0.3)
+    style.save(fig, stem)
+    return _sidecar(stem, side)
+
+
+def _tex_escape(s):
+    rep = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#",
+           "_": r"\_", "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\^{}"}
+    return "".join(rep.get(ch, ch) for ch in str(s))
+
+
+def _fmt(v):
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return "--"
+    if isinstance(v, (int, np.integer)):
+        return f"{v:,}".replace(",", "\\,")
+    if isinstance(v, (float, np.floating)):
+        if float(v).is_integer() and abs(v) < 1e15:
+            return _fmt(int(v))
+        return f"{v:.3g}"
+    return _tex_escape(v)
+
+
+def latex_table(store, path, columns, sort=None, caption=None, label=None, where=None):
+    """A booktabs table of the chosen runs columns."""
+    _require_runs(store, columns, "the LaTeX table")
+    df = store.runs
+    if where is not None:
+        df = df.query(where)
+    if sort:
+        df = df.sort_values(sort)
+    num = [c for c in columns if np.issubdtype(df[c].dtype, np.number)]
+    spec = "".join("r" if c in num else "l" for c in columns)
+    lines = [r"% generated by hradplot from " + os.path.basename(store.path) + "; do not edit",
+             r"\begin{table}", r"\centering"]
+    if caption:
+        lines.append(r"\caption{" + _tex_escape(caption) + "}")
+    if label:
+        lines.append(r"\label{" + label + "}")
+    lines += [r"\begin{tabular}{" + spec + "}", r"\toprule",
+              " & ".join(_tex_escape(LABELS.get(c, c)).replace(r"\$", "$").replace(r"\_", "_")
+                         if c in LABELS else _tex_escape(c) for c in columns) + r" \\",
+              r"\midrule"]
+    for _, r in df.iterrows():
+        lines.append(" & ".join(_fmt(r[c]) for c in columns) + r" \\")
+    lines += [r"\bottomrule", r"\end{tabular}", r"\end{table}", ""]
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    with open(path, "w") as f:
+        f.write("\n".join(lines))
+    return path

@@ -1,0 +1,113 @@
+"""Loading a results store (SQLite or CSV folder) into pandas DataFrames."""
+import json
+import os
+import sqlite3
+
+import numpy as np
+import pandas as pd
+
+
+class StoreError(Exception):
+    """A store that cannot be read or lacks what a figure needs."""
+
+
+class Store:
+    """The tables of one store: runs, iterations, studies (DataFrames)."""
+
+    def __init__(self, path, runs, iterations, studies):
+        self.path = path
+        self.runs = runs
+        self.iterations = iterations
+        self.studies = studies
+        self.dir = path if os.path.isdir(path) else os.path.dirname(os.path.abspath(path))
+
+    def require(self, table, columns, what):
+        """Raise StoreError naming the missing columns and the file."""
+        df = getattr(self, table)
+        missing = [c for c in columns if c not in df.columns]
+        if missing:
+            raise StoreError(
+                f"{self.path}: table '{table}' lacks column(s) {', '.join(missing)} "
+                f"needed for {what}")
+        return df
+
+    def study_name(self, study_hash):
+        if self.studies is not None and "hash" in self.studies.columns:
+            m = self.studies[self.studies["hash"].astype(str) == str(study_hash)]
+            if len(m):
+                return str(m["name"].iloc[0])
+        return str(study_hash)
+
+
+def _read_sqlite(path):
+    try:
+        con = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+    except sqlite3.Error as e:
+        raise StoreError(f"{path}: cannot open SQLite store: {e}") from e
+    try:
+        tables = {r[0] for r in con.execute("select name from sqlite_master where type='table'")}
+        if "runs" not in tables:
+            raise StoreError(f"{path}: not a results store (no table 'runs')")
+        out = {}
+        for t in ("runs", "iterations", "studies"):
+            out[t] = pd.read_sql(f"select * from {t}", con) if t in tables else pd.DataFrame()
+        return out
+    except sqlite3.DatabaseError as e:
+        raise StoreError(f"{path}: cannot read SQLite store: {e}") from e
+    finally:
+        con.close()
+
+
+def _read_csv_dir(path):
+    f = os.path.join(path, "runs.csv")
+    if not os.path.exists(f):
+        raise StoreError(f"{path}: not a results folder (no runs.csv)")
+    out = {}
+    for t in ("runs", "iterations", "studies"):
+        p = os.path.join(path, t + ".csv")
+        out[t] = pd.read_csv(p) if os.path.exists(p) else pd.DataFrame()
+    return out
+
+
+def _derive(runs):
+    """Columns computed from others (only where their inputs exist)."""
+    if "settings" in runs.columns:
+        st = runs["settings"].map(lambda s: json.loads(s) if isinstance(s, str) and s else {})
+        runs["cluster_model"] = st.map(lambda d: d.get("cluster.model", "")) if len(runs) else []
+        runs["fm_level"] = st.map(lambda d: d.get("fm.level", np.nan)) if len(runs) else []
+        runs["oracle_level"] = st.map(lambda d: d.get("oracle.level", np.nan)) if len(runs) else []
+    if "summary" in runs.columns and "patches" not in runs.columns:
+        def patches(s):
+            try:
+                return json.loads(s)["scene_info"]["patches"]
+            except (TypeError, ValueError, KeyError):
+                return np.nan
+        runs["patches"] = runs["summary"].map(patches).astype(float) if len(runs) else []
+    if "wall_s" in runs.columns:
+        # Solve time: the point's wall clock without reference, error and
+        # render phases (which a sweep adds and a solver would not pay).
+        sub = sum(runs[c].fillna(0) for c in ("reference_s", "error_s", "render_s")
+                  if c in runs.columns)
+        runs["compute_s"] = runs["wall_s"] - sub
+    if "peak_rss" in runs.columns:
+        runs["peak_rss_mib"] = runs["peak_rss"] / 2**20
+    if {"solver", "oracle"} <= set(runs.columns):
+        def method(r):
+            if r["solver"] == "full-matrix":
+                return "full matrix"
+            m = f"HR {r['oracle']}" if isinstance(r["oracle"], str) and r["oracle"] else "HR"
+            cm = r.get("cluster_model", "")
+            if isinstance(cm, str) and cm and cm != "auto":
+                m += " + clusters" if cm != "none" else ""
+                if cm not in ("none", "oriented"):
+                    m += f" ({cm})"
+            return m
+        runs["method"] = runs.apply(method, axis=1) if len(runs) else []
+    return runs
+
+
+def load_store(path):
+    if not os.path.exists(path):
+        raise StoreError(f"{path}: no such store")
+    t = _read_csv_dir(path) if os.path.isdir(path) else _read_sqlite(path)
+    return Store(path, _derive(t["runs"]), t["iterations"], t["studies"])
