@@ -60,7 +60,7 @@ bool Params::getBool(const std::string& key, bool def) const {
     const Entry* e = find(key);
     if (!e) return def;
     if (auto* b = std::get_if<bool>(&e->value)) return *b;
-    throwInputError(e->where, "setting '{}' must be a boolean, got {} '{}'", key,
+    throwInputError(e->where, "setting '{}' must be a boolean, got {} '{}'", prefix_ + key,
                     typeName(e->value), valueToString(e->value));
 }
 
@@ -72,14 +72,15 @@ int64_t Params::getInt(const std::string& key, int64_t def) const {
         if (std::isfinite(*d) && std::floor(*d) == *d && std::fabs(*d) < 9e15)
             return static_cast<int64_t>(*d);
     }
-    throwInputError(e->where, "setting '{}' must be an integer, got {} '{}'", key,
+    throwInputError(e->where, "setting '{}' must be an integer, got {} '{}'", prefix_ + key,
                     typeName(e->value), valueToString(e->value));
 }
 
 int64_t Params::getInt(const std::string& key, int64_t def, int64_t lo, int64_t hi) const {
     int64_t v = getInt(key, def);
     if (v < lo || v > hi)
-        throwInputError(where(key), "setting '{}' = {} is out of range [{}, {}]", key, v, lo, hi);
+        throwInputError(where(key), "setting '{}' = {} is out of range [{}, {}]", prefix_ + key, v, lo,
+                        hi);
     return v;
 }
 
@@ -92,9 +93,10 @@ double Params::getDouble(const std::string& key, double def) const {
     else if (auto* i = std::get_if<int64_t>(&e->value))
         v = static_cast<double>(*i);
     else
-        throwInputError(e->where, "setting '{}' must be a number, got {} '{}'", key,
+        throwInputError(e->where, "setting '{}' must be a number, got {} '{}'", prefix_ + key,
                         typeName(e->value), valueToString(e->value));
-    if (!std::isfinite(v)) throwInputError(e->where, "setting '{}' must be finite, got {}", key, v);
+    if (!std::isfinite(v))
+        throwInputError(e->where, "setting '{}' must be finite, got {}", prefix_ + key, v);
     return v;
 }
 
@@ -103,7 +105,7 @@ double Params::getDouble(const std::string& key, double def, double lo, double h
     double v = getDouble(key, def);
     bool bad = loOpen ? !(v > lo && v <= hi) : !(v >= lo && v <= hi);
     if (bad)
-        throwInputError(where(key), "setting '{}' = {} is out of range {}{}, {}]", key, v,
+        throwInputError(where(key), "setting '{}' = {} is out of range {}{}, {}]", prefix_ + key, v,
                         loOpen ? "(" : "[", lo, hi);
     return v;
 }
@@ -112,7 +114,7 @@ std::string Params::getString(const std::string& key, const std::string& def) co
     const Entry* e = find(key);
     if (!e) return def;
     if (auto* s = std::get_if<std::string>(&e->value)) return *s;
-    throwInputError(e->where, "setting '{}' must be a string, got {} '{}'", key,
+    throwInputError(e->where, "setting '{}' must be a string, got {} '{}'", prefix_ + key,
                     typeName(e->value), valueToString(e->value));
 }
 
@@ -121,13 +123,14 @@ std::string Params::getEnum(const std::string& key, const std::string& def,
     std::string v = getString(key, def);
     for (const auto& a : allowed)
         if (a == v) return v;
-    throwInputError(where(key), "setting '{}' = '{}' is not one of: {}", key, v,
+    throwInputError(where(key), "setting '{}' = '{}' is not one of: {}", prefix_ + key, v,
                     fmt::join(allowed, ", "));
 }
 
 Params Params::subset(const std::string& prefix) const {
     Params out;
     std::string p = prefix + ".";
+    out.prefix_ = prefix_ + p;
     for (const auto& [k, e] : entries_)
         if (k.rfind(p, 0) == 0) out.entries_[k.substr(p.size())] = Entry{e.value, e.where, false};
     return out;
@@ -153,7 +156,8 @@ std::vector<std::string> Params::unusedKeys() const {
 
 void Params::reportUnused() const {
     for (const auto& [k, e] : entries_)
-        if (!e.used) throwInputError(e.where, "unknown setting '{}' (no component reads it)", k);
+        if (!e.used)
+            throwInputError(e.where, "unknown setting '{}' (no component reads it)", prefix_ + k);
 }
 
 std::string Params::valueToString(const Value& v) {

@@ -56,6 +56,7 @@ class Params {
                         const std::vector<std::string>& allowed) const;
 
     /// Keys starting with "prefix." with the prefix removed (marks nothing used).
+    /// Error messages of the subset still name keys with the prefix.
     Params subset(const std::string& prefix) const;
     /// Mark every key starting with "prefix." as used (after subset() was consumed).
     void markUsedPrefix(const std::string& prefix) const;
@@ -74,6 +75,7 @@ class Params {
   private:
     const Entry* find(const std::string& key) const;
     std::map<std::string, Entry> entries_;
+    std::string prefix_;  ///< prepended to key names in messages (set by subset())
 };
 
 }  // namespace hrad

@@ -1,0 +1,158 @@
+#!/usr/bin/python3
+"""ctest Papers.TinyStudyFigures: runs a tiny study with hrad, draws every
+hradplot figure from its store (SQLite and CSV export), and checks that the
+files exist and are non-empty, that the plotted numbers are the store's (the
+fitted slope in the legend equals a least-squares slope computed here from
+the rows) and that a store lacking a column fails with a message naming it.
+
+    /usr/bin/python3 papers/test_papers.py --hrad build/apps/hrad [--keep DIR]
+
+Exit 0 = pass, 1 = fail, 77 = skipped (no matplotlib/numpy/pandas)."""
+import argparse
+import json
+import os
+import shutil
+import sqlite3
+import subprocess
+import sys
+import tempfile
+
+SKIP = 77
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+STUDY = """
+name = "tiny"
+scenes = [{ scene = "cornell", reference = { "fm.level" = 1 } }]
+[solver]
+"hr.oracle" = "bfa"
+"cluster.model" = "none"
+"hr.max_iterations" = 20
+"render.width" = 64
+"render.height" = 64
+[reference]
+kind = "full-matrix"
+[outputs]
+exr = true
+[sweep]
+"oracle.eps" = [1e-2, 3e-3, 1e-3]
+"""
+
+failures = []
+
+
+def check(cond, msg):
+    print(("ok   " if cond else "FAIL ") + msg)
+    if not cond:
+        failures.append(msg)
+
+
+def plot(args, expect_rc=0):
+    env = dict(os.environ, PYTHONPATH=HERE + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    p = subprocess.run([sys.executable, "-m", "hradplot"] + args, env=env,
+                       capture_output=True, text=True)
+    if p.returncode != expect_rc:
+        print(p.stdout, p.stderr)
+    check(p.returncode == expect_rc, f"hradplot {' '.join(args[:1])} exit {p.returncode} (want {expect_rc})")
+    return p
+
+
+def nonempty(stem, exts=("pdf", "png", "json")):
+    for e in exts:
+        f = f"{stem}.{e}"
+        ok = os.path.exists(f) and os.path.getsize(f) > 100
+        if ok and e == "png":
+            ok = open(f, "rb").read(8) == b"\x89PNG\r\n\x1a\n"
+        if ok and e == "pdf":
+            ok = open(f, "rb").read(5) == b"%PDF-"
+        check(ok, f"{os.path.basename(f)} exists, non-empty, right format")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--hrad", required=True)
+    ap.add_argument("--keep", help="work in this folder and keep it")
+    a = ap.parse_args()
+    try:
+        import matplotlib  # noqa: F401
+        import numpy as np
+        import pandas  # noqa: F401
+    except ImportError as e:
+        print(f"SKIP: {sys.executable} lacks {e.name} (apt-get install python3-matplotlib python3-pandas)")
+        return SKIP
+
+    work = a.keep or tempfile.mkdtemp(prefix="hrad-papers-")
+    os.makedirs(work, exist_ok=True)
+    try:
+        study = os.path.join(work, "tiny.toml")
+        open(study, "w").write(STUDY)
+        store = os.path.join(work, "tiny.sqlite")
+        for f in (store, store + "-wal", store + "-shm"):
+            if os.path.exists(f):
+                os.remove(f)
+        r = subprocess.run([a.hrad, "--log", "quiet", "sweep", study, "--store", store,
+                            "--cache", os.path.join(work, "cache")], capture_output=True, text=True)
+        check(r.returncode == 0, f"hrad sweep tiny study (exit {r.returncode}) {r.stderr[-500:]}")
+        if r.returncode != 0:
+            return 1
+        con = sqlite3.connect(store)
+        rows = con.execute("select elements, links, l2_lum, eps from runs order by eps").fetchall()
+        con.close()
+        check(len(rows) == 3, f"3 runs in the store (got {len(rows)})")
+
+        out = os.path.join(work, "fig")
+        plot(["scaling", "--store", store, "--out", out + "_scal", "--x", "elements", "--y", "links"])
+        nonempty(out + "_scal")
+        side = json.load(open(out + "_scal.json"))
+        entry = side["panels"]["links"]["HR bfa"]
+        x = np.log10([r[0] for r in rows])
+        y = np.log10([r[1] for r in rows])
+        slope = float(np.polyfit(x, y, 1)[0])
+        check(abs(entry["slope"] - slope) < 1e-9, f"fitted slope {entry['slope']:.6f} == slope from rows {slope:.6f}")
+        check(f"(slope {slope:.2f})" in entry["label"], f"legend '{entry['label']}' shows slope {slope:.2f}")
+
+        plot(["error", "--store", store, "--out", out + "_err", "--x", "links"])
+        nonempty(out + "_err")
+        c = json.load(open(out + "_err.json"))["curves"]["HR bfa"]
+        want = sorted((r[1], r[2]) for r in rows)
+        check(list(zip(c["x"], c["y"])) == want, "error-vs-links curve is the store's (links, l2_lum)")
+        plot(["error", "--store", store, "--out", out + "_mem", "--x", "peak_rss_mib"])
+        nonempty(out + "_mem")
+        plot(["convergence", "--store", store, "--out", out + "_conv"])
+        nonempty(out + "_conv")
+        plot(["images", "--store", store, "--out", out + "_img"])
+        nonempty(out + "_img")
+        check(len(json.load(open(out + "_img.json"))["images"]) == 3, "image grid shows 3 renders")
+        tex = out + ".tex"
+        plot(["table", "--store", store, "--out", tex, "--columns", "eps,links,l2_lum"])
+        t = open(tex).read() if os.path.exists(tex) else ""
+        check(r"\toprule" in t and r"\bottomrule" in t and t.count(r" \\") == 4, "booktabs table with 3 rows")
+
+        # CSV folder from `hrad results export` gives the same slope.
+        csv = os.path.join(work, "csv")
+        shutil.rmtree(csv, ignore_errors=True)
+        r = subprocess.run([a.hrad, "results", "export", store, "--csv", csv], capture_output=True, text=True)
+        check(r.returncode == 0, "hrad results export")
+        plot(["scaling", "--store", csv, "--out", out + "_csv", "--x", "elements", "--y", "links"])
+        e2 = json.load(open(out + "_csv.json"))["panels"]["links"]["HR bfa"]
+        check(abs(e2["slope"] - slope) < 1e-9, "CSV store: same slope")
+
+        # A store without l2_lum: exit 2, message names the column and file.
+        bad = os.path.join(work, "bad.sqlite")
+        shutil.copy(store, bad)
+        con = sqlite3.connect(bad)
+        con.execute("alter table runs drop column l2_lum")
+        con.commit()
+        con.close()
+        p = plot(["error", "--store", bad, "--out", out + "_bad"], expect_rc=2)
+        check("l2_lum" in p.stderr and bad in p.stderr, f"message names column and file: {p.stderr.strip()}")
+        check(not os.path.exists(out + "_bad.pdf"), "no figure written for a bad store")
+        p = plot(["error", "--store", os.path.join(work, "none.sqlite"), "--out", out + "_x"], expect_rc=2)
+    finally:
+        if not a.keep:
+            shutil.rmtree(work, ignore_errors=True)
+    print(f"{len(failures)} failure(s)")
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
