@@ -76,6 +76,7 @@ def _derive(runs):
         runs["cluster_model"] = st.map(lambda d: d.get("cluster.model", "")) if len(runs) else []
         runs["fm_level"] = st.map(lambda d: d.get("fm.level", np.nan)) if len(runs) else []
         runs["oracle_level"] = st.map(lambda d: d.get("oracle.level", np.nan)) if len(runs) else []
+        runs["fm_solver"] = st.map(lambda d: d.get("fm.solver", "gauss-seidel")) if len(runs) else []
     if "summary" in runs.columns and "patches" not in runs.columns:
         def patches(s):
             try:
@@ -94,7 +95,9 @@ def _derive(runs):
     if {"solver", "oracle"} <= set(runs.columns):
         def method(r):
             if r["solver"] == "full-matrix":
-                return "full matrix"
+                # Progressive (Southwell) runs form their own curve.
+                return ("progressive (Southwell)" if r.get("fm_solver", "") == "southwell"
+                        else "full matrix")
             m = f"HR {r['oracle']}" if isinstance(r["oracle"], str) and r["oracle"] else "HR"
             cm = r.get("cluster_model", "")
             if isinstance(cm, str) and cm and cm != "auto":

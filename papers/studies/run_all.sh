@@ -4,7 +4,7 @@ set -u
 HERE=$(cd "$(dirname "$0")" && pwd)
 HRAD=${HRAD:-$HERE/../../build/apps/hrad}
 cd "$HERE"
-for s in ${*:-hanrahan1991 oracles_all errtime smits1994}; do
+for s in ${*:-hanrahan1991 hanrahan1991_linear oracles_all errtime smits1994}; do
   store=../results/$s.sqlite
   resume=; [ -f "$store" ] && resume=--resume
   echo "== $s"; /usr/bin/time -f "$s: %e s wall" "$HRAD" sweep $s.toml --store "$store" $resume --progress
