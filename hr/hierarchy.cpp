@@ -130,9 +130,11 @@ Vec3 Hierarchy::center(uint32_t e) const {
 
 double Hierarchy::radius(uint32_t e) const {
     if (isCluster(e)) return tree_->node(clusterIndex(e)).radius;
+    const scene::Patch& p = scene_->patches[patch_[e]];
+    scene::Domain d = domain(e);
     Vec3 c[4];
-    int n = scene::elementCorners(scene_->patches[patch_[e]], domain(e), c);
-    Vec3 m = center(e);
+    int n = scene::elementCorners(p, d, c);
+    Vec3 m = scene::elementCentroid(p, d);
     double r2 = 0;
     for (int i = 0; i < n; ++i) r2 = std::max(r2, glm::dot(c[i] - m, c[i] - m));
     return std::sqrt(r2);
@@ -346,15 +348,6 @@ RGB Hierarchy::radiosityPower() const {
     for (uint32_t e = 0; e < numElements(); ++e)
         if (isLeaf(e)) s += area_[e] * B_[e];
     return s;
-}
-
-void Hierarchy::resetToEmission() {
-    for (uint32_t e = 0; e < numElements(); ++e) {
-        B_[e] = patch_[e] == kNone ? RGB(0.0) : scene_->patches[patch_[e]].emission;
-        gathered_[e] = RGB(0.0);
-    }
-    std::fill(gathered_.begin(), gathered_.end(), RGB(0.0));
-    pushPull();
 }
 
 uint64_t Hierarchy::elementBytes() const {

@@ -38,10 +38,14 @@ struct Link {
     float K = 0.f;             ///< transfer coefficient: F_rs with visibility
     float Fupper = 0.f;        ///< upper bound on the unoccluded F_rs
     uint16_t visibility = 0;   ///< visibility fraction, quantised to 1/65535
-    uint8_t flags = 0;         ///< kPartial | kUnoccludedScaled
+    uint8_t flags = 0;         ///< kPartial | kOpen
     uint8_t reserved = 0;
 
     static constexpr uint8_t kPartial = 1;
+    /// A cluster link whose point approximation is not valid (a self-link,
+    /// a single-surface cluster, overlapping bounding spheres): it carries
+    /// nothing and is opened in the next refinement round, whatever the oracle.
+    static constexpr uint8_t kOpen = 2;
 
     double vis() const { return visibility / 65535.0; }
     void setVis(double v) {
@@ -129,8 +133,6 @@ class Hierarchy {
     RGB reflectedPower() const;
     /// Sum over leaves of A * B (RGB).
     RGB radiosityPower() const;
-    /// Sets B = E on every element and clears gathered.
-    void resetToEmission();
 
     // ---- memory ----------------------------------------------------------------
     uint64_t elementBytes() const;

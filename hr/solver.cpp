@@ -102,6 +102,12 @@ double HrSolver::projectedFraction(const Hierarchy& h, uint32_t e, const Vec3& d
 
 Decision HrSolver::forcedDecision(const Hierarchy& h, uint32_t r, uint32_t s) const {
     if (r == s) return Decision::RefineBoth;  // a cluster's self-link must be opened
+    return openDecision(h, r, s, glm::length(h.center(r) - h.center(s)), h.radius(r), h.radius(s));
+}
+
+Decision HrSolver::openDecision(const Hierarchy& h, uint32_t r, uint32_t s, double dist,
+                                double rr, double rs) const {
+    if (r == s) return Decision::RefineBoth;
     bool rc = h.isCluster(r), sc = h.isCluster(s);
     if (!rc && !sc) return Decision::Accept;
     // A cluster holding a single surface is that surface: open it at once
@@ -111,11 +117,10 @@ Decision HrSolver::forcedDecision(const Hierarchy& h, uint32_t r, uint32_t s) co
     if (r1 || s1) return r1 && s1 ? Decision::RefineBoth : r1 ? Decision::RefineReceiver : Decision::RefineSender;
     // The point approximation of a cluster transfer needs the two bounding
     // spheres to be apart; otherwise open the cluster side(s).
-    double d = glm::length(h.center(r) - h.center(s));
-    if (d > h.radius(r) + h.radius(s)) return Decision::Accept;
-    if (rc && sc) return h.radius(r) >= 2 * h.radius(s)   ? Decision::RefineReceiver
-                         : h.radius(s) >= 2 * h.radius(r) ? Decision::RefineSender
-                                                          : Decision::RefineBoth;
+    if (dist > rr + rs) return Decision::Accept;
+    if (rc && sc) return rr >= 2 * rs   ? Decision::RefineReceiver
+                         : rs >= 2 * rr ? Decision::RefineSender
+                                        : Decision::RefineBoth;
     return rc ? Decision::RefineReceiver : Decision::RefineSender;
 }
 
@@ -126,11 +131,16 @@ Link HrSolver::makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint3
     Link l;
     l.sender = s;
     rays = 0;
-    if (r == s) return l;  // self-link: refined before it is ever used
     Vec3 cr = h.center(r), cs = h.center(s);
+    double radR = h.radius(r), radS = h.radius(s);
     Vec3 d = cr - cs;
     double dist2 = glm::dot(d, d);
-    if (!(dist2 > 0)) return l;
+    if (openDecision(h, r, s, std::sqrt(dist2), radR, radS) != Decision::Accept) {
+        // Not valid in the point approximation: no transfer computed, opened
+        // next round (refine() asks forcedDecision which side).
+        l.flags = Link::kOpen;
+        return l;
+    }
     Vec3 u = d / std::sqrt(dist2);
     double gs = projectedFraction(h, s, u);
     bool orientedReceiver =
@@ -140,7 +150,7 @@ Link HrSolver::makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint3
     double K = h.area(s) * gs * gr / (kPi * dist2);
     if (!(K > 0)) return l;
     // Upper bound: all cosines <= 1 and the nearest points of the spheres.
-    double gap = std::sqrt(dist2) - h.radius(r) - h.radius(s);
+    double gap = std::sqrt(dist2) - radR - radS;
     double iso = h.clusterModel() == cluster::ClusterModel::Isotropic ? 0.25 : 1.0;
     double bound = gap > 0 ? h.area(s) * (h.isCluster(s) ? iso : 1.0) *
                                  (h.isCluster(r) ? iso : 1.0) / (kPi * gap * gap)
@@ -224,6 +234,7 @@ void HrSolver::initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vect
         self.K = 0.f;
         self.Fupper = 3.0e38f;
         self.setVis(1.0);
+        self.flags = Link::kOpen;
         recv.push_back(h.rootCluster());
         links.push_back(self);
         res.initialPairs = 1;
@@ -286,9 +297,8 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
                 for (size_t i = range.begin(); i != range.end(); ++i) {
                     const Link& l = pending[i];
                     uint32_t r = recv[i], s = l.sender;
-                    Decision forced = forcedDecision(h, r, s);
-                    if (forced != Decision::Accept) {
-                        decision[i] = uint8_t(forced);
+                    if (l.flags & Link::kOpen) {
+                        decision[i] = uint8_t(forcedDecision(h, r, s));
                         continue;
                     }
                     oracles::LinkEstimate e;
@@ -372,12 +382,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
                         uint32_t nr = 0;
                         // A self-link between surfaces carries nothing (planar
                         // patches); between clusters it is kept, to be opened.
-                        if (rc == sc && !h.isCluster(rc)) {
-                            nlinks[o] = Link{};
-                        } else {
-                            nlinks[o] = makeLink(h, rc, sc, nr);
-                            if (rc == sc) nlinks[o].K = -1.f;  // marker: keep self-links
-                        }
+                        nlinks[o] = rc == sc && !h.isCluster(rc) ? Link{} : makeLink(h, rc, sc, nr);
                         nrecv[o] = rc;
                         localRays += nr;
                         ++o;
@@ -390,22 +395,12 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
         rec.formFactors += newCount;
         // Drop links that carry nothing (back-facing or fully occluded pairs).
         size_t w = 0;
+        // Links to be opened (kOpen) are kept whatever they carry.
         for (size_t i = 0; i < newCount; ++i) {
-            if (nlinks[i].K < 0) {
-                nlinks[i].K = 0.f;  // a cluster self-link
-            } else if (!(nlinks[i].K > 0)) {
-                // A cluster link whose point approximation is not valid yet
-                // (e.g. coincident centroids) is opened next round, not dropped.
-                uint32_t r = nrecv[i], s = nlinks[i].sender;
-                if (s == kNone || !(h.isCluster(r) || h.isCluster(s)) ||
-                    forcedDecision(h, r, s) == Decision::Accept)
-                    continue;
-            }
-            {
-                nlinks[w] = nlinks[i];
-                nrecv[w] = nrecv[i];
-                ++w;
-            }
+            if (!(nlinks[i].K > 0) && !(nlinks[i].flags & Link::kOpen)) continue;
+            nlinks[w] = nlinks[i];
+            nrecv[w] = nrecv[i];
+            ++w;
         }
         nlinks.resize(w);
         nrecv.resize(w);

@@ -141,9 +141,13 @@ class HrSolver {
     Link makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
     /// Projected-area fraction of node e towards unit direction d.
     double projectedFraction(const Hierarchy& h, uint32_t e, const Vec3& d) const;
-    /// Refinement forced by validity (self-links, clusters too close for the
-    /// point approximation), independent of the oracle; Accept means "ask the oracle".
+    /// Refinement forced by validity (self-links, single-surface clusters,
+    /// clusters too close for the point approximation), independent of the
+    /// oracle; Accept means "valid". makeClusterLink() evaluates it once and
+    /// marks invalid links Link::kOpen; refine() asks it only for those.
     oracles::Decision forcedDecision(const Hierarchy& h, uint32_t r, uint32_t s) const;
+    oracles::Decision openDecision(const Hierarchy& h, uint32_t r, uint32_t s, double dist,
+                                   double radiusR, double radiusS) const;
     bool canSubdivide(const Hierarchy& h, uint32_t e) const;
 
     const scene::Scene* scene_;

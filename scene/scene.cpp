@@ -24,46 +24,39 @@ uint32_t Scene::addMaterial(Material m) {
 }
 
 bool Scene::addTriangle(const Vec3& a, const Vec3& b, const Vec3& c, uint32_t material) {
-    HRAD_CHECK(material < materials.size());
-    Vec3 n = glm::cross(b - a, c - a);
-    double len = glm::length(n);
-    double area = 0.5 * len;
-    double maxEdge2 = std::max({glm::dot(b - a, b - a), glm::dot(c - b, c - b), glm::dot(a - c, a - c)});
-    if (degenerate(area, maxEdge2)) {
-        ++stats.droppedDegenerate;
-        return false;
-    }
-    Patch p;
-    p.kind = PatchKind::Triangle;
-    p.material = material;
-    p.v = {a, b, c, c};
-    p.normal = n / len;
-    p.area = area;
-    p.rho = materials[material].rho;
-    p.emission = materials[material].emission;
-    patches.push_back(p);
-    return true;
+    Vec3 pts[4] = {a, b, c, c};
+    return addPolygonPatch(PatchKind::Triangle, pts, material);
 }
 
 bool Scene::addQuad(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, uint32_t material) {
-    HRAD_CHECK(material < materials.size());
     Vec3 pts[4] = {a, b, c, d};
-    Vec3 n(0.0);
-    for (int i = 0; i < 4; ++i) n += glm::cross(pts[i], pts[(i + 1) % 4]);
-    double len = glm::length(n);
-    double area = 0.5 * glm::length(glm::cross(c - a, d - b));
+    return addPolygonPatch(PatchKind::Quad, pts, material);
+}
+
+bool Scene::addPolygonPatch(PatchKind kind, const Vec3 (&v)[4], uint32_t material) {
+    HRAD_CHECK(material < materials.size());
+    int n = kind == PatchKind::Quad ? 4 : 3;
+    // Newell normal relative to v[0] (for a triangle exactly cross(b-a, c-a));
+    // area from it for a triangle, from the diagonals for a planar quad.
+    Vec3 nrm(0.0);
     double maxEdge2 = 0;
-    for (int i = 0; i < 4; ++i)
-        maxEdge2 = std::max(maxEdge2, glm::dot(pts[(i + 1) % 4] - pts[i], pts[(i + 1) % 4] - pts[i]));
+    for (int i = 0; i < n; ++i) {
+        Vec3 p0 = v[i] - v[0], p1 = v[(i + 1) % n] - v[0];
+        nrm += glm::cross(p0, p1);
+        maxEdge2 = std::max(maxEdge2, glm::dot(p1 - p0, p1 - p0));
+    }
+    double len = glm::length(nrm);
+    double area = kind == PatchKind::Quad ? 0.5 * glm::length(glm::cross(v[2] - v[0], v[3] - v[1]))
+                                          : 0.5 * len;
     if (degenerate(area, maxEdge2) || !(len > 0)) {
         ++stats.droppedDegenerate;
         return false;
     }
     Patch p;
-    p.kind = PatchKind::Quad;
+    p.kind = kind;
     p.material = material;
-    p.v = {a, b, c, d};
-    p.normal = n / len;
+    p.v = {v[0], v[1], v[2], v[3]};
+    p.normal = nrm / len;
     p.area = area;
     p.rho = materials[material].rho;
     p.emission = materials[material].emission;

@@ -108,6 +108,10 @@ class Scene {
     /// rho in [0,1) per channel on every used material, at least one emitter.
     /// Throws InputError naming the material or the problem.
     void validate() const;
+
+  private:
+    /// Shared by addTriangle (v[3] == v[2]) and addQuad.
+    bool addPolygonPatch(PatchKind kind, const Vec3 (&v)[4], uint32_t material);
 };
 
 /// Relative area below which a face counts as degenerate (times bbox diagonal^2).
