@@ -49,6 +49,8 @@ int runSolve(const SolveOptions& opt, Params& params) {
     point.settings = params;
     point.outputs.exr = opt.writeImages;
     point.outputs.ply = opt.writePly;
+    point.outputs.errorMap = opt.errorMap;
+    point.outputs.errorMapWhere = SourceLocation{"command line (--error-map)", 0, 0};
 
     fs::create_directories(opt.outDir);
     fs::path out(opt.outDir);

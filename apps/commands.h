@@ -17,6 +17,7 @@ struct SolveOptions {
     bool progress = true;
     bool writeImages = true;
     bool writePly = true;
+    bool errorMap = false;  ///< --error-map (needs --reference-level)
 };
 
 struct SweepCliOptions {

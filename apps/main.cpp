@@ -53,7 +53,7 @@ int main(int argc, char** argv) {
     std::string solver, oracle;
     double eps = -1, minArea = -1;
     int refLevel = -1, width = 0, height = 0;
-    bool interpolate = false, noImages = false, noPly = false, quietProgress = false;
+    bool interpolate = false, noImages = false, noPly = false, quietProgress = false, errorMap = false;
     solve->add_option("scene", so.scene, "built-in name or file")->required();
     solve->add_option("--solver", solver, "hr | full-matrix");
     solve->add_option("--oracle", oracle, "refinement oracle (hr): bfa, ff, uniform");
@@ -67,6 +67,9 @@ int main(int argc, char** argv) {
     solve->add_option("-o,--output", so.outDir, "output folder")->capture_default_str();
     auto* refLevelOpt = solve->add_option("--reference-level", refLevel,
                       "also solve a full-matrix reference at this uniform level and report the error");
+    solve->add_flag("--error-map", errorMap,
+                    "with --reference-level: render the reference too and write reference.png, "
+                    "error.png (16-bit signed relative error) and error_fc.png (false colour)");
     auto* widthOpt = solve->add_option("--width", width, "image width");
     auto* heightOpt = solve->add_option("--height", height, "image height");
     solve->add_flag("--interpolate", interpolate, "vertex-interpolated reconstruction in the image");
@@ -145,6 +148,7 @@ int main(int argc, char** argv) {
             so.threads = threads;
             so.writeImages = !noImages;
             so.writePly = !noPly;
+            so.errorMap = errorMap;
             so.progress = !quietProgress;
             return app::runSolve(so, params);
         }

@@ -17,6 +17,7 @@
 #include "reference/metrics.h"
 #include "reference/montecarlo.h"
 #include "render/camera.h"
+#include "render/error_map.h"
 #include "render/image.h"
 #include "render/ply_export.h"
 #include "render/render.h"
@@ -79,6 +80,8 @@ struct Resolved {
     std::optional<reference::FullMatrixSettings> fm;
     render::RenderSettings render;
     double exposure = 0.0;
+    double errorFloor = 0.01, errorRange = 0.25;  // render.error_floor, render.error_range
+    bool errorOnRegions = true;                   // render.error_mode = regions | pixels
 
     std::string refKind = "none";
     std::optional<reference::FullMatrixSettings> refFm;
@@ -93,9 +96,16 @@ Resolved resolve(const PointSpec& p) {
     if (r.solver == "full-matrix") r.fm = reference::FullMatrixSettings::fromParams(s, "fm");
     r.render = render::RenderSettings::fromParams(s, "render");
     r.exposure = s.getDouble("render.exposure", 0.0, 0.0, 1e300);
+    r.errorFloor = s.getDouble("render.error_floor", 0.01, 1e-9, 1.0);
+    r.errorRange = s.getDouble("render.error_range", 0.25, 1e-6, 1.0);
+    r.errorOnRegions = s.getEnum("render.error_mode", "regions", {"regions", "pixels"}) == "regions";
 
     const Params& ref = p.reference;
     r.refKind = ref.getEnum("kind", "none", {"none", "full-matrix", "montecarlo"});
+    if (p.outputs.errorMap && r.refKind == "none")
+        throw InputError(p.outputs.errorMapWhere,
+                         "an error map needs a reference ([reference] kind = \"full-matrix\" or "
+                         "\"montecarlo\"; hrad solve: --reference-level)");
     if (r.refKind == "full-matrix") r.refFm = reference::FullMatrixSettings::fromParams(ref, "fm");
     if (r.refKind == "montecarlo") r.refMc = reference::MonteCarloSettings::fromParams(ref, "mc");
     ref.reportUnused();
@@ -257,7 +267,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                                  {"emitted_power", rgbJson(sc.emittedPower())},
                                  {"dropped_degenerate", sc.stats.droppedDegenerate}};
     spdlog::info("loaded {}: {} patches in {:.2f} s", sc.name, sc.patches.size(), loadSeconds);
-    if ((p.outputs.exr || p.outputs.ply) && ctx.artefactDir.empty())
+    if ((p.outputs.exr || p.outputs.ply || p.outputs.errorMap) && ctx.artefactDir.empty())
         throw Error("outputs requested but no artefact folder given");
 
     Timer tVis;
@@ -369,19 +379,20 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     if (ctx.checkpoint) ctx.checkpoint(summary);
 
     // ---- error against the reference --------------------------------------------
+    std::optional<Reference> ref;
     if (r.refKind != "none") {
         Timer tRef;
-        Reference ref = earlyRef ? std::move(*earlyRef) : computeReference(sc, vis, r, ctx);
+        ref = earlyRef ? std::move(earlyRef) : computeReference(sc, vis, r, ctx);
         timings["reference"] = earlyRef ? earlyRefSeconds : tRef.seconds();
         Timer tErr;
-        reference::ErrorMetrics err = reference::computeError(*field, *ref.field);
+        reference::ErrorMetrics err = reference::computeError(*field, *ref->field);
         json e = metricsJson(err);
         e["reference"] = referenceDescription(r);
         e["reference_seconds"] = timings["reference"];
-        e["reference_cached"] = ref.cached;
-        e["reference_stats"] = ref.stats;
+        e["reference_cached"] = ref->cached;
+        e["reference_stats"] = ref->stats;
         if (r.refMc) {
-            auto [uLum, uRgb] = mcUncertainty(ref);
+            auto [uLum, uRgb] = mcUncertainty(*ref);
             e["mc_stderr_l2_lum"] = uLum;
             e["mc_stderr_l2_rgb"] = uRgb;
         }
@@ -400,20 +411,61 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
 
     // ---- artefacts -------------------------------------------------------------------
     json artefacts = json::object();
-    if (p.outputs.exr || p.outputs.ply) {
+    bool images = p.outputs.exr || (p.outputs.errorMap && ref);
+    if (images || p.outputs.ply) {
         fs::create_directories(ctx.artefactDir);
         if (p.outputs.ply) {
             fs::path ply = ctx.artefactDir / "solution.ply";
             render::writePly(*field, ply.string(), r.exposure);
             artefacts["ply"] = ply.string();
         }
-        if (p.outputs.exr) {
+        if (images) {
             Timer tr;
             scene::Camera cam = render::cameraFor(sc, vis);
             render::Image img = render::renderField(sc, vis, *field, cam, r.render);
+            double exposure = r.exposure;
+            if (p.outputs.errorMap && ref) {
+                // The reference through the same camera; its exposure is used
+                // for both PNGs, so every run of a scene shares one exposure.
+                render::Image refImg = render::renderField(sc, vis, *ref->field, cam, r.render);
+                if (!(exposure > 0)) exposure = render::pngAutoExposure(refImg);
+                // regions: the solution's averages over the reference's
+                // regions against the reference (what the L1/L2 metrics
+                // compare); pixels: the two reconstructions pixel by pixel.
+                render::ErrorMap em =
+                    r.errorOnRegions
+                        ? render::computeErrorMap(
+                              render::renderField(
+                                  sc, vis, *reference::averageOnRegions(*field, *ref->field), cam,
+                                  r.render),
+                              refImg, r.errorFloor)
+                        : render::computeErrorMap(img, refImg, r.errorFloor);
+                fs::path refPng = ctx.artefactDir / "reference.png",
+                         data = ctx.artefactDir / "error.png",
+                         fc = ctx.artefactDir / "error_fc.png";
+                render::writePng(refImg, refPng.string(), exposure);
+                render::writeErrorData(em, data.string());
+                render::writeErrorFalseColour(em, fc.string(), r.errorRange);
+                artefacts["reference_png"] = refPng.string();
+                artefacts["error_map"] = data.string();
+                artefacts["error_false_colour"] = fc.string();
+                summary["error_map"] = json{{"mode", r.errorOnRegions ? "regions" : "pixels"},
+                                            {"pixels", em.pixels},
+                                            {"floor", em.floor},
+                                            {"floor_fraction", r.errorFloor},
+                                            {"mean_abs", em.meanAbs},
+                                            {"p95_abs", em.p95Abs},
+                                            {"max_abs", em.maxAbs},
+                                            {"l1", em.l1},
+                                            {"l2", em.l2},
+                                            {"false_colour_range", r.errorRange},
+                                            {"exposure", exposure}};
+                spdlog::info("error map: mean |e| = {:.4g}, 95th percentile {:.4g}, image L1 {:.4g}",
+                             em.meanAbs, em.p95Abs, em.l1);
+            }
             fs::path exr = ctx.artefactDir / "image.exr", png = ctx.artefactDir / "image.png";
             render::writeExr(img, exr.string());
-            render::writePng(img, png.string(), r.exposure);
+            render::writePng(img, png.string(), exposure);
             artefacts["exr"] = exr.string();
             artefacts["png"] = png.string();
             timings["render"] = tr.seconds();

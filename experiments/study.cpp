@@ -228,11 +228,16 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
                 outputs.ply = getBoolNode(*n, k, file);
             else if (k == "history_error")
                 outputs.historyError = getBoolNode(*n, k, file);
-            else if (k == "dir")
+            else if (k == "error_map") {
+                outputs.errorMap = getBoolNode(*n, k, file);
+                outputs.errorMapWhere = loc(file, n->source());
+            } else if (k == "dir")
                 outputs.dir = stringOf(*n, k);
             else
                 throwInputError(loc(file, n->source()),
-                                "unknown key 'outputs.{}' (expected exr, ply, history_error, dir)", k);
+                                "unknown key 'outputs.{}' (expected exr, ply, history_error, "
+                                "error_map, dir)",
+                                k);
         }
     }
     if (const toml::table* t = requireTable("limits")) {

@@ -12,8 +12,17 @@
 //               is "oracle.eps").
 //   [reference] kind = "full-matrix" | "montecarlo" | "none", plus the keys
 //               of that reference ("fm.level", "fm.max_area", "mc.samples"...)
-//   [outputs]   exr, ply, history_error (bools), dir (string, default "runs",
-//               relative to the results store)
+//   [outputs]   exr, ply, history_error, error_map (bools), dir (string,
+//               default "runs", relative to the results store). error_map
+//               needs a reference: it renders the reference with the same
+//               camera and writes reference.png, error.png (16-bit data) and
+//               error_fc.png (false colour) next to image.exr/png
+//               (render/error_map.h); render.error_floor and
+//               render.error_range set its floor and false-colour range,
+//               render.error_mode = "regions" (default: the solution's
+//               averages over the reference's regions against the reference,
+//               the quantities the L1/L2 errors sum) or "pixels" (the two
+//               reconstructed renders compared pixel by pixel).
 //   [limits]    max_seconds (number), max_memory_mb (integer): per point,
 //               overridden by --max-seconds / --max-memory
 //   [sweep]     key = [v1, v2, ...]: every list is an axis of a Cartesian
@@ -45,6 +54,8 @@ struct OutputOptions {
     bool exr = false;           ///< image.exr + image.png of the solution
     bool ply = false;           ///< solution.ply
     bool historyError = false;  ///< L2 error after every iteration (hr solver with a reference)
+    bool errorMap = false;      ///< per-pixel error map against the reference (implies exr)
+    SourceLocation errorMapWhere;  ///< where error_map was set (for "needs a reference")
     std::string dir = "runs";   ///< artefact folder, relative to the results store
 };
 

@@ -67,4 +67,19 @@ ErrorMetrics computeError(const scene::RadiosityField& solution,
     return m;
 }
 
+std::unique_ptr<scene::UniformField> averageOnRegions(const scene::RadiosityField& solution,
+                                                      const scene::UniformField& reference) {
+    const scene::Scene& scene = reference.scene();
+    if (solution.scene().patches.size() != scene.patches.size())
+        throw Error(fmt::format("error metric: solution has {} patches, reference {}",
+                                solution.scene().patches.size(), scene.patches.size()));
+    std::vector<uint8_t> levels(scene.patches.size());
+    for (uint32_t p = 0; p < scene.patches.size(); ++p) levels[p] = uint8_t(reference.level(p));
+    auto out = std::make_unique<scene::UniformField>(scene, std::move(levels));
+    for (uint32_t p = 0; p < scene.patches.size(); ++p)
+        for (size_t l = 0; l < reference.count(p); ++l)
+            out->value(reference.offset(p) + l) = solution.average(p, reference.key(p, l));
+    return out;
+}
+
 }  // namespace hrad::reference

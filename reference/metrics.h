@@ -17,6 +17,7 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <string>
 
 #include "scene/field.h"
@@ -37,5 +38,11 @@ struct ErrorMetrics {
 /// the same object). Throws hrad::Error when they differ.
 ErrorMetrics computeError(const scene::RadiosityField& solution,
                           const scene::UniformField& reference);
+
+/// The solution's exact averages over the reference's regions, as a field on
+/// the reference's mesh (S_k above for every k): what the metrics compare,
+/// e.g. for a per-region error map. Same checks as computeError.
+std::unique_ptr<scene::UniformField> averageOnRegions(const scene::RadiosityField& solution,
+                                                      const scene::UniformField& reference);
 
 }  // namespace hrad::reference

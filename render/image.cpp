@@ -37,6 +37,10 @@ double autoExposure(const std::vector<RGB>& values, const std::vector<double>& w
     return 1.0 / lw.back().first;
 }
 
+double pngAutoExposure(const Image& image) {
+    return std::max(autoExposure(image.pixels), 0.35 * autoExposure(image.pixels, {}, 0.5));
+}
+
 uint8_t encodeSrgb8(double x) {
     if (!(x > 0)) return 0;  // also NaN
     if (x >= 1) return 255;
@@ -82,31 +86,32 @@ Image readExr(const std::string& path) {
     }
 }
 
+void writePngPixels(const std::string& path, int width, int height, uint32_t format,
+                    const void* pixels) {
+    // libpng's simplified API (1.6): no setjmp, errors come back in message.
+    png_image png{};
+    png.version = PNG_IMAGE_VERSION;
+    png.width = png_uint_32(width);
+    png.height = png_uint_32(height);
+    png.format = format;
+    if (!png_image_write_to_file(&png, path.c_str(), 0, pixels, 0, nullptr)) {
+        std::string msg = png.message;
+        png_image_free(&png);
+        throw InputError(SourceLocation{path, 0, 0}, "cannot write PNG: " + msg);
+    }
+}
+
 void writePng(const Image& image, const std::string& path, double exposure) {
     HRAD_CHECK(image.width > 0 && image.height > 0 &&
                image.pixels.size() == size_t(image.width) * size_t(image.height));
-    // Automatic exposure: the 99th percentile maps to 1, unless that leaves
-    // the median darker than 0.35 (scenes whose lamps fill more than 1 % of
-    // the frame): then the median maps to 0.35 and the lamps clip.
-    if (!(exposure > 0))
-        exposure = std::max(autoExposure(image.pixels), 0.35 * autoExposure(image.pixels, {}, 0.5));
+    if (!(exposure > 0)) exposure = pngAutoExposure(image);
     std::vector<uint8_t> buf(image.pixels.size() * 3);
     for (size_t i = 0; i < image.pixels.size(); ++i) {
         auto c = toneMap(image.pixels[i], exposure);
         std::copy(c.begin(), c.end(), buf.begin() + int64_t(3 * i));
     }
-    // libpng's simplified API (1.6): no setjmp, errors come back in message.
-    png_image png{};
-    png.version = PNG_IMAGE_VERSION;
-    png.width = png_uint_32(image.width);
-    png.height = png_uint_32(image.height);
-    png.format = PNG_FORMAT_RGB;
     // The data are already sRGB-encoded 8-bit values.
-    if (!png_image_write_to_file(&png, path.c_str(), 0, buf.data(), image.width * 3, nullptr)) {
-        std::string msg = png.message;
-        png_image_free(&png);
-        throw InputError(SourceLocation{path, 0, 0}, "cannot write PNG: " + msg);
-    }
+    writePngPixels(path, image.width, image.height, PNG_FORMAT_RGB, buf.data());
 }
 
 }  // namespace hrad::render

@@ -33,6 +33,12 @@ struct Image {
 double autoExposure(const std::vector<RGB>& values, const std::vector<double>& weights = {},
                     double percentile = 0.99);
 
+/// The exposure writePng uses when it is not given one: the 99th percentile
+/// of the luminance maps to 1, unless that leaves the median darker than 0.35
+/// (scenes whose lamps fill more than 1 % of the frame): then the median maps
+/// to 0.35 and the lamps clip.
+double pngAutoExposure(const Image& image);
+
 /// sRGB transfer function of a linear value, clamped to [0,1], to 8 bits.
 uint8_t encodeSrgb8(double linear);
 /// exposure * c, clamped, sRGB encoded.
@@ -44,8 +50,15 @@ void writeExr(const Image& image, const std::string& path);
 /// Reads the R, G, B channels of an OpenEXR file (missing channels are 0).
 Image readExr(const std::string& path);
 
+/// Writes `pixels` (rows top first, tightly packed) as a PNG through libpng's
+/// simplified API; `format` is a PNG_FORMAT_* value of <png.h> (e.g.
+/// PNG_FORMAT_RGB for 8-bit sRGB, PNG_FORMAT_LINEAR_Y for 16-bit gray).
+/// Throws hrad::InputError naming the path when the file cannot be written.
+void writePngPixels(const std::string& path, int width, int height, uint32_t format,
+                    const void* pixels);
+
 /// Tone-mapped 8-bit sRGB PNG. exposure > 0 multiplies the linear values;
-/// exposure <= 0 uses autoExposure(image.pixels). Throws hrad::InputError
+/// exposure <= 0 uses pngAutoExposure(image). Throws hrad::InputError
 /// naming the path when the file cannot be written.
 void writePng(const Image& image, const std::string& path, double exposure = 0.0);
 

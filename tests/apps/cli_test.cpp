@@ -83,3 +83,23 @@ TEST(Cli, SolveWritesArtefactsAndSummary) {
     EXPECT_GT(s["memory"]["peak_rss"].get<double>(), 0);
     EXPECT_EQ(s["settings"]["cluster.model"], "oriented");
 }
+
+TEST(Cli, ErrorMapNeedsReferenceLevelAndWritesMaps) {
+    auto dir = hrad::test::tempDir("cli_errmap");
+    Result bad = run("solve cornell --error-map --no-progress -o " + dir.string());
+    EXPECT_EQ(bad.code, 2) << bad.output;
+    EXPECT_NE(bad.output.find("--error-map"), std::string::npos) << bad.output;
+    EXPECT_NE(bad.output.find("--reference-level"), std::string::npos) << bad.output;
+    Result r = run("solve cornell --eps 1e-2 --reference-level 1 --error-map --no-ply "
+                   "--no-progress --width 32 --height 32 -o " + dir.string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    for (const char* f : {"reference.png", "error.png", "error_fc.png"})
+        EXPECT_TRUE(std::filesystem::exists(dir / f)) << f;
+    nlohmann::json s;
+    std::ifstream(dir / "summary.json") >> s;
+    EXPECT_GT(s["error_map"]["mean_abs"].get<double>(), 0.0);
+    // Pixels that see a surface: most of the frame (the box's open front and
+    // the edges beyond it are black in both renders and carry no error).
+    EXPECT_GT(s["error_map"]["pixels"].get<int>(), 32 * 32 / 2);
+    EXPECT_LE(s["error_map"]["pixels"].get<int>(), 32 * 32);
+}

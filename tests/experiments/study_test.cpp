@@ -129,6 +129,19 @@ TEST(StudyValidation, SettingOfAnotherOracleIsUnknown) {
     EXPECT_NE(msg.find("eps"), std::string::npos) << msg;
 }
 
+TEST(StudyValidation, ErrorMapNeedsAReference) {
+    std::string msg = errorOf("scenes = [\"furnace\"]\n[outputs]\nexr = true\nerror_map = true\n");
+    EXPECT_NE(msg.find("study.toml:4"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("reference"), std::string::npos) << msg;
+    msg = errorOf("scenes = [\"furnace\"]\n[outputs]\nerror_maps = true\n");
+    EXPECT_NE(msg.find("study.toml:3"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("error_map,"), std::string::npos) << msg;  // the list of valid keys
+    msg = errorOf("scenes = [\"furnace\"]\n[solver]\n\"render.error_mode\" = \"pixel\"\n"
+                  "[reference]\nkind = \"full-matrix\"\n[outputs]\nerror_map = true\n");
+    EXPECT_NE(msg.find("study.toml:3"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("regions"), std::string::npos) << msg;
+}
+
 TEST(StudyValidation, MissingSceneFile) {
     auto dir = test::tempDir("study_missing_scene");
     std::string msg = errorOf("name = \"x\"\nscenes = [\"furnace\",\n  \"nothere/box.obj\"]\n", dir);

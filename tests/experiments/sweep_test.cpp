@@ -12,6 +12,7 @@
 #include <set>
 
 #include "experiments/store.h"
+#include "render/error_map.h"
 #include "experiments/sweep.h"
 #include "tests/test_util.h"
 
@@ -117,6 +118,70 @@ history_error = true
     ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
     EXPECT_DOUBLE_EQ(sqlite3_column_double(st, 0), sqlite3_column_double(st, 1));
     sqlite3_finalize(st);
+}
+
+// outputs.error_map: the reference render, the 16-bit data map and the false
+// colours are written next to the image; a solution equal to the reference
+// (the same full matrix) has zero error everywhere, a coarse one does not,
+// and the data file holds what the summary's statistics describe.
+TEST(Sweep, ErrorMapsAgainstTheReference) {
+    auto dir = test::tempDir("sweep_errmap");
+    Study study = parseStudy(R"(
+name = "maps"
+scenes = [
+  { scene = "cornell", solver = { solver = "full-matrix", "fm.level" = 1 } },
+  { scene = "cornell", solver = { "oracle.eps" = 0.05, "cluster.model" = "none" } },
+]
+[solver]
+"render.width" = 48
+"render.height" = 48
+[reference]
+kind = "full-matrix"
+"fm.level" = 1
+[outputs]
+error_map = true
+)",
+                       "maps.toml", dir);
+    SweepReport r = runSweep(study, options(dir, "maps.sqlite"));
+    ASSERT_EQ(r.finished, 2u);
+    ResultStore s(dir / "maps.sqlite", true);
+    sqlite3_stmt* st = nullptr;
+    sqlite3_prepare_v2(s.handle(), "SELECT key, solver, summary FROM runs ORDER BY solver", -1, &st,
+                       nullptr);
+    int rows = 0;
+    while (sqlite3_step(st) == SQLITE_ROW) {
+        ++rows;
+        std::string key = reinterpret_cast<const char*>(sqlite3_column_text(st, 0));
+        std::string solver = reinterpret_cast<const char*>(sqlite3_column_text(st, 1));
+        auto summary = nlohmann::json::parse(reinterpret_cast<const char*>(sqlite3_column_text(st, 2)));
+        fs::path run = dir / "runs" / "maps" / key;
+        for (const char* f : {"image.png", "reference.png", "error.png", "error_fc.png"})
+            EXPECT_TRUE(fs::exists(run / f)) << solver << " " << f;
+        const auto& em = summary.at("error_map");
+        EXPECT_EQ(em.at("mode"), "regions");
+        render::ErrorMap data = render::readErrorData((run / "error.png").string());
+        ASSERT_EQ(data.width, 48);
+        double sum = 0;
+        size_t n = 0;
+        for (float e : data.values)
+            if (!std::isnan(e)) sum += std::abs(e), ++n;
+        EXPECT_EQ(n, em.at("pixels").get<size_t>());
+        if (solver == "full-matrix") {
+            EXPECT_EQ(em.at("mean_abs").get<double>(), 0.0) << "the reference itself";
+            EXPECT_LT(sum / double(n), 1e-4);  // quantisation of 0 is exact
+        } else {
+            EXPECT_GT(em.at("mean_abs").get<double>(), 0.01);
+            // 16-bit quantisation: within half a step, unless clipped at +-1.
+            if (em.at("max_abs").get<double>() <= 1.0) {
+                EXPECT_NEAR(sum / double(n), em.at("mean_abs").get<double>(), 2e-5);
+            }
+            // The image-space L1 of the per-region map follows the region L1.
+            EXPECT_NEAR(em.at("l1").get<double>(), summary.at("error").at("l1_lum").get<double>(),
+                        0.5 * summary.at("error").at("l1_lum").get<double>());
+        }
+    }
+    sqlite3_finalize(st);
+    EXPECT_EQ(rows, 2);
 }
 
 TEST(Sweep, ResumeAfterKillLosesAndDuplicatesNothing) {
