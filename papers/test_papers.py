@@ -33,6 +33,7 @@ scenes = [{ scene = "cornell", reference = { "fm.level" = 1 } }]
 kind = "full-matrix"
 [outputs]
 exr = true
+error_map = true
 [sweep]
 "oracle.eps" = [1e-2, 3e-3, 1e-3]
 """
@@ -121,7 +122,32 @@ def main():
         nonempty(out + "_conv")
         plot(["images", "--store", store, "--out", out + "_img"])
         nonempty(out + "_img")
-        check(len(json.load(open(out + "_img.json"))["images"]) == 3, "image grid shows 3 renders")
+        grid = json.load(open(out + "_img.json"))
+        check(len(grid["images"]) == 3, "image grid shows 3 renders")
+        check(grid.get("reference_png") is not None and grid.get("error_range", 0) > 0,
+              f"grid has the reference and an error scale ({grid.get('error_range')})")
+        con = sqlite3.connect(store)
+        summ = {k: json.loads(v) for k, v in con.execute("select key, summary from runs")}
+        con.close()
+        for im in grid["images"]:
+            em = summ[im["key"]]["error_map"]
+            # The data PNG holds what the run's summary describes (16-bit
+            # quantisation: half a step of 2/65534, unless clipped at +-1).
+            ok = im["pixels"] == em["pixels"] and (
+                em["max_abs"] > 1 or abs(im["mean_abs_error"] - em["mean_abs"]) < 2e-5)
+            check(ok, f"error map of {im['key'][:8]}: {im['pixels']} px, mean |e| "
+                      f"{im['mean_abs_error']:.6f} == summary {em['mean_abs']:.6f}")
+        plot(["images", "--store", store, "--out", out + "_img2", "--error-range", "0.2"])
+        check(json.load(open(out + "_img2.json"))["error_range"] == 0.2, "--error-range sets the scale")
+        # The documented encoding: 0 = no data, 1 -> -1, 32768 -> 0, 65535 -> +1.
+        sys.path.insert(0, HERE)
+        from hradplot.figures import read_error_map
+        from PIL import Image
+        enc = os.path.join(work, "enc.png")
+        Image.fromarray(np.array([[0, 1, 32768, 65535]], dtype=np.uint16)).save(enc)
+        e = read_error_map(enc)
+        check(np.isnan(e[0, 0]) and np.allclose(e[0, 1:], [-1.0, 0.0, 1.0]),
+              f"error.png decoding {e.tolist()}")
         tex = out + ".tex"
         plot(["table", "--store", store, "--out", tex, "--columns", "eps,links,l2_lum"])
         t = open(tex).read() if os.path.exists(tex) else ""

@@ -25,6 +25,10 @@ def main(argv=None):
     p.add_argument("--label")
     p.add_argument("--where", help="pandas query selecting runs, e.g. \"solver == 'hr'\"")
     p.add_argument("--cols", type=int, default=3, help="images: grid columns")
+    p.add_argument("--max-images", type=int, default=9, help="images: at most this many runs")
+    p.add_argument("--error-range", type=float,
+                   help="images: colour scale of the error maps, +-this relative error "
+                        "(default: 95th percentile of |e|, rounded up)")
     a = p.parse_args(argv)
     group = a.group.split(",") if "," in a.group else a.group
     try:
@@ -39,7 +43,8 @@ def main(argv=None):
         elif a.kind == "convergence":
             figures.convergence(st, a.out, where=a.where)
         elif a.kind == "images":
-            figures.image_grid(st, a.out, cols=a.cols, where=a.where)
+            figures.image_grid(st, a.out, cols=a.cols, max_images=a.max_images, where=a.where,
+                               error_range=a.error_range)
         else:
             if not a.columns:
                 p.error("table needs --columns")

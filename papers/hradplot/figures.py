@@ -220,29 +220,142 @@ def convergence(store, stem, max_runs=8, where=None):
 
 
 def run_images(store):
-    """(row, png path) for every run with an image.png under
-    <store dir>/runs/<study name>/<key>/."""
+    """(row, {name: path}) for every run with an image.png under
+    <store dir>/runs/<study name>/<key>/; the dict also holds "reference"
+    (reference.png) and "error" (error.png, 16-bit data) when the study had
+    [outputs] error_map = true."""
     _require_runs(store, ["key", "study"], "the image grid")
     out = []
     for _, r in store.runs.iterrows():
-        p = os.path.join(store.dir, "runs", store.study_name(r["study"]), r["key"], "image.png")
-        if os.path.exists(p):
-            out.append((r, p))
+        d = os.path.join(store.dir, "runs", store.study_name(r["study"]), r["key"])
+        files = {"image": os.path.join(d, "image.png")}
+        if not os.path.exists(files["image"]):
+            continue
+        for name, f in (("reference", "reference.png"), ("error", "error.png")):
+            if os.path.exists(os.path.join(d, f)):
+                files[name] = os.path.join(d, f)
+        out.append((r, files))
     return out
 
 
-def image_grid(store, stem, cols=3, max_images=9, where=None):
-    """Renders (the PNGs hrad writes next to image.exr) in a grid, each
-    captioned with method, parameter and error."""
+def read_error_map(path):
+    """The signed relative luminance error of an hrad error.png (16-bit gray,
+    render/error_map.h): 0 = no data (NaN), v in 1..65535 is
+    e = 2 (v - 1) / 65534 - 1."""
+    from PIL import Image
+    with Image.open(path) as im:
+        if im.mode not in ("I", "I;16", "I;16B"):
+            raise StoreError(f"{path}: not an hrad error map (16-bit gray PNG), mode {im.mode}")
+        v = np.asarray(im, dtype=np.float64)
+    e = 2.0 * (v - 1.0) / 65534.0 - 1.0
+    e[v == 0] = np.nan
+    return e
+
+
+def error_colormap():
+    """The diverging map of hrad's error_fc.png: Okabe & Ito blue (too dark),
+    white (exact), vermillion (too bright); no data in dark grey."""
+    from matplotlib.colors import LinearSegmentedColormap
+    cmap = LinearSegmentedColormap.from_list("hrad_error", ["#0072B2", "#FFFFFF", "#D55E00"])
+    cmap.set_bad("#404040")
+    return cmap
+
+
+def _nice_ceiling(x):
+    """Smallest of 1, 2, 5 x 10^k that is >= x (x > 0)."""
+    k = math.floor(math.log10(x))
+    for m in (1, 2, 5, 10):
+        if m * 10 ** k >= x * (1 - 1e-9):
+            return m * 10 ** k
+    return 10 ** (k + 1)
+
+
+def _caption(r):
+    cap = (_run_label(r).replace(str(r.get("scene", "")) + " ", "")
+           .replace(" + clusters", "+cl").replace("eps=", r"$\varepsilon$=")
+           .replace("full matrix", "FM").replace("progressive (Southwell)", "prog."))
+    if isinstance(r.get("l2_lum"), float) and not math.isnan(r["l2_lum"]):
+        cap += f"\n$L_2$ {r['l2_lum']:.3g}"
+    return cap
+
+
+def image_grid(store, stem, cols=3, max_images=9, where=None, error_range=None):
+    """Renders in a grid, each captioned with method, parameter and error.
+
+    When the runs have error maps ([outputs] error_map = true), each run is a
+    column pair of panels: its render above its false-colour error map (signed
+    relative luminance error against the reference, one colour scale for the
+    whole figure: +-error_range, default the 95th percentile of |e| over the
+    maps shown, rounded up to 1, 2 or 5 x 10^k), with the reference render as
+    the first column and one colour bar. The renders are hrad's PNGs, which
+    share the reference's exposure when error maps were written."""
     import matplotlib.image as mpimg
     ims = run_images(store)
     if where is not None:
         keep = set(store.runs.query(where)["key"])
-        ims = [(r, p) for r, p in ims if r["key"] in keep]
+        ims = [(r, f) for r, f in ims if r["key"] in keep]
     if not ims:
         raise StoreError(f"{store.path}: no run images found under "
                          f"{os.path.join(store.dir, 'runs')} (study needs [outputs] exr = true)")
     ims = ims[:max_images]
+    with_maps = all("error" in f for _, f in ims)
+    if not with_maps:
+        return _render_grid(store, stem, ims, cols)
+
+    maps = [read_error_map(f["error"]) for _, f in ims]
+    finite = np.concatenate([np.abs(m[np.isfinite(m)]) for m in maps])
+    if error_range is None:
+        p95 = float(np.percentile(finite, 95)) if finite.size else 0.0
+        error_range = min(1.0, _nice_ceiling(p95)) if p95 > 0 else 0.01
+    ncell = len(ims) + 1  # the reference first
+    rows = math.ceil(ncell / cols)
+    w = style.COLUMN_WIDTH
+    fig, axes = style.figure(width=w, height=w / cols * rows * 2.25 + 0.35, nrows=2 * rows,
+                             ncols=cols, squeeze=False)
+    for ax in axes.flat:
+        ax.axis("off")
+    cmap = error_colormap()
+    side = {"images": [], "error_range": error_range, "error": "signed relative luminance error",
+            "reference_png": os.path.relpath(ims[0][1].get("reference", ""), store.dir)
+            if "reference" in ims[0][1] else None}
+    ref = ims[0][1].get("reference")
+    if ref:
+        axes[0][0].imshow(mpimg.imread(ref))
+        axes[0][0].set_title("reference", fontsize=5, pad=2)
+    im = None
+    for i, ((r, f), e) in enumerate(zip(ims, maps), start=1):
+        row, col = divmod(i, cols)
+        top, bottom = axes[2 * row][col], axes[2 * row + 1][col]
+        top.imshow(mpimg.imread(f["image"]))
+        cap = _caption(r)
+        top.set_title(cap, fontsize=5, pad=2)
+        im = bottom.imshow(e, cmap=cmap, vmin=-error_range, vmax=error_range,
+                           interpolation="nearest")
+        fin = e[np.isfinite(e)]
+        mean_abs = float(np.mean(np.abs(fin))) if fin.size else float("nan")
+        bottom.set_title(f"mean $|e|$ {100 * mean_abs:.2g} %", fontsize=5, pad=2)
+        side["images"].append({"key": r["key"], "caption": cap,
+                               "png": os.path.relpath(f["image"], store.dir),
+                               "error_png": os.path.relpath(f["error"], store.dir),
+                               "pixels": int(fin.size), "mean_abs_error": mean_abs,
+                               "p95_abs_error": float(np.percentile(np.abs(fin), 95)) if fin.size
+                               else float("nan")})
+    fig.subplots_adjust(wspace=0.04, hspace=0.25, bottom=0.09)
+    cax = fig.add_axes([0.2, 0.035, 0.6, 0.018])
+    cb = fig.colorbar(im, cax=cax, orientation="horizontal")
+    cb.set_label("relative luminance error vs reference (%): blue too dark, orange too bright",
+                 fontsize=5)
+    cb.ax.tick_params(labelsize=5)
+    ticks = np.linspace(-error_range, error_range, 5)
+    cb.set_ticks(ticks)
+    cb.set_ticklabels([f"{100 * t:+.3g}" if t else "0" for t in ticks])
+    style.save(fig, stem)
+    return _sidecar(stem, side)
+
+
+def _render_grid(store, stem, ims, cols):
+    """Renders only (runs without error maps)."""
+    import matplotlib.image as mpimg
     rows = math.ceil(len(ims) / cols)
     w = style.COLUMN_WIDTH
     fig, axes = style.figure(width=w, height=w / cols * rows * 1.12, nrows=rows, ncols=cols,
@@ -250,15 +363,12 @@ def image_grid(store, stem, cols=3, max_images=9, where=None):
     side = {"images": []}
     for ax in axes.flat:
         ax.axis("off")
-    for ax, (r, p) in zip(axes.flat, ims):
-        ax.imshow(mpimg.imread(p))
-        cap = (_run_label(r).replace(str(r.get("scene", "")) + " ", "")
-               .replace(" + clusters", "+cl").replace("eps=", r"$\varepsilon$=")
-               .replace("full matrix", "FM"))
-        if isinstance(r.get("l2_lum"), float) and not math.isnan(r["l2_lum"]):
-            cap += f"\n$L_2$ {r['l2_lum']:.3g}"
+    for ax, (r, f) in zip(axes.flat, ims):
+        ax.imshow(mpimg.imread(f["image"]))
+        cap = _caption(r)
         ax.set_title(cap, fontsize=5, pad=2)
-        side["images"].append({"key": r["key"], "png": os.path.relpath(p, store.dir), "caption": cap})
+        side["images"].append({"key": r["key"], "png": os.path.relpath(f["image"], store.dir),
+                               "caption": cap})
     fig.subplots_adjust(wspace=0.04, hspace=0.3)
     style.save(fig, stem)
     return _sidecar(stem, side)

@@ -4,7 +4,12 @@ set -u
 HERE=$(cd "$(dirname "$0")" && pwd)
 HRAD=${HRAD:-$HERE/../../build/apps/hrad}
 cd "$HERE"
-for s in ${*:-hanrahan1991 hanrahan1991_linear oracles_all errtime smits1994}; do
+for s in ${*:-hanrahan1991 hanrahan1991_linear oracles_all errtime errtime_corridor smits1994}; do
+  # Studies of the real scenes in ../shared/scenes (not in the repository)
+  # are skipped where that folder is absent.
+  if grep -q 'shared/scenes/' $s.toml && [ ! -d ../../../shared/scenes ]; then
+    echo "== $s: skipped (../shared/scenes not found next to the repository)"; continue
+  fi
   store=../results/$s.sqlite
   resume=; [ -f "$store" ] && resume=--resume
   echo "== $s"; /usr/bin/time -f "$s: %e s wall" "$HRAD" sweep $s.toml --store "$store" $resume --progress
