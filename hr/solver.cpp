@@ -86,6 +86,10 @@ HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visib
     minArea_ = s_.minArea > 0 ? s_.minArea : s_.minAreaRel * scene.totalArea();
     emittedPower_ = maxComponent(scene.emittedPower());
     if (!(emittedPower_ > 0)) emittedPower_ = 1.0;
+    emittedRadiosity_ = 0.0;
+    for (const auto& patch : scene.patches)
+        emittedRadiosity_ = std::max(emittedRadiosity_, maxComponent(patch.emission));
+    if (!(emittedRadiosity_ > 0)) emittedRadiosity_ = 1.0;
 }
 
 bool HrSolver::canSubdivide(const Hierarchy& h, uint32_t e) const {
@@ -204,6 +208,28 @@ Link HrSolver::makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint3
     return l;
 }
 
+void HrSolver::fillBounds(const Hierarchy& h, uint32_t r, const Link& l,
+                          oracles::LinkEstimate& e) const {
+    if (e.receiverIsCluster || e.senderIsCluster) {
+        // The point approximation of a cluster transfer has no receiver
+        // points: use the widest interval the link knows, [0, upper bound].
+        e.Fmin = 0.0;
+        e.Fmax = std::max(e.F, double(l.Fupper));
+        return;
+    }
+    uint32_t s = l.sender;
+    transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
+    transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
+    // The same receiver points as the link's form factor (no rays: visibility
+    // is the link's). F is their weighted mean, so [min, max] contains it up
+    // to the float rounding of Link::K; the max/min with F keep it contained.
+    transport::PointRange pr = engine_.pointRange(er, es);
+    e.Fmax = std::max(pr.max, e.F);
+    // Partial visibility: some receiver points may see none of the sender;
+    // with only a visibility fraction known, 0 is the conservative lower bound.
+    e.Fmin = e.partialVisibility ? 0.0 : std::min(pr.min, e.F);
+}
+
 Link HrSolver::makeLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const {
     if (h.isCluster(r) || h.isCluster(s)) return makeClusterLink(h, r, s, rays);
     transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
@@ -272,6 +298,41 @@ void HrSolver::initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vect
     res.initialPairs = ffs;
 }
 
+oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, const Link& l,
+                                             bool bounds) const {
+    uint32_t s = l.sender;
+    oracles::LinkEstimate e;
+    e.F = l.K;
+    double v = l.vis();
+    e.visibility = v;
+    e.unoccludedF = v > 0 ? l.K / v : l.K;
+    e.Fupper = l.Fupper;
+    e.partialVisibility = (l.flags & Link::kPartial) != 0;
+    e.receiverArea = h.area(r);
+    e.senderArea = h.area(s);
+    e.senderB = h.B(s);
+    e.receiverRho = h.rho(r);
+    e.receiverIsCluster = h.isCluster(r);
+    e.senderIsCluster = h.isCluster(s);
+    if (e.receiverIsCluster && h.clusterModel() == cluster::ClusterModel::Oriented) {
+        // The link stores K without the receiver's projected-area
+        // fraction (applied per surface when pushing).
+        Vec3 u = h.center(s) - h.center(r);
+        double len = glm::length(u);
+        double g = len > 0 ? projectedFraction(h, r, u / len) : 1.0;
+        e.F *= g;
+        e.unoccludedF *= g;
+    }
+    e.emittedPower = emittedPower_;
+    e.emittedRadiosity = emittedRadiosity_;
+    e.receiverLevel = h.level(r);
+    e.senderLevel = h.level(s);
+    e.receiverCanSubdivide = canSubdivide(h, r);
+    e.senderCanSubdivide = canSubdivide(h, s);
+    if (bounds) fillBounds(h, r, l, e);
+    return e;
+}
+
 uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
                           IterationRecord& rec) {
     std::vector<uint32_t> recv = h.linkReceivers();
@@ -283,6 +344,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
     uint64_t refined = 0;
     std::vector<uint8_t> decision;
     std::vector<uint8_t> mark;
+    const bool bounds = oracle.needsBounds();
 
     while (!pending.empty()) {
         size_t n = pending.size();
@@ -301,33 +363,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
                         decision[i] = uint8_t(forcedDecision(h, r, s));
                         continue;
                     }
-                    oracles::LinkEstimate e;
-                    e.F = l.K;
-                    double v = l.vis();
-                    e.visibility = v;
-                    e.unoccludedF = v > 0 ? l.K / v : l.K;
-                    e.Fupper = l.Fupper;
-                    e.partialVisibility = (l.flags & Link::kPartial) != 0;
-                    e.receiverArea = h.area(r);
-                    e.senderArea = h.area(s);
-                    e.senderB = h.B(s);
-                    e.receiverRho = h.rho(r);
-                    e.receiverIsCluster = h.isCluster(r);
-                    e.senderIsCluster = h.isCluster(s);
-                    if (e.receiverIsCluster && h.clusterModel() == cluster::ClusterModel::Oriented) {
-                        // The link stores K without the receiver's projected-area
-                        // fraction (applied per surface when pushing).
-                        Vec3 u = h.center(s) - h.center(r);
-                        double len = glm::length(u);
-                        double g = len > 0 ? projectedFraction(h, r, u / len) : 1.0;
-                        e.F *= g;
-                        e.unoccludedF *= g;
-                    }
-                    e.emittedPower = emittedPower_;
-                    e.receiverLevel = h.level(r);
-                    e.senderLevel = h.level(s);
-                    e.receiverCanSubdivide = canSubdivide(h, r);
-                    e.senderCanSubdivide = canSubdivide(h, s);
+                    oracles::LinkEstimate e = linkEstimate(h, r, l, bounds);
                     decision[i] = uint8_t(oracles::constrain(oracle.decide(e), e));
                 }
             });

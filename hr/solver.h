@@ -18,7 +18,10 @@
 //
 // Settings (Params keys):
 //   hr.oracle          string  "bfa"   refinement oracle (oracles/registry.h); its own
-//                                       settings are the keys "oracle.*" (e.g. oracle.eps)
+//                                       settings are the keys "oracle.*" (e.g. oracle.eps).
+//                                       Oracles that read form-factor bounds (`error`,
+//                                       `kv`: Oracle::needsBounds) cost point-to-element
+//                                       form factors per link judged (linkEstimate below)
 //   hr.eps_schedule    string  ""      comma-separated decreasing eps values; each stage
 //                                       sets oracle.eps and runs the loop to convergence
 //   hr.min_area        double  0       minimum element area (absolute); 0: min_area_rel
@@ -131,6 +134,16 @@ class HrSolver {
     using IterationHook = std::function<void(const Hierarchy&, IterationRecord&)>;
     void setIterationHook(IterationHook hook) { hook_ = std::move(hook); }
 
+    /// The LinkEstimate that refinement gives the oracle for link l of
+    /// receiver r in h (a link not marked Link::kOpen). With `bounds` (the
+    /// oracle's needsBounds()) Fmin / Fmax are evaluated too: for surface
+    /// links the point-to-element form factors at the form-factor rule's
+    /// receiver points, recomputed without rays (transport pointRange), with
+    /// Fmin = 0 for partially visible links; [0, max(F, Fupper)] for links
+    /// touching a cluster. Not stored in the 16-byte Link.
+    oracles::LinkEstimate linkEstimate(const Hierarchy& h, uint32_t r, const Link& l,
+                                       bool bounds) const;
+
   private:
     struct Pending;
     void initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vector<Link>& links,
@@ -149,6 +162,9 @@ class HrSolver {
     oracles::Decision openDecision(const Hierarchy& h, uint32_t r, uint32_t s, double dist,
                                    double radiusR, double radiusS) const;
     bool canSubdivide(const Hierarchy& h, uint32_t e) const;
+    /// Fills e.Fmin / e.Fmax for link l of receiver r (only for oracles whose
+    /// needsBounds() is true; the other fields of e must be set).
+    void fillBounds(const Hierarchy& h, uint32_t r, const Link& l, oracles::LinkEstimate& e) const;
 
     const scene::Scene* scene_;
     const transport::Visibility* vis_;
@@ -156,6 +172,7 @@ class HrSolver {
     transport::FormFactorEngine engine_;
     double minArea_ = 0.0;
     double emittedPower_ = 1.0;
+    double emittedRadiosity_ = 1.0;  ///< largest max-channel emission of any patch
     IterationHook hook_;
 };
 

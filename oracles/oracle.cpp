@@ -12,6 +12,20 @@ const char* decisionName(Decision d) {
     return "?";
 }
 
+ErrorNorm readErrorNorm(const Params& p, const std::string& key, ErrorNorm def) {
+    std::string v = p.getEnum(key, errorNormName(def), {"power", "radiosity"});
+    return v == "radiosity" ? ErrorNorm::Radiosity : ErrorNorm::Power;
+}
+
+const char* errorNormName(ErrorNorm n) {
+    return n == ErrorNorm::Radiosity ? "radiosity" : "power";
+}
+
+bool errorWithinEps(double dB, double eps, ErrorNorm norm, const LinkEstimate& e) {
+    if (norm == ErrorNorm::Radiosity) return dB <= eps * e.emittedRadiosity;
+    return dB * e.receiverArea <= eps * e.emittedPower;
+}
+
 Decision constrain(Decision d, const LinkEstimate& e) {
     bool r = e.receiverCanSubdivide, s = e.senderCanSubdivide;
     switch (d) {

@@ -32,6 +32,15 @@ struct LinkEstimate {
     RGB receiverRho{0.0};      ///< reflectance of the receiver
     double importance = 1.0;   ///< receiver importance (Smits, Arvo & Salesin 1992); 1 when unused
     double emittedPower = 1.0; ///< max-channel total emitted power of the scene (normaliser)
+    /// Max-channel largest emitted radiosity E of any patch (normaliser of
+    /// radiosity-norm error oracles, like RenderPark's max self-emitted radiance).
+    double emittedRadiosity = 1.0;
+    /// Range of the point-to-element form factor F_{dA(x) -> s} over receiver
+    /// points x, visibility included: Fmin <= F <= Fmax. The solver fills them
+    /// only for oracles whose needsBounds() is true (transport/formfactor.h
+    /// pointRange; a partially visible link has Fmin = 0; a link touching a
+    /// cluster has [0, max(F, Fupper)]). The defaults are the trivial interval.
+    double Fmin = 0.0, Fmax = 1.0;
     int receiverLevel = 0, senderLevel = 0;
     bool receiverCanSubdivide = false, senderCanSubdivide = false;
     bool receiverIsCluster = false, senderIsCluster = false;
@@ -44,10 +53,30 @@ class Oracle {
   public:
     virtual ~Oracle() = default;
     virtual Decision decide(const LinkEstimate& e) const = 0;
+    /// True when decide() reads LinkEstimate::Fmin / Fmax. Filling them costs
+    /// extra point-to-element form factors for every link judged, so the
+    /// solver only does it when asked.
+    virtual bool needsBounds() const { return false; }
     virtual std::string name() const = 0;
     /// One line with every setting, written next to each result.
     virtual std::string describe() const = 0;
 };
+
+/// How the error oracles (`error`, `kv`) compare the radiosity error dB a link
+/// may make at its receiver with eps:
+///   Power      A_r dB <= eps * emittedPower: the error in power, relative to
+///              the scene's emitted power, in the units of `bfa`;
+///   Radiosity  dB <= eps * emittedRadiosity: the error in radiosity, relative
+///              to the brightest emitter (Lischinski et al. 1993; RenderPark's
+///              RADIANCE_ERROR norm). Does not shrink with the element, so
+///              refinement near shared edges runs to the minimum area.
+enum class ErrorNorm : uint8_t { Power = 0, Radiosity = 1 };
+
+/// Reads `key` ("power" | "radiosity") from p.
+ErrorNorm readErrorNorm(const Params& p, const std::string& key, ErrorNorm def);
+const char* errorNormName(ErrorNorm n);
+/// True when the receiver radiosity error dB is within eps in the given norm.
+bool errorWithinEps(double dB, double eps, ErrorNorm norm, const LinkEstimate& e);
 
 /// Makes a decision consistent with what each side may do: a refinement of a
 /// side that cannot subdivide falls back to the other side, or to Accept.

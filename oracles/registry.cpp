@@ -4,7 +4,9 @@
 #include <utility>
 
 #include "oracles/bfa_oracle.h"
+#include "oracles/error_oracle.h"
 #include "oracles/ff_oracle.h"
+#include "oracles/kv_oracle.h"
 #include "oracles/uniform_oracle.h"
 
 namespace hrad::oracles {
@@ -21,6 +23,15 @@ const std::vector<std::pair<std::string, Factory>>& table() {
         {"ff",
          [](const Params& p) {
              return std::make_unique<FormFactorOracle>(FormFactorOracle::Settings::fromParams(p));
+         }},
+        {"error",
+         [](const Params& p) {
+             return std::make_unique<ErrorBoundOracle>(ErrorBoundOracle::Settings::fromParams(p));
+         }},
+        {"kv",
+         [](const Params& p) {
+             return std::make_unique<KernelVariationOracle>(
+                 KernelVariationOracle::Settings::fromParams(p));
          }},
         {"uniform",
          [](const Params& p) {

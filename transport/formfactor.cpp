@@ -32,6 +32,13 @@
 // relative 1e-5 so that float rounding of Embree's geometry cannot put a
 // segment end behind an adjacent patch.
 //
+// Point range: compute() also returns the min and max of the values its outer
+// rule averages, the point-to-element form factors F_{dA(x_i) -> s} at the
+// receiver points x_i (pointMin / pointMax); pointRange() returns the same
+// without casting visibility rays. Error-driven refinement oracles use them as
+// sample estimates of the variation of the kernel over the receiver
+// (Lischinski, Tampieri & Greenberg 1994; Bekaert & Willems 1996).
+//
 // Everything here is const and allocation-free per call: rule points live in
 // fixed stack arrays (at most 16 x 16), visibility segments in batches of 64.
 #include "transport/formfactor.h"
@@ -298,6 +305,62 @@ FormFactorEngine::FormFactorEngine(const scene::Scene& scene, const Visibility* 
     (void)gaussLegendre01(1);  // build the tables now rather than in the first hot call
 }
 
+namespace {
+/// Unoccluded F_rs of two facing elements by the given rule, with the min and
+/// max of the per-receiver-point values F_{dA(x_i) -> s} whose weighted mean
+/// it is (the weights of elementGaussPoints are positive and sum to A_r).
+/// Tracking min/max does not change the summation, so F is bitwise the same
+/// whether or not the range is wanted.
+double ruleF(const ElemGeom& gr, const ElemGeom& gs, Rule rule, const FormFactorSettings& st,
+             PointRange& range) {
+    double F = 0.0;
+    double lo = 1e300, hi = -1e300;
+    if (rule == Rule::Centroid) {
+        Vec3 x = scene::elementCentroid(*gr.patch, gr.dom),
+             y = scene::elementCentroid(*gs.patch, gs.dom);
+        F = gs.area * kernel(x, gr.normal, y, gs.normal);
+        lo = hi = F;
+    } else {
+        Vec3 xr[kMaxRulePoints];
+        double wr[kMaxRulePoints];
+        int nr = elementGaussPoints(*gr.patch, gr.dom, st.points, xr, wr);
+        if (rule == Rule::Gauss) {
+            double sum = 0.0;
+            for (int i = 0; i < nr; ++i) {
+                // Receiver points behind the sender's plane see its back: 0.
+                if (glm::dot(xr[i] - gs.center, gs.normal) <= 0.0) {
+                    lo = std::min(lo, 0.0);
+                    hi = std::max(hi, 0.0);
+                    continue;
+                }
+                double g = pointToPolygon(xr[i], gr.normal, gs.c, gs.n);
+                lo = std::min(lo, g);
+                hi = std::max(hi, g);
+                sum += wr[i] * g;
+            }
+            F = sum / gr.area;
+        } else {
+            Vec3 ys[kMaxRulePoints];
+            double ws[kMaxRulePoints];
+            int ns = elementGaussPoints(*gs.patch, gs.dom, st.senderPoints, ys, ws);
+            double sum = 0.0;
+            for (int i = 0; i < nr; ++i) {
+                double inner = 0.0;
+                for (int j = 0; j < ns; ++j)
+                    inner += ws[j] * kernel(xr[i], gr.normal, ys[j], gs.normal);
+                lo = std::min(lo, inner);
+                hi = std::max(hi, inner);
+                sum += wr[i] * inner;
+            }
+            F = sum / gr.area;
+        }
+    }
+    range.min = lo <= hi ? lo : 0.0;
+    range.max = lo <= hi ? hi : 0.0;
+    return F;
+}
+}  // namespace
+
 FormFactorResult FormFactorEngine::compute(const ElementRef& r, const ElementRef& s) const {
     FormFactorResult res;
     ElemGeom gr = makeGeom(*scene_, r), gs = makeGeom(*scene_, s);
@@ -306,38 +369,11 @@ FormFactorResult FormFactorEngine::compute(const ElementRef& r, const ElementRef
         return res;  // visibility 1 (not evaluated), no rays
     }
 
-    double F = 0.0;
     const Rule rule = parseRule(settings_.rule);  // validated in the constructor
-    if (rule == Rule::Centroid) {
-        Vec3 x = scene::elementCentroid(*gr.patch, gr.dom),
-             y = scene::elementCentroid(*gs.patch, gs.dom);
-        F = gs.area * kernel(x, gr.normal, y, gs.normal);
-    } else {
-        Vec3 xr[kMaxRulePoints];
-        double wr[kMaxRulePoints];
-        int nr = elementGaussPoints(*gr.patch, gr.dom, settings_.points, xr, wr);
-        if (rule == Rule::Gauss) {
-            double sum = 0.0;
-            for (int i = 0; i < nr; ++i) {
-                // Receiver points behind the sender's plane see its back: 0.
-                if (glm::dot(xr[i] - gs.center, gs.normal) <= 0.0) continue;
-                sum += wr[i] * pointToPolygon(xr[i], gr.normal, gs.c, gs.n);
-            }
-            F = sum / gr.area;
-        } else {
-            Vec3 ys[kMaxRulePoints];
-            double ws[kMaxRulePoints];
-            int ns = elementGaussPoints(*gs.patch, gs.dom, settings_.senderPoints, ys, ws);
-            double sum = 0.0;
-            for (int i = 0; i < nr; ++i) {
-                double inner = 0.0;
-                for (int j = 0; j < ns; ++j)
-                    inner += ws[j] * kernel(xr[i], gr.normal, ys[j], gs.normal);
-                sum += wr[i] * inner;
-            }
-            F = sum / gr.area;
-        }
-    }
+    PointRange range;
+    double F = ruleF(gr, gs, rule, settings_, range);
+    res.pointMin = range.min;
+    res.pointMax = range.max;
     res.unoccludedF = F;
     res.F = F;
     if (F > 0.0 && settings_.visRays > 0 && visibility_) {
@@ -349,6 +385,14 @@ FormFactorResult FormFactorEngine::compute(const ElementRef& r, const ElementRef
         res.F = F * res.visibility;
     }
     return res;
+}
+
+PointRange FormFactorEngine::pointRange(const ElementRef& r, const ElementRef& s) const {
+    PointRange range;
+    ElemGeom gr = makeGeom(*scene_, r), gs = makeGeom(*scene_, s);
+    if (!facingGeom(gr, gs) || !(gr.area > 0.0)) return range;
+    ruleF(gr, gs, parseRule(settings_.rule), settings_, range);
+    return range;
 }
 
 double FormFactorEngine::estimate(const ElementRef& r, const ElementRef& s) const {

@@ -75,6 +75,16 @@ struct FormFactorResult {
                               ///< vis_rays == 0, or no Visibility given)
     bool partial = false;     ///< some but not all rays were blocked
     uint32_t rays = 0;        ///< occlusion rays cast
+    /// Smallest and largest unoccluded point-to-element form factor
+    /// F_{dA(x_i) -> s} over the outer rule's receiver points x_i: the values
+    /// whose weighted mean is unoccludedF, so pointMin <= unoccludedF <=
+    /// pointMax up to round-off (see pointRange). 0 when the pair does not face.
+    double pointMin = 0.0, pointMax = 0.0;
+};
+
+/// Range of the unoccluded point-to-element form factor over receiver points.
+struct PointRange {
+    double min = 0.0, max = 0.0;
 };
 
 class FormFactorEngine {
@@ -89,6 +99,16 @@ class FormFactorEngine {
     /// positions depend only on (r.id, s.id); (r,s) and (s,r) share the same
     /// segments, so their visibility is identical. Ids should be unique per element.
     FormFactorResult compute(const ElementRef& r, const ElementRef& s) const;
+
+    /// The pointMin / pointMax of compute() without its visibility rays: the
+    /// min and max over the outer rule's receiver points x_i of the unoccluded
+    /// point-to-element form factor F_{dA(x_i) -> s} ("gauss": exact
+    /// pointToPolygon, 0 for points behind s's plane; "gauss-gauss": the inner
+    /// sender rule; "centroid": the single centroid value). These are samples
+    /// of the variation of F_{dA(x) -> s} over r, not conservative bounds: the
+    /// extremes may lie between the points (near a shared edge, at r's
+    /// boundary). Used by error-driven oracles (oracles/error_oracle.h).
+    PointRange pointRange(const ElementRef& r, const ElementRef& s) const;
 
     /// Cheap estimate of F_rs (centroid point-to-disc, no visibility).
     double estimate(const ElementRef& r, const ElementRef& s) const;

@@ -63,14 +63,60 @@ TEST_P(FurnaceAllOracles, RadiosityIsEOverOneMinusRho) {
         EXPECT_LT(run(0.0).first, 1e-3);
         return;
     }
-    double coarse = oracle == "ff" ? 0.02 : 1e-3, fine = oracle == "ff" ? 0.005 : 1e-4;
+    // The error oracles (`error`, `kv`) bound the kernel variation over each
+    // receiver link by link, but the ancestor links above remain: at eps 1e-3
+    // they measure 7.1 % (error) and 7.5 % (kv) with 3.6k and 2.2k links, so
+    // their coarse tolerance is 8 %; a finer eps of 3e-4 keeps the test short.
+    bool errorOracle = oracle == "error" || oracle == "kv";
+    double coarse = oracle == "ff" ? 0.02 : 1e-3;
+    double fine = oracle == "ff" ? 0.005 : errorOracle ? 3e-4 : 1e-4;
     auto [worstC, l1C] = run(coarse);
     auto [worstF, l1F] = run(fine);
-    EXPECT_LT(l1C, 0.06);
+    EXPECT_LT(l1C, errorOracle ? 0.08 : 0.06);
     EXPECT_LT(l1F, l1C);
 }
 
-INSTANTIATE_TEST_SUITE_P(Oracles, FurnaceAllOracles, ::testing::Values("bfa", "ff", "uniform"));
+INSTANTIATE_TEST_SUITE_P(Oracles, FurnaceAllOracles,
+                         ::testing::Values("bfa", "ff", "uniform", "error", "kv"));
+
+// The form-factor interval the solver gives bound-reading oracles (error, kv)
+// on real links: it contains the link's F, is [0, Fmax] for partially visible
+// links, and is only evaluated when asked for.
+TEST(HrSolver, LinkEstimateBracketsTheFormFactor) {
+    scene::Scene s = test::closedRoom();  // the block makes partially visible links
+    transport::Visibility vis(s);
+    HrSolver solver(s, vis, settingsFor("bfa", 1e-3));
+    HrResult r = solver.solve();
+    const Hierarchy& h = *r.hierarchy;
+    uint64_t links = 0, partial = 0, varying = 0, positiveMin = 0;
+    for (uint32_t e = 0; e < h.numElements(); ++e) {
+        for (uint64_t i = h.linkBegin(e); i < h.linkEnd(e); ++i) {
+            const Link& l = h.link(i);
+            oracles::LinkEstimate plain = solver.linkEstimate(h, e, l, false);
+            EXPECT_EQ(plain.Fmin, 0.0);  // the defaults: not evaluated
+            EXPECT_EQ(plain.Fmax, 1.0);
+            oracles::LinkEstimate b = solver.linkEstimate(h, e, l, true);
+            EXPECT_EQ(b.F, plain.F);
+            ASSERT_LE(b.Fmin, b.F) << "link " << i;
+            ASSERT_GE(b.Fmax, b.F) << "link " << i;
+            // The point form factor never exceeds 1 (rule "gauss": exact
+            // point-to-polygon values).
+            EXPECT_LE(b.Fmax, 1.0);
+            if (b.partialVisibility) {
+                EXPECT_EQ(b.Fmin, 0.0);
+                ++partial;
+            }
+            if (b.Fmax > b.F * (1 + 1e-6)) ++varying;
+            if (b.Fmin > 0.0) ++positiveMin;
+            ++links;
+        }
+    }
+    std::cout << links << " links: " << partial << " partially visible, " << varying
+              << " with Fmax > F, " << positiveMin << " with Fmin > 0\n";
+    EXPECT_GT(partial, 0u);
+    EXPECT_GT(varying, links / 2);
+    EXPECT_GT(positiveMin, links / 4);
+}
 
 // In a closed scene all emitted power is eventually absorbed:
 // sum_k A_k E_k = sum_k A_k (1 - rho_k) H_k with H_k = (B_k - E_k) / rho_k.
@@ -136,6 +182,20 @@ TEST(HrSettings, RejectsBadSettings) {
     Params r;
     r.set("hr.eps_schedule", std::string("1e-3,1e-2"), {"study.toml", 5});
     EXPECT_THROW(HrSettings::fromParams(r), InputError);
+    // The error oracles read oracle.eps / norm / min_area and nothing else.
+    Params t;
+    t.set("hr.oracle", std::string("error"));
+    t.set("oracle.use_bound", true, {"study.toml", 6});
+    EXPECT_THROW(HrSettings::fromParams(t), InputError);
+    Params u;
+    u.set("hr.oracle", std::string("kv"));
+    u.set("oracle.norm", std::string("radiance"), {"study.toml", 7});
+    EXPECT_THROW(HrSettings::fromParams(u), InputError);
+    Params v;
+    v.set("hr.oracle", std::string("kv"));
+    v.set("oracle.norm", std::string("radiosity"));
+    v.set("oracle.eps", 1e-2);
+    EXPECT_NO_THROW(HrSettings::fromParams(v));
 }
 
 TEST(HrSolver, EpsScheduleRunsEachStage) {

@@ -395,6 +395,69 @@ TEST(FormFactor, ReciprocityRandomPairs) {
               << "\n";
 }
 
+// pointMin / pointMax bracket the unoccluded F (their weighted mean), equal
+// pointRange(), and are the point-to-element form factors at the receiver's
+// Gauss points, for random facing pairs and every rule.
+TEST(FormFactor, PointRangeBracketsTheAverage) {
+    Pcg32 rng(7);
+    int tested = 0;
+    for (int trial = 0; trial < 100; ++trial) {
+        scene::Scene sc = emptyScene();
+        Vec3 dir = randomUnit(rng);
+        double dist = 0.5 + 3.0 * rng.nextDouble();
+        Vec3 n0 = glm::normalize(dir + 0.8 * randomUnit(rng));
+        Vec3 n1 = glm::normalize(-dir + 0.8 * randomUnit(rng));
+        addRandomPatch(sc, rng, Vec3(0.0), n0, 0.5 + rng.nextDouble());
+        addRandomPatch(sc, rng, dist * dir, n1, 0.3 + 1.5 * rng.nextDouble());
+        ElementRef a{0, scene::keyDomain(sc.patches[0].kind, 4 + trial % 4), 4};
+        ElementRef b{1, scene::Domain{}, 1};
+        for (std::string rule : {"gauss", "gauss-gauss", "centroid"}) {
+            FormFactorSettings st = gaussSettings(3);
+            st.rule = rule;
+            FormFactorEngine eng(sc, nullptr, st);
+            FormFactorResult f = eng.compute(a, b);
+            PointRange pr = eng.pointRange(a, b);
+            EXPECT_EQ(pr.min, f.pointMin) << rule;
+            EXPECT_EQ(pr.max, f.pointMax) << rule;
+            if (f.unoccludedF == 0.0) continue;
+            double tol = 1e-12 * f.unoccludedF;
+            EXPECT_LE(f.pointMin, f.unoccludedF + tol) << rule << " trial " << trial;
+            EXPECT_GE(f.pointMax, f.unoccludedF - tol) << rule << " trial " << trial;
+            EXPECT_GE(f.pointMin, 0.0);
+            if (rule == "gauss") {
+                // The same values as pointToElement at the 3 x 3 receiver points.
+                Vec3 x[9];
+                double w[9];
+                int n = elementGaussPoints(sc.patches[0], a.dom, 3, x, w);
+                double lo = 1e300, hi = -1e300;
+                for (int i = 0; i < n; ++i) {
+                    double g = eng.pointToElement(x[i], sc.patches[0].normal, b);
+                    lo = std::min(lo, g);
+                    hi = std::max(hi, g);
+                }
+                EXPECT_DOUBLE_EQ(f.pointMin, lo);
+                EXPECT_DOUBLE_EQ(f.pointMax, hi);
+                ++tested;
+            }
+        }
+    }
+    EXPECT_GT(tested, 40);
+    // Adjacent perpendicular plates: F_{dA(x) -> s} varies strongly over the
+    // receiver (large near the shared edge); distant small plates: it barely does.
+    scene::Scene perp = perpendicularPair(1, 1, 1);
+    FormFactorEngine ep(perp, nullptr, gaussSettings(3));
+    FormFactorResult fp = ep.compute({0, {}, 1}, {1, {}, 2});
+    EXPECT_GT(fp.pointMax - fp.pointMin, 0.5 * fp.F);
+    scene::Scene far = parallelPair(0.1, 0.1, 10);
+    FormFactorEngine ef(far, nullptr, gaussSettings(3));
+    FormFactorResult ff = ef.compute({0, {}, 1}, {1, {}, 2});
+    EXPECT_LT(ff.pointMax - ff.pointMin, 1e-3 * ff.F);
+    // Pairs that do not face: an empty range.
+    PointRange none = ep.pointRange({0, {}, 1}, {0, {}, 1});
+    EXPECT_EQ(none.min, 0.0);
+    EXPECT_EQ(none.max, 0.0);
+}
+
 namespace {
 /// The inside of the unit cube: 6 quads with inward normals.
 scene::Scene unitBox() {
