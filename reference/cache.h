@@ -79,7 +79,7 @@ std::optional<CachedReference> loadReference(const std::string& path, const scen
 std::filesystem::path defaultCacheDir();
 
 /// Kinds (with algorithm versions) used in the keys by the helpers below.
-inline constexpr const char* kFullMatrixKind = "fullmatrix/1";
+inline constexpr const char* kFullMatrixKind = "fullmatrix/2";  // 2: adaptive receiver rule on near pairs
 inline constexpr const char* kMonteCarloKind = "montecarlo/1";
 
 /// Full-matrix reference through the cache in `cacheDir` (file

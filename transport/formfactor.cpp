@@ -46,6 +46,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <vector>
 
@@ -231,12 +232,15 @@ FormFactorSettings FormFactorSettings::fromParams(const Params& params, const st
     s.senderPoints =
         int(params.getInt(prefix + ".sender_points", s.senderPoints, 1, kMaxGaussPoints));
     s.visRays = int(params.getInt(prefix + ".vis_rays", s.visRays, 0, kMaxVisRays));
+    s.adaptiveDepth = int(params.getInt(prefix + ".adaptive_depth", s.adaptiveDepth, 0, 8));
+    s.adaptiveTol = params.getDouble(prefix + ".adaptive_tol", s.adaptiveTol, 1e-12, 1.0);
     return s;
 }
 
 std::string FormFactorSettings::describe() const {
-    return fmt::format("rule={} points={} sender_points={} vis_rays={}", rule, points, senderPoints,
-                       visRays);
+    return fmt::format("rule={} points={} sender_points={} vis_rays={} adaptive_depth={} "
+                       "adaptive_tol={}",
+                       rule, points, senderPoints, visRays, adaptiveDepth, adaptiveTol);
 }
 
 // ---- engine ---------------------------------------------------------------------
@@ -302,6 +306,9 @@ FormFactorEngine::FormFactorEngine(const scene::Scene& scene, const Visibility* 
     range("points", settings_.points, 1, kMaxGaussPoints);
     range("sender_points", settings_.senderPoints, 1, kMaxGaussPoints);
     range("vis_rays", settings_.visRays, 0, kMaxVisRays);
+    range("adaptive_depth", settings_.adaptiveDepth, 0, 8);
+    if (!(settings_.adaptiveTol > 0.0))
+        throwInputError(SourceLocation{}, "form factor setting 'adaptive_tol' must be > 0");
     (void)gaussLegendre01(1);  // build the tables now rather than in the first hot call
 }
 
@@ -325,18 +332,51 @@ double ruleF(const ElemGeom& gr, const ElemGeom& gs, Rule rule, const FormFactor
         double wr[kMaxRulePoints];
         int nr = elementGaussPoints(*gr.patch, gr.dom, st.points, xr, wr);
         if (rule == Rule::Gauss) {
-            double sum = 0.0;
-            for (int i = 0; i < nr; ++i) {
-                // Receiver points behind the sender's plane see its back: 0.
-                if (glm::dot(xr[i] - gs.center, gs.normal) <= 0.0) {
-                    lo = std::min(lo, 0.0);
-                    hi = std::max(hi, 0.0);
-                    continue;
+            // Receiver points behind the sender's plane see its back: 0.
+            auto gaussSum = [&](const Vec3* x, const double* w, int count) {
+                double sum = 0.0;
+                for (int i = 0; i < count; ++i) {
+                    double g = glm::dot(x[i] - gs.center, gs.normal) <= 0.0
+                                   ? 0.0
+                                   : pointToPolygon(x[i], gr.normal, gs.c, gs.n);
+                    lo = std::min(lo, g);
+                    hi = std::max(hi, g);
+                    sum += w[i] * g;
                 }
-                double g = pointToPolygon(xr[i], gr.normal, gs.c, gs.n);
-                lo = std::min(lo, g);
-                hi = std::max(hi, g);
-                sum += wr[i] * g;
+                return sum;
+            };
+            double sum = gaussSum(xr, wr, nr);
+            // Near pairs: the point form factor varies steeply over the
+            // receiver (it has a log singularity at a shared edge), so one
+            // n x n rule can be off by several per cent. When the bounding
+            // spheres are closer than the receiver's radius, compare the rule
+            // with the sum of the rule on the four children and recurse into
+            // the children (adaptive quadrature, e.g. Davis & Rabinowitz
+            // 1984 ch. 6) until they agree to adaptive_tol or adaptive_depth
+            // levels are reached.
+            double gap = glm::length(gs.center - gr.center) - gr.radius - gs.radius;
+            if (st.adaptiveDepth > 0 && gap < gr.radius) {
+                const scene::PatchKind kind = gr.patch->kind;
+                std::function<double(const scene::Domain&, double, int)> refine =
+                    [&](const scene::Domain& d, double whole, int depth) -> double {
+                    scene::Domain cd[4];
+                    double part[4], total = 0.0;
+                    Vec3 xc[kMaxRulePoints];
+                    double wc[kMaxRulePoints];
+                    for (int c = 0; c < 4; ++c) {
+                        cd[c] = scene::childDomain(kind, d, c);
+                        int m = elementGaussPoints(*gr.patch, cd[c], st.points, xc, wc);
+                        part[c] = gaussSum(xc, wc, m);
+                        total += part[c];
+                    }
+                    if (std::abs(total - whole) <= st.adaptiveTol * std::abs(total) ||
+                        depth + 1 >= st.adaptiveDepth)
+                        return total;
+                    total = 0.0;
+                    for (int c = 0; c < 4; ++c) total += refine(cd[c], part[c], depth + 1);
+                    return total;
+                };
+                sum = refine(gr.dom, sum, 0);
             }
             F = sum / gr.area;
         } else {
