@@ -62,25 +62,11 @@
 
 namespace hrad::oracles {
 
-class KernelVariationOracle final : public Oracle {
+class KernelVariationOracle final : public VariationOracle {
   public:
-    struct Settings {
-        double eps = 1e-3;
-        ErrorNorm norm = ErrorNorm::Power;
-        double minArea = 0.0;
-        bool refineReceiver = false;  ///< side = "receiver"
-        static Settings fromParams(const Params& p);
-    };
-    explicit KernelVariationOracle(Settings s) : s_(s) {}
-    Decision decide(const LinkEstimate& e) const override;
-    bool needsBounds() const override { return true; }
+    using VariationOracle::VariationOracle;
     std::string name() const override { return "kv"; }
-    std::string describe() const override;
-    /// The radiosity error estimate dB of the decision (max channel, with importance).
-    double errorEstimate(const LinkEstimate& e) const;
-
-  private:
-    Settings s_;
+    double linkError(const LinkEstimate& e) const override;
 };
 
 }  // namespace hrad::oracles

@@ -1,5 +1,7 @@
 #include "oracles/oracle.h"
 
+#include <fmt/format.h>
+
 namespace hrad::oracles {
 
 const char* decisionName(Decision d) {
@@ -50,6 +52,29 @@ Decision refineLarger(const LinkEstimate& e) {
     // elements was tried: 2-3x the links for a small gain in the furnace.)
     Decision d = e.F >= e.reverseF() ? Decision::RefineSender : Decision::RefineReceiver;
     return constrain(d, e);
+}
+
+VariationOracle::Settings VariationOracle::Settings::fromParams(const Params& p) {
+    Settings s;
+    s.eps = p.getDouble("eps", s.eps, 0.0, 1.0, true);
+    s.norm = readErrorNorm(p, "norm", s.norm);
+    s.minArea = p.getDouble("min_area", s.minArea, 0.0, 1e300);
+    s.refineReceiver = p.getEnum("side", "larger", {"larger", "receiver"}) == "receiver";
+    return s;
+}
+
+Decision VariationOracle::decide(const LinkEstimate& e) const {
+    if (errorWithinEps(linkError(e), s_.eps, s_.norm, e)) return Decision::Accept;
+    LinkEstimate c = e;
+    c.receiverCanSubdivide = e.receiverCanSubdivide && e.receiverArea > s_.minArea;
+    c.senderCanSubdivide = e.senderCanSubdivide && e.senderArea > s_.minArea;
+    if (s_.refineReceiver) return constrain(Decision::RefineReceiver, c);
+    return refineLarger(c);
+}
+
+std::string VariationOracle::describe() const {
+    return fmt::format("{}(eps={}, norm={}, min_area={}, side={})", name(), s_.eps,
+                       errorNormName(s_.norm), s_.minArea, s_.refineReceiver ? "receiver" : "larger");
 }
 
 }  // namespace hrad::oracles

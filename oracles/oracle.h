@@ -78,6 +78,37 @@ const char* errorNormName(ErrorNorm n);
 /// True when the receiver radiosity error dB is within eps in the given norm.
 bool errorWithinEps(double dB, double eps, ErrorNorm norm, const LinkEstimate& e);
 
+/// The shared part of the oracles that judge a link by the radiosity error it
+/// makes at its receiver, estimated from the receiver's point form-factor
+/// range (`error`, `kv`): settings, decision and description. Subclasses give
+/// the name and the estimate dB.
+///   eps       double  1e-3     threshold (0, 1], relative as set by norm
+///   norm      string  "power"  "power" | "radiosity" (ErrorNorm)
+///   min_area  double  0        elements at or below this area are not subdivided
+///   side      string  "larger" which element a refused link subdivides:
+///                              "larger" (refineLarger, HSA91) or "receiver"
+class VariationOracle : public Oracle {
+  public:
+    struct Settings {
+        double eps = 1e-3;
+        ErrorNorm norm = ErrorNorm::Power;
+        double minArea = 0.0;
+        bool refineReceiver = false;  ///< side = "receiver"
+        static Settings fromParams(const Params& p);
+    };
+    explicit VariationOracle(Settings s) : s_(s) {}
+    /// Accept when linkError is within eps, else subdivide the side chosen by
+    /// `side`, constrained by what may subdivide (and min_area).
+    Decision decide(const LinkEstimate& e) const final;
+    bool needsBounds() const final { return true; }
+    std::string describe() const final;
+    /// The radiosity error dB of the link at its receiver (max channel, with importance).
+    virtual double linkError(const LinkEstimate& e) const = 0;
+
+  protected:
+    Settings s_;
+};
+
 /// Makes a decision consistent with what each side may do: a refinement of a
 /// side that cannot subdivide falls back to the other side, or to Accept.
 Decision constrain(Decision d, const LinkEstimate& e);

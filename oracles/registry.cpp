@@ -26,12 +26,12 @@ const std::vector<std::pair<std::string, Factory>>& table() {
          }},
         {"error",
          [](const Params& p) {
-             return std::make_unique<ErrorBoundOracle>(ErrorBoundOracle::Settings::fromParams(p));
+             return std::make_unique<ErrorBoundOracle>(VariationOracle::Settings::fromParams(p));
          }},
         {"kv",
          [](const Params& p) {
              return std::make_unique<KernelVariationOracle>(
-                 KernelVariationOracle::Settings::fromParams(p));
+                 VariationOracle::Settings::fromParams(p));
          }},
         {"uniform",
          [](const Params& p) {

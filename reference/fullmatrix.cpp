@@ -131,7 +131,7 @@ FullMatrixSettings FullMatrixSettings::fromParams(const Params& params, const st
     s.tolerance = params.getDouble(key("tolerance"), s.tolerance, 0.0, 1.0, true);
     s.maxIterations = int(params.getInt(key("max_iterations"), s.maxIterations, 1, 1000000000));
     s.ambient = params.getBool(key("ambient"), s.ambient);
-    s.ff = transport::FormFactorSettings::fromParams(params, key("ff"));
+    s.ff = transport::FormFactorSettings::fromParams(params, key("ff"), fullMatrixFormFactorDefaults());
     return s;
 }
 

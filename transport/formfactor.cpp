@@ -226,7 +226,12 @@ double pointToDisc(double senderArea, double dist2, double cosR, double cosS) {
 // ---- settings -------------------------------------------------------------------
 
 FormFactorSettings FormFactorSettings::fromParams(const Params& params, const std::string& prefix) {
-    FormFactorSettings s;
+    return fromParams(params, prefix, FormFactorSettings{});
+}
+
+FormFactorSettings FormFactorSettings::fromParams(const Params& params, const std::string& prefix,
+                                                  const FormFactorSettings& defaults) {
+    FormFactorSettings s = defaults;
     s.rule = params.getEnum(prefix + ".rule", s.rule, {"gauss", "gauss-gauss", "centroid"});
     s.points = int(params.getInt(prefix + ".points", s.points, 1, kMaxGaussPoints));
     s.senderPoints =

@@ -57,11 +57,17 @@ struct ElementRef {
 ///   points         int    3         points per axis of the outer rule (n x n)
 ///   sender_points  int    3         points per axis on the sender ("gauss-gauss")
 ///   vis_rays       int    16        visibility rays per element pair (0: assume visible)
-///   adaptive_depth int    3         "gauss" rule on near pairs (bounding spheres
+///   adaptive_depth int    0 / 3     "gauss" rule on near pairs (bounding spheres
 ///                                   closer than the receiver's radius): the
 ///                                   receiver rule is compared with the rule on
 ///                                   its 4 children and refined recursively up
-///                                   to this many levels (0: off, a fixed rule)
+///                                   to this many levels (0: off, a fixed rule).
+///                                   Default 0 for the hierarchical solver, whose
+///                                   oracle refines near pairs itself (corridor,
+///                                   bfa: 2-5x the solve time for a smaller gain
+///                                   than a smaller eps gives); 3 for the full
+///                                   matrix (reference/fullmatrix.h), whose
+///                                   mesh is fixed
 ///   adaptive_tol   double 1e-3      ... until the two agree to this relative
 ///                                   tolerance. Measured on RenderPark's
 ///                                   corridor (lamps close to fixtures), the
@@ -73,10 +79,14 @@ struct FormFactorSettings {
     int points = 3;
     int senderPoints = 3;
     int visRays = 16;
-    int adaptiveDepth = 3;
+    int adaptiveDepth = 0;
     double adaptiveTol = 1e-3;
 
+    /// The keys above below `prefix`; keys not set keep the values of `defaults`
+    /// (the engine's defaults in the first form).
     static FormFactorSettings fromParams(const Params& params, const std::string& prefix = "ff");
+    static FormFactorSettings fromParams(const Params& params, const std::string& prefix,
+                                         const FormFactorSettings& defaults);
     std::string describe() const;
 };
 

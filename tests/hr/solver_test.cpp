@@ -65,15 +65,14 @@ TEST_P(FurnaceAllOracles, RadiosityIsEOverOneMinusRho) {
     }
     // The error oracles (`error`, `kv`) bound the kernel variation over each
     // receiver link by link, but the ancestor links above remain: at eps 1e-3
-    // they measure 7.6 % (error) and 8.0 % (kv) with 5.9k and 3.5k links (the
-    // point range includes the adaptive rule's points on near pairs), so
-    // their coarse tolerance is 9 %; a finer eps of 3e-4 keeps the test short.
+    // they measure 7.1 % (error) and 7.5 % (kv) with 3.6k and 2.2k links, so
+    // their coarse tolerance is 8 %; a finer eps of 3e-4 keeps the test short.
     bool errorOracle = oracle == "error" || oracle == "kv";
     double coarse = oracle == "ff" ? 0.02 : 1e-3;
     double fine = oracle == "ff" ? 0.005 : errorOracle ? 3e-4 : 1e-4;
     auto [worstC, l1C] = run(coarse);
     auto [worstF, l1F] = run(fine);
-    EXPECT_LT(l1C, errorOracle ? 0.09 : 0.06);
+    EXPECT_LT(l1C, errorOracle ? 0.08 : 0.06);
     EXPECT_LT(l1F, l1C);
 }
 

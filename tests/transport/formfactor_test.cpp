@@ -242,7 +242,7 @@ TEST(FormFactor, AdaptiveReceiverRuleOnNearPairs) {
             FormFactorSettings fixed = gaussSettings(3);
             fixed.adaptiveDepth = 0;
             FormFactorSettings adaptive = gaussSettings(3);
-            // the defaults: adaptive_depth 3, adaptive_tol 1e-3
+            adaptive.adaptiveDepth = 3;  // the full matrix's default; adaptive_tol 1e-3
             ElementRef r{0, scene::Domain{}, 1}, s{1, scene::Domain{}, 2};
             double ef = relErr(FormFactorEngine(sc, nullptr, fixed).compute(r, s).F, ref);
             double ea = relErr(FormFactorEngine(sc, nullptr, adaptive).compute(r, s).F, ref);
@@ -260,8 +260,10 @@ TEST(FormFactor, AdaptiveReceiverRuleOnNearPairs) {
     FormFactorSettings fixed = gaussSettings(3);
     fixed.adaptiveDepth = 0;
     ElementRef r{0, scene::Domain{}, 1}, s{1, scene::Domain{}, 2};
+    FormFactorSettings adaptive = gaussSettings(3);
+    adaptive.adaptiveDepth = 3;
     EXPECT_EQ(FormFactorEngine(far, nullptr, fixed).compute(r, s).F,
-              FormFactorEngine(far, nullptr, gaussSettings(3)).compute(r, s).F);
+              FormFactorEngine(far, nullptr, adaptive).compute(r, s).F);
 }
 
 TEST(FormFactor, PerpendicularRectanglesMatchClosedForm) {
@@ -632,10 +634,14 @@ TEST(FormFactorSettings, FromParamsReadsAndChecksRanges) {
     EXPECT_EQ(s.senderPoints, 2);
     EXPECT_EQ(s.visRays, 0);
     EXPECT_NO_THROW(p.reportUnused());
-    EXPECT_EQ(s.adaptiveDepth, 3);
+    EXPECT_EQ(s.adaptiveDepth, 0);
     EXPECT_EQ(s.describe(),
-              "rule=gauss-gauss points=5 sender_points=2 vis_rays=0 adaptive_depth=3 "
+              "rule=gauss-gauss points=5 sender_points=2 vis_rays=0 adaptive_depth=0 "
               "adaptive_tol=0.001");
+    // Keys not set keep the given defaults (the full matrix's adaptive_depth 3).
+    FormFactorSettings fmDefaults;
+    fmDefaults.adaptiveDepth = 3;
+    EXPECT_EQ(FormFactorSettings::fromParams(Params{}, "fm.ff", fmDefaults).adaptiveDepth, 3);
     Params ad;
     ad.set("ff.adaptive_depth", int64_t(0));
     ad.set("ff.adaptive_tol", 1e-4);
