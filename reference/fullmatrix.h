@@ -56,9 +56,10 @@
 // reciprocity A_i F_ij = A_j F_ji holds only up to quadrature error, so using it
 // instead would solve a slightly different system).
 //
-// Practical limits, measured with the default settings (ff.rule gauss 3x3,
-// 16 visibility rays) on the 2-core development machine: Cornell box level 3
-// (1,088 elements) 2.2 s; furnace level 4 (1,536) 4.5 s; a 19-patch box with
+// Practical limits, measured with the fixed 3x3 rule and 16 visibility rays
+// on the 2-core development machine (the adaptive rule adds 7 % on Cornell
+// level 3: 1.41 -> 1.51 s; 40 % on RenderPark's corridor at level 1): Cornell
+// box level 3 (1,088 elements) 2.2 s; furnace level 4 (1,536) 4.5 s; a 19-patch box with
 // a blocker at level 4 (4,864 elements, 11.0 M non-zeros, 132 MB CSR) 62 CPU-s
 // (~30 s wall on two idle cores); the solve itself takes < 0.5 s (Southwell
 // 1.5 s). Cost grows as n^2: 20k elements are ~17x the 4.9k case (~20 CPU-min)

@@ -271,12 +271,23 @@ def _nice_ceiling(x):
 
 
 def _caption(r):
-    cap = (_run_label(r).replace(str(r.get("scene", "")) + " ", "")
-           .replace(" + clusters", "+cl").replace("eps=", r"$\varepsilon$=")
-           .replace("full matrix", "FM").replace("progressive (Southwell)", "prog."))
+    """Two short lines for a grid panel: the method, then its parameter and
+    L2 error (narrow enough for 4 panels across one column)."""
+    label = _run_label(r).replace(str(r.get("scene", "")) + " ", "", 1)
+    method = str(r.get("method", r.get("solver", "")))
+    params = label[len(method):].strip() if label.startswith(method) else label
+    short = (method.replace(" + clusters", "+cl").replace("full matrix", "FM")
+             .replace("progressive (Southwell)", "prog."))
+    eps = r.get("eps")
+    if isinstance(eps, (int, float)) and not math.isnan(eps) and eps > 0:
+        # 0.0002 -> 2e-4: short enough for narrow panels
+        mant, ex = f"{eps:.1e}".split("e")
+        short_eps = f"{float(mant):g}e{int(ex)}"
+        params = params.replace(f"eps={eps:g}", f"eps={short_eps}")
+    line2 = params.replace("eps=", r"$\varepsilon$=").replace("fm.level=", "level ")
     if isinstance(r.get("l2_lum"), float) and not math.isnan(r["l2_lum"]):
-        cap += f"\n$L_2$ {r['l2_lum']:.3g}"
-    return cap
+        line2 += (", " if line2 else "") + f"$L_2$ {r['l2_lum']:.2g}"
+    return short + "\n" + line2
 
 
 def image_grid(store, stem, cols=3, max_images=9, where=None, error_range=None):
