@@ -34,6 +34,7 @@ kind = "full-matrix"
 [outputs]
 exr = true
 error_map = true
+history_error = true
 [sweep]
 "oracle.eps" = [1e-2, 3e-3, 1e-3]
 """
@@ -120,6 +121,13 @@ def main():
         nonempty(out + "_mem")
         plot(["convergence", "--store", store, "--out", out + "_conv"])
         nonempty(out + "_conv")
+        conv = json.load(open(out + "_conv.json"))
+        check(conv["panels"] == ["links", "l2_lum", "residual"], f"convergence panels {conv['panels']}")
+        con = sqlite3.connect(store)
+        final = dict(con.execute("select key, l2_lum from runs"))
+        con.close()
+        check(all(abs(r["l2_lum"][-1] - final[k]) < 1e-12 for k, r in conv["runs"].items()),
+              "last per-iteration error == the run's error")
         plot(["images", "--store", store, "--out", out + "_img"])
         nonempty(out + "_img")
         grid = json.load(open(out + "_img.json"))

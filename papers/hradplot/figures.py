@@ -186,7 +186,10 @@ def _run_label(r):
 
 
 def convergence(store, stem, max_runs=8, where=None):
-    """Per-iteration links and residual, one line per run."""
+    """Per-iteration links, error and residual, one line per run. The error
+    panel (L2 of luminance after every iteration) is drawn when the study
+    recorded it ([outputs] history_error = true); otherwise links and
+    residual only."""
     it = store.require("iterations", ["run_key", "iteration", "links", "residual"],
                        "the convergence plot")
     _require_runs(store, ["key", "method"], "the convergence plot")
@@ -199,22 +202,27 @@ def convergence(store, stem, max_runs=8, where=None):
     if len(runs) > max_runs:  # evenly spread over the store's order
         idx = np.linspace(0, len(runs) - 1, max_runs).round().astype(int)
         runs = runs.iloc[sorted(set(idx))]
-    fig, (a1, a2) = style.figure(height=3.6, nrows=2, sharex=True)
-    side = {"runs": {}}
+    has_error = "l2_lum" in it.columns and it[it["run_key"].isin(set(runs["key"]))]["l2_lum"].notna().any()
+    panels = ["links", "l2_lum", "residual"] if has_error else ["links", "residual"]
+    fig, axes = style.figure(height=1.8 * len(panels), nrows=len(panels), sharex=True)
+    side = {"panels": panels, "runs": {}}
     for i, (_, r) in enumerate(runs.iterrows()):
         g = it[it["run_key"] == r["key"]].sort_values("iteration")
         lab = _run_label(r)
         st = style.style_for(i)
-        a1.plot(g["iteration"], g["links"], label=lab, ms=2.5, **st)
-        a2.plot(g["iteration"], g["residual"], ms=2.5, **st)
-        side["runs"][r["key"]] = {"label": lab, "iteration": g["iteration"].tolist(),
-                                  "links": g["links"].tolist(), "residual": g["residual"].tolist()}
-    _logscale(a1, it["links"].dropna(), "y")
-    a2.set_yscale("log")
-    a1.set_ylabel(LABELS["links"])
-    a2.set_ylabel(LABELS["residual"])
-    a2.set_xlabel(LABELS["iteration"])
-    a1.legend(loc="best", fontsize=5.5)
+        entry = {"label": lab, "iteration": g["iteration"].tolist()}
+        for ax, col in zip(axes, panels):
+            ax.plot(g["iteration"], g[col], label=lab if col == "links" else None, ms=2.5, **st)
+            entry[col] = [None if (isinstance(v, float) and math.isnan(v)) else v
+                          for v in g[col].tolist()]
+        side["runs"][r["key"]] = entry
+    _logscale(axes[0], it["links"].dropna(), "y")
+    for ax, col in zip(axes, panels):
+        if col != "links":
+            ax.set_yscale("log")
+        ax.set_ylabel(LABELS[col] if col != "l2_lum" else "$L_2$ error (lum.)")
+    axes[-1].set_xlabel(LABELS["iteration"])
+    axes[0].legend(loc="best", fontsize=5.5)
     style.save(fig, stem)
     return _sidecar(stem, side)
 

@@ -118,6 +118,14 @@ history_error = true
     ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
     EXPECT_DOUBLE_EQ(sqlite3_column_double(st, 0), sqlite3_column_double(st, 1));
     sqlite3_finalize(st);
+    // The per-iteration errors are error work, not solve time: error_s holds them.
+    sqlite3_prepare_v2(s.handle(), "SELECT error_s, summary FROM runs", -1, &st, nullptr);
+    ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
+    auto summary = nlohmann::json::parse(reinterpret_cast<const char*>(sqlite3_column_text(st, 1)));
+    double hist = summary.at("timings").at("history_error").get<double>();
+    EXPECT_GT(hist, 0.0);
+    EXPECT_GE(sqlite3_column_double(st, 0), hist);
+    sqlite3_finalize(st);
 }
 
 // outputs.error_map: the reference render, the 16-bit data map and the false
