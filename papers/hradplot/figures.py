@@ -222,7 +222,10 @@ def convergence(store, stem, max_runs=8, where=None):
             ax.set_yscale("log")
         ax.set_ylabel(LABELS[col] if col != "l2_lum" else "$L_2$ error (lum.)")
     axes[-1].set_xlabel(LABELS["iteration"])
-    axes[0].legend(loc="best", fontsize=5.5)
+    # Below the last panel (the curves fill every panel's width).
+    handles, labels = axes[0].get_legend_handles_labels()
+    axes[-1].legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, -0.32), ncol=2,
+                    fontsize=5)
     style.save(fig, stem)
     return _sidecar(stem, side)
 
