@@ -427,7 +427,12 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         }
         if (images) {
             Timer tr;
-            scene::Camera cam = render::cameraFor(sc, vis);
+            scene::Camera cam = render::chooseCamera(sc, vis, r.render);
+            summary["camera"] = json{{"eye", json::array({cam.eye.x, cam.eye.y, cam.eye.z})},
+                                     {"target", json::array({cam.target.x, cam.target.y, cam.target.z})},
+                                     {"up", json::array({cam.up.x, cam.up.y, cam.up.z})},
+                                     {"fov_y_degrees", cam.fovYDegrees},
+                                     {"explicit", r.render.camera.has_value()}};
             render::Image img = render::renderField(sc, vis, *field, cam, r.render);
             double exposure = r.exposure;
             if (p.outputs.errorMap && ref) {

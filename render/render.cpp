@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <sstream>
 #include <unordered_map>
 
 #include "core/error.h"
@@ -28,12 +29,60 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
     s.spp = int(params.getInt(key("spp"), s.spp, 1, 65536));
     s.interpolate = params.getBool(key("interpolate"), s.interpolate);
     s.backFacesBlack = params.getEnum(key("back_faces"), "black", {"black", "front"}) == "black";
+    // "x, y, z" -> Vec3; errors at the setting's file:line.
+    auto vec = [&](const std::string& k, const std::string& def) {
+        std::string text = params.getString(k, def);
+        std::istringstream in(text);
+        Vec3 v(0.0);
+        char comma = 0;
+        bool ok = bool(in >> v.x) && bool(in >> comma) && comma == ',' && bool(in >> v.y) &&
+                  bool(in >> comma) && comma == ',' && bool(in >> v.z);
+        in >> std::ws;
+        if (!ok || !in.eof() || !std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+            throwInputError(params.where(k), "'{}' = '{}' is not a vector \"x, y, z\"", k, text);
+        return v;
+    };
+    const std::string eyeKey = key("eye"), targetKey = key("target"), upKey = key("up"),
+                      fovKey = key("fov");
+    if (params.has(eyeKey) != params.has(targetKey))
+        throwInputError(params.where(params.has(eyeKey) ? eyeKey : targetKey),
+                        "an explicit camera needs both '{}' and '{}'", eyeKey, targetKey);
+    if (params.has(eyeKey)) {
+        scene::Camera c;
+        c.eye = vec(eyeKey, "");
+        c.target = vec(targetKey, "");
+        c.up = vec(upKey, "0, 1, 0");
+        c.fovYDegrees = params.getDouble(fovKey, c.fovYDegrees, 0.0, 179.0, true);
+        Vec3 f = c.target - c.eye;
+        if (!(glm::length(f) > 0))
+            throwInputError(params.where(targetKey), "'{}' equals '{}'", targetKey, eyeKey);
+        if (!(glm::length(glm::cross(f, c.up)) > 1e-12 * glm::length(f) * glm::length(c.up)))
+            throwInputError(params.where(params.has(upKey) ? upKey : eyeKey),
+                            "'{}' is parallel to the view direction (or zero)", upKey);
+        s.camera = c;
+    } else {
+        for (const std::string& k : {upKey, fovKey})
+            if (params.has(k))
+                throwInputError(params.where(k), "'{}' needs an explicit camera ('{}' and '{}')",
+                                k, eyeKey, targetKey);
+    }
     return s;
 }
 
 std::string RenderSettings::describe() const {
-    return fmt::format("width={} height={} spp={} interpolate={} back_faces={}", width, height, spp,
-                       interpolate, backFacesBlack ? "black" : "front");
+    std::string cam = "auto";
+    if (camera)
+        cam = fmt::format("eye=({},{},{}) target=({},{},{}) up=({},{},{}) fov={}", camera->eye.x,
+                          camera->eye.y, camera->eye.z, camera->target.x, camera->target.y,
+                          camera->target.z, camera->up.x, camera->up.y, camera->up.z,
+                          camera->fovYDegrees);
+    return fmt::format("width={} height={} spp={} interpolate={} back_faces={} camera={}", width,
+                       height, spp, interpolate, backFacesBlack ? "black" : "front", cam);
+}
+
+scene::Camera chooseCamera(const scene::Scene& scene, const transport::Visibility& visibility,
+                           const RenderSettings& settings) {
+    return settings.camera ? *settings.camera : cameraFor(scene, visibility);
 }
 
 namespace {

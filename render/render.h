@@ -28,10 +28,17 @@
 //   back_faces   string  "black" what a ray hitting a patch from behind shows:
 //                                "black" (patches are one-sided: no radiosity
 //                                leaves the back) or "front" (the front's B)
+//   eye, target  string  unset   an explicit pinhole camera, "x, y, z" in scene
+//                                units (TOML: "render.eye" = "278, 273, -800");
+//                                both or neither. Unset: the scene's own
+//                                camera, else render/camera.h cameraFor
+//   up           string  "0,1,0" with eye/target: the up direction
+//   fov          double  40      with eye/target: vertical field of view, degrees
 // Rays that hit nothing are black.
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "core/params.h"
@@ -47,6 +54,7 @@ struct RenderSettings {
     bool interpolate = false;
     int spp = 1;
     bool backFacesBlack = true;
+    std::optional<scene::Camera> camera;  ///< render.eye/target/up/fov when set
 
     static RenderSettings fromParams(const Params& params, const std::string& prefix = "render");
     std::string describe() const;
@@ -71,6 +79,10 @@ class VertexInterpolation {
     const scene::RadiosityField* field_;
     std::vector<std::unique_ptr<PatchTable>> tables_;
 };
+
+/// settings.camera when set, else render::cameraFor(scene, visibility).
+scene::Camera chooseCamera(const scene::Scene& scene, const transport::Visibility& visibility,
+                           const RenderSettings& settings);
 
 Image renderField(const scene::Scene& scene, const transport::Visibility& visibility,
                   const scene::RadiosityField& field, const scene::Camera& camera,

@@ -103,3 +103,18 @@ TEST(Cli, ErrorMapNeedsReferenceLevelAndWritesMaps) {
     EXPECT_GT(s["error_map"]["pixels"].get<int>(), 32 * 32 / 2);
     EXPECT_LE(s["error_map"]["pixels"].get<int>(), 32 * 32);
 }
+
+TEST(Cli, ExplicitCameraIsUsedAndRecorded) {
+    auto dir = hrad::test::tempDir("cli_camera");
+    Result r = run("--set render.eye=278,273,-400 --set render.target=278,100,0 solve cornell "
+                   "--eps 1e-2 --no-ply --no-progress --width 32 --height 32 -o " + dir.string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    nlohmann::json s;
+    std::ifstream(dir / "summary.json") >> s;
+    EXPECT_EQ(s["camera"]["explicit"], true);
+    EXPECT_EQ(s["camera"]["eye"][2].get<double>(), -400.0);
+    EXPECT_EQ(s["camera"]["target"][1].get<double>(), 100.0);
+    Result bad = run("--set render.fov=30 solve cornell --no-progress -o " + dir.string());
+    EXPECT_EQ(bad.code, 2) << bad.output;
+    EXPECT_NE(bad.output.find("render.fov"), std::string::npos) << bad.output;
+}

@@ -156,6 +156,48 @@ TEST(Render, SettingsFromParams) {
     EXPECT_THROW(RenderSettings::fromParams(bad), InputError);
 }
 
+TEST(Render, ExplicitCameraFromParams) {
+    Params p;
+    p.set("render.eye", std::string("278, 273, -800"));
+    p.set("render.target", std::string("278,273,0"));
+    p.set("render.fov", 39.3);
+    RenderSettings s = RenderSettings::fromParams(p);
+    ASSERT_TRUE(s.camera.has_value());
+    EXPECT_EQ(s.camera->eye, Vec3(278, 273, -800));
+    EXPECT_EQ(s.camera->target, Vec3(278, 273, 0));
+    EXPECT_EQ(s.camera->up, Vec3(0, 1, 0));
+    EXPECT_EQ(s.camera->fovYDegrees, 39.3);
+    EXPECT_NO_THROW(p.reportUnused());
+    EXPECT_NE(s.describe().find("eye=(278,273,-800)"), std::string::npos) << s.describe();
+    EXPECT_FALSE(RenderSettings::fromParams(Params{}).camera.has_value());
+
+    auto message = [](std::initializer_list<std::pair<const char*, std::string>> kv) {
+        Params q;
+        int line = 1;
+        for (const auto& [k, v] : kv) q.set(k, v, SourceLocation{"s.toml", line++, 1});
+        try {
+            RenderSettings::fromParams(q);
+        } catch (const InputError& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    std::string m = message({{"render.eye", "0,0,1"}});
+    EXPECT_NE(m.find("render.target"), std::string::npos) << m;
+    m = message({{"render.eye", "0,0"}, {"render.target", "0,0,0"}});
+    EXPECT_NE(m.find("s.toml:1"), std::string::npos) << m;
+    EXPECT_NE(m.find("not a vector"), std::string::npos) << m;
+    m = message({{"render.eye", "0,0,1"}, {"render.target", "0,0,nan"}});
+    EXPECT_NE(m.find("s.toml:2"), std::string::npos) << m;
+    m = message({{"render.eye", "0,0,1"}, {"render.target", "0,0,1"}});
+    EXPECT_NE(m.find("equals"), std::string::npos) << m;
+    m = message({{"render.eye", "0,0,1"}, {"render.target", "0,0,0"}, {"render.up", "0,0,2"}});
+    EXPECT_NE(m.find("s.toml:3"), std::string::npos) << m;
+    EXPECT_NE(m.find("parallel"), std::string::npos) << m;
+    m = message({{"render.up", "0,0,1"}});
+    EXPECT_NE(m.find("needs an explicit camera"), std::string::npos) << m;
+}
+
 TEST(Image, ExrRoundTrip) {
     auto dir = test::tempDir("exr");
     Image img(5, 3);
