@@ -38,6 +38,29 @@ static void BM_ElementFormFactor(benchmark::State& state) {
 }
 BENCHMARK(BM_ElementFormFactor)->Arg(0)->Arg(4)->Arg(16);
 
+// A near pair: two unit squares meeting at a right angle (shared edge), no
+// visibility rays, with ff.adaptive_depth = N (0: the fixed 3x3 rule; 3: the
+// full matrix's default, which refines the receiver rule towards the edge).
+static void BM_NearPairFormFactor(benchmark::State& state) {
+    scene::Scene s;
+    uint32_t m = s.addMaterial({"grey", RGB(0.5), RGB(0.0)});
+    s.addQuad(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), m);
+    s.addQuad(Vec3(0, 0, 0), Vec3(0, 1, 0), Vec3(0, 1, 1), Vec3(0, 0, 1), m);
+    transport::FormFactorSettings fs;
+    fs.visRays = 0;
+    fs.adaptiveDepth = int(state.range(0));
+    transport::FormFactorEngine eng(s, nullptr, fs);
+    transport::ElementRef a{0, {}, 1}, b{1, {}, 2};
+    double F = 0;
+    for (auto _ : state) {
+        auto r = eng.compute(a, b);
+        F = r.F;
+        benchmark::DoNotOptimize(r);
+    }
+    state.counters["F"] = F;
+}
+BENCHMARK(BM_NearPairFormFactor)->Arg(0)->Arg(3);
+
 static void BM_GatherPushPull(benchmark::State& state) {
     scene::Scene s = scene::loadScene("cornell");
     transport::Visibility vis(s);
