@@ -50,6 +50,7 @@ int runSolve(const SolveOptions& opt, Params& params) {
     point.outputs.exr = opt.writeImages;
     point.outputs.ply = opt.writePly;
     point.outputs.errorMap = opt.errorMap;
+    point.outputs.solution = opt.writeSolution;
     point.outputs.errorMapWhere = SourceLocation{"command line (--error-map)", 0, 0};
 
     fs::create_directories(opt.outDir);

@@ -18,6 +18,13 @@ struct SolveOptions {
     bool writeImages = true;
     bool writePly = true;
     bool errorMap = false;  ///< --error-map (needs --reference-level)
+    bool writeSolution = true;  ///< solution.hrsol (--no-solution turns it off)
+};
+
+struct RenderCliOptions {
+    std::string scene;
+    std::string solution;  ///< a solution.hrsol
+    std::string outDir = "out";
 };
 
 struct SweepCliOptions {
@@ -49,6 +56,11 @@ int runInfo(const std::string& scene, Params& params);
 /// `hrad solve SCENE ...`: solve and write image.exr, image.png, solution.ply,
 /// summary.json into the output folder.
 int runSolve(const SolveOptions& options, Params& params);
+
+/// `hrad render SCENE SOLUTION`: renders a saved solution (solution.hrsol)
+/// with the render.* settings (size, reconstruction, camera) into
+/// image.exr and image.png in the output folder.
+int runRender(const RenderCliOptions& options, Params& params);
 
 /// `hrad sweep STUDY.toml`: validate, expand and run a study into a results
 /// store (experiments/sweep.h); --dry-run prints the points only.

@@ -75,7 +75,23 @@ int main(int argc, char** argv) {
     solve->add_flag("--interpolate", interpolate, "vertex-interpolated reconstruction in the image");
     solve->add_flag("--no-images", noImages, "do not render image.exr / image.png");
     solve->add_flag("--no-ply", noPly, "do not write solution.ply");
+    bool noSolution = false;
+    solve->add_flag("--no-solution", noSolution,
+                    "do not write solution.hrsol (the solution for hrad render)");
     solve->add_flag("--no-progress", quietProgress, "no progress lines on stderr");
+
+    // render
+    auto* renderCmd = app.add_subcommand(
+        "render", "render a saved solution (solution.hrsol) again: other camera, size, reconstruction");
+    app::RenderCliOptions rco;
+    int renderWidth = 0, renderHeight = 0;
+    bool renderInterpolate = false;
+    renderCmd->add_option("scene", rco.scene, "the scene the solution was computed on")->required();
+    renderCmd->add_option("solution", rco.solution, "solution.hrsol written by hrad solve")->required();
+    renderCmd->add_option("-o,--output", rco.outDir, "output folder")->capture_default_str();
+    auto* rWidthOpt = renderCmd->add_option("--width", renderWidth, "image width");
+    auto* rHeightOpt = renderCmd->add_option("--height", renderHeight, "image height");
+    renderCmd->add_flag("--interpolate", renderInterpolate, "vertex-interpolated reconstruction");
 
     // sweep
     auto* sweep = app.add_subcommand("sweep", "run a study (TOML) into a results store (SQLite)");
@@ -149,8 +165,16 @@ int main(int argc, char** argv) {
             so.writeImages = !noImages;
             so.writePly = !noPly;
             so.errorMap = errorMap;
+            so.writeSolution = !noSolution;
             so.progress = !quietProgress;
             return app::runSolve(so, params);
+        }
+        if (*renderCmd) {
+            auto flag = [&](const char* name) { return SourceLocation{std::string("command line (") + name + ")", 0, 0}; };
+            if (*rWidthOpt) params.set("render.width", int64_t(renderWidth), flag("--width"));
+            if (*rHeightOpt) params.set("render.height", int64_t(renderHeight), flag("--height"));
+            if (renderInterpolate) params.set("render.interpolate", true, flag("--interpolate"));
+            return app::runRender(rco, params);
         }
         if (*sweep) {
             if (!sets.empty())

@@ -267,7 +267,8 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                                  {"emitted_power", rgbJson(sc.emittedPower())},
                                  {"dropped_degenerate", sc.stats.droppedDegenerate}};
     spdlog::info("loaded {}: {} patches in {:.2f} s", sc.name, sc.patches.size(), loadSeconds);
-    if ((p.outputs.exr || p.outputs.ply || p.outputs.errorMap) && ctx.artefactDir.empty())
+    if ((p.outputs.exr || p.outputs.ply || p.outputs.errorMap || p.outputs.solution) &&
+        ctx.artefactDir.empty())
         throw Error("outputs requested but no artefact folder given");
 
     Timer tVis;
@@ -379,6 +380,13 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         return mem;
     };
     summary["memory"] = memoryJson();
+    // The solution itself first: nothing computed is lost if a later step fails.
+    if (p.outputs.solution) {
+        fs::create_directories(ctx.artefactDir);
+        fs::path sol = ctx.artefactDir / "solution.hrsol";
+        reference::saveSolution(sol.string(), *field);
+        summary["artefacts"]["solution"] = sol.string();
+    }
     if (ctx.checkpoint) ctx.checkpoint(summary);
 
     // ---- error against the reference --------------------------------------------
@@ -416,7 +424,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     if (ctx.checkpoint) ctx.checkpoint(summary);
 
     // ---- artefacts -------------------------------------------------------------------
-    json artefacts = json::object();
+    json artefacts = summary.contains("artefacts") ? summary["artefacts"] : json::object();
     bool images = p.outputs.exr || (p.outputs.errorMap && ref);
     if (images || p.outputs.ply) {
         fs::create_directories(ctx.artefactDir);

@@ -226,6 +226,8 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
                 outputs.exr = getBoolNode(*n, k, file);
             else if (k == "ply")
                 outputs.ply = getBoolNode(*n, k, file);
+            else if (k == "solution")
+                outputs.solution = getBoolNode(*n, k, file);
             else if (k == "history_error")
                 outputs.historyError = getBoolNode(*n, k, file);
             else if (k == "error_map") {
@@ -235,8 +237,8 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
                 outputs.dir = stringOf(*n, k);
             else
                 throwInputError(loc(file, n->source()),
-                                "unknown key 'outputs.{}' (expected exr, ply, history_error, "
-                                "error_map, dir)",
+                                "unknown key 'outputs.{}' (expected exr, ply, solution, "
+                                "history_error, error_map, dir)",
                                 k);
         }
     }

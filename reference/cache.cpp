@@ -152,6 +152,37 @@ void trySave(const std::filesystem::path& path, const scene::UniformField& field
     }
 }
 
+/// Writes `bytes` to a temporary file next to `path` and renames it over
+/// `path` (creating parent directories), so readers never see half a file.
+void writeFileAtomically(const std::string& path, const std::string& bytes) {
+    std::filesystem::path target(path);
+    std::error_code ec;
+    if (target.has_parent_path()) std::filesystem::create_directories(target.parent_path(), ec);
+    if (ec)
+        throw Error(fmt::format("cannot create directory {}: {}", target.parent_path().string(),
+                                ec.message()));
+    // Unique temporary name in the same directory, then an atomic rename.
+    std::filesystem::path tmp = target;
+    tmp += fmt::format(".tmp{:x}",
+                       uint64_t(reinterpret_cast<uintptr_t>(&bytes)) ^
+                           uint64_t(std::chrono::steady_clock::now().time_since_epoch().count()));
+    {
+        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+        if (!out) throw Error(fmt::format("cannot write {}", tmp.string()));
+        out.write(bytes.data(), std::streamsize(bytes.size()));
+        out.close();
+        if (!out) {
+            std::filesystem::remove(tmp, ec);
+            throw Error(fmt::format("error writing {}", tmp.string()));
+        }
+    }
+    std::filesystem::rename(tmp, target, ec);
+    if (ec) {
+        std::filesystem::remove(tmp, ec);
+        throw Error(fmt::format("cannot rename {} to {}", tmp.string(), target.string()));
+    }
+}
+
 }  // namespace
 
 uint64_t sceneContentHash(const scene::Scene& scene) {
@@ -198,32 +229,7 @@ void saveReference(const std::string& path, const scene::UniformField& field,
     f.bytes(w.buf.data(), w.buf.size());
     w.pod(f.h);
 
-    std::filesystem::path target(path);
-    std::error_code ec;
-    if (target.has_parent_path()) std::filesystem::create_directories(target.parent_path(), ec);
-    if (ec)
-        throw Error(fmt::format("cannot create directory {}: {}", target.parent_path().string(),
-                                ec.message()));
-    // Unique temporary name in the same directory, then an atomic rename.
-    std::filesystem::path tmp = target;
-    tmp += fmt::format(".tmp{:x}",
-                       uint64_t(reinterpret_cast<uintptr_t>(&w)) ^
-                           uint64_t(std::chrono::steady_clock::now().time_since_epoch().count()));
-    {
-        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-        if (!out) throw Error(fmt::format("cannot write {}", tmp.string()));
-        out.write(w.buf.data(), std::streamsize(w.buf.size()));
-        out.close();
-        if (!out) {
-            std::filesystem::remove(tmp, ec);
-            throw Error(fmt::format("error writing {}", tmp.string()));
-        }
-    }
-    std::filesystem::rename(tmp, target, ec);
-    if (ec) {
-        std::filesystem::remove(tmp, ec);
-        throw Error(fmt::format("cannot rename {} to {}", tmp.string(), target.string()));
-    }
+    writeFileAtomically(path, w.buf);
 }
 
 std::optional<CachedReference> loadReference(const std::string& path, const scene::Scene& scene,
@@ -377,6 +383,91 @@ MonteCarloResult cachedMonteCarlo(const scene::Scene& scene,
         r.stats.seconds, r.stats.rounds);
     trySave(path, *r.field, &r.stdError, key, meta);
     return r;
+}
+
+// ---- solution files -----------------------------------------------------------
+
+namespace {
+constexpr char kSolutionMagic[8] = {'H', 'R', 'A', 'D', 'S', 'O', 'L', '\0'};
+constexpr uint32_t kSolutionVersion = 1;
+}  // namespace
+
+void saveSolution(const std::string& path, const scene::RadiosityField& field) {
+    const scene::Scene& s = field.scene();
+    Writer w;
+    w.buf.append(kSolutionMagic, sizeof(kSolutionMagic));
+    w.pod(kSolutionVersion);
+    w.pod(sceneContentHash(s));
+    w.pod(uint64_t(s.patches.size()));
+    for (uint32_t p = 0; p < s.patches.size(); ++p) {
+        std::vector<std::pair<scene::ElementKey, RGB>> leaves;
+        field.forEachLeaf(p, [&](scene::ElementKey k, const RGB& b) { leaves.emplace_back(k, b); });
+        w.pod(uint32_t(leaves.size()));
+        for (const auto& [k, b] : leaves) {
+            w.pod(uint64_t(k));
+            w.pod(b.r);
+            w.pod(b.g);
+            w.pod(b.b);
+        }
+    }
+    Fnv f;
+    f.bytes(w.buf.data(), w.buf.size());
+    w.pod(f.h);
+    try {
+        writeFileAtomically(path, w.buf);
+    } catch (const Error& e) {
+        throw InputError(SourceLocation{path, 0, 0}, e.what());
+    }
+}
+
+std::unique_ptr<scene::LeafField> loadSolution(const std::string& path,
+                                               const scene::Scene& scene) {
+    auto fail = [&](const std::string& why) -> std::unique_ptr<scene::LeafField> {
+        throw InputError(SourceLocation{path, 0, 0}, "not a usable hrad solution: " + why);
+    };
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError(SourceLocation{path, 0, 0}, "cannot open the solution file");
+    std::string buf((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    Reader r{buf};
+    char magic[8];
+    if (!r.take(magic, sizeof(magic)) || std::memcmp(magic, kSolutionMagic, sizeof(magic)) != 0)
+        return fail("no HRADSOL header");
+    auto version = r.pod<uint32_t>();
+    auto hash = r.pod<uint64_t>();
+    auto patches = r.pod<uint64_t>();
+    if (r.bad) return fail("truncated header");
+    if (version != kSolutionVersion)
+        return fail(fmt::format("format version {} != {}", version, kSolutionVersion));
+    if (hash != sceneContentHash(scene) || patches != scene.patches.size())
+        throw InputError(SourceLocation{path, 0, 0},
+                         fmt::format("the solution was computed for another scene (content hash "
+                                     "{}, {} patches; this scene: {}, {} patches)",
+                                     hex64(hash), patches, hex64(sceneContentHash(scene)),
+                                     scene.patches.size()));
+    std::vector<std::vector<scene::LeafField::Leaf>> leaves(patches);
+    for (uint64_t p = 0; p < patches; ++p) {
+        auto n = r.pod<uint32_t>();
+        if (r.bad || (buf.size() - r.pos) / (4 * sizeof(uint64_t)) < n)
+            return fail(fmt::format("truncated at patch {}", p));
+        leaves[p].resize(n);
+        for (auto& l : leaves[p]) {
+            l.key = r.pod<uint64_t>();
+            l.value.r = r.pod<double>();
+            l.value.g = r.pod<double>();
+            l.value.b = r.pod<double>();
+        }
+    }
+    size_t checked = r.pos;
+    auto stored = r.pod<uint64_t>();
+    if (r.bad || r.pos != buf.size()) return fail("truncated data or trailing bytes");
+    Fnv f;
+    f.bytes(buf.data(), checked);
+    if (f.h != stored) return fail("checksum mismatch");
+    try {
+        return std::make_unique<scene::LeafField>(scene, std::move(leaves));
+    } catch (const Error& e) {
+        return fail(e.what());
+    }
 }
 
 }  // namespace hrad::reference

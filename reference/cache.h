@@ -104,4 +104,19 @@ MonteCarloResult cachedMonteCarlo(const scene::Scene& scene,
                                   const std::filesystem::path& cacheDir, bool* hit = nullptr,
                                   bool showProgress = true);
 
+/// Solution files (`solution.hrsol`, written by `hrad solve`, read by
+/// `hrad render`): the leaves of any field with their radiosities, so a
+/// solution can be rendered again (other camera, size, reconstruction)
+/// without solving. Format (version 1, host byte order):
+///   char[8] "HRADSOL\0", u32 version, u64 sceneContentHash, u64 patch count,
+///   per patch: u32 leaf count, then per leaf u64 key and f64 r, g, b;
+///   u64 FNV-1a of every byte above.
+/// Written atomically (temporary file + rename). Throws hrad::InputError
+/// naming the path when the file cannot be written.
+void saveSolution(const std::string& path, const scene::RadiosityField& field);
+/// The solution in `path` on `scene`. Throws hrad::InputError naming the path
+/// when the file is missing, malformed, fails its checksum, or was computed
+/// for a scene with other contents (the content hash differs).
+std::unique_ptr<scene::LeafField> loadSolution(const std::string& path, const scene::Scene& scene);
+
 }  // namespace hrad::reference

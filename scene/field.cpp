@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include <fmt/format.h>
+
 #include "core/error.h"
 
 namespace hrad::scene {
@@ -93,6 +95,100 @@ std::vector<uint8_t> uniformLevels(const Scene& scene, int level, double maxArea
         }
     }
     return out;
+}
+
+LeafField::LeafField(const Scene& scene, std::vector<std::vector<Leaf>> leaves)
+    : scene_(&scene), leaves_(std::move(leaves)) {
+    if (leaves_.size() != scene.patches.size())
+        throw Error(fmt::format("leaf field: {} patches of leaves for a scene of {}",
+                                leaves_.size(), scene.patches.size()));
+    index_.resize(leaves_.size());
+    for (uint32_t p = 0; p < leaves_.size(); ++p) {
+        const Patch& patch = scene.patches[p];
+        double area = 0.0;
+        for (uint32_t i = 0; i < leaves_[p].size(); ++i) {
+            ElementKey k = leaves_[p][i].key;
+            if (k == 0 || keyLevel(k) > kMaxLevel || !index_[p].emplace(k, i).second)
+                throw Error(fmt::format("leaf field: patch {}: invalid or repeated key {}", p, k));
+            area += elementArea(patch, keyDomain(patch.kind, k));
+        }
+        // Tiling: no leaf inside another, and the areas add up to the patch's.
+        for (const Leaf& l : leaves_[p])
+            for (ElementKey a = l.key >> 2; a >= 1; a >>= 2)
+                if (index_[p].count(a))
+                    throw Error(fmt::format("leaf field: patch {}: leaf {} lies inside leaf {}", p,
+                                            l.key, a));
+        if (std::abs(area - patch.area) > 1e-9 * patch.area)
+            throw Error(fmt::format("leaf field: patch {}: leaves cover area {} of {}", p, area,
+                                    patch.area));
+    }
+}
+
+static std::vector<std::vector<LeafField::Leaf>> leavesOf(const RadiosityField& field) {
+    std::vector<std::vector<LeafField::Leaf>> out(field.scene().patches.size());
+    for (uint32_t p = 0; p < out.size(); ++p)
+        field.forEachLeaf(p, [&](ElementKey k, const RGB& b) { out[p].push_back({k, b}); });
+    return out;
+}
+
+LeafField::LeafField(const RadiosityField& field) : LeafField(field.scene(), leavesOf(field)) {}
+
+size_t LeafField::numLeaves() const {
+    size_t n = 0;
+    for (const auto& l : leaves_) n += l.size();
+    return n;
+}
+
+int64_t LeafField::leafAtOrAbove(uint32_t patch, ElementKey key) const {
+    for (ElementKey a = key; a >= 1; a >>= 2) {
+        auto it = index_[patch].find(a);
+        if (it != index_[patch].end()) return it->second;
+    }
+    return -1;
+}
+
+RGB LeafField::at(uint32_t patch, double u, double v) const {
+    const Patch& p = scene_->patches[patch];
+    // Descend from the root to the leaf containing (u,v).
+    ElementKey k = 1;
+    Domain d{};
+    for (int level = 0; level <= kMaxLevel; ++level) {
+        auto it = index_[patch].find(k);
+        if (it != index_[patch].end()) return leaves_[patch][it->second].value;
+        int c = childContaining(p.kind, d, u, v);
+        d = childDomain(p.kind, d, c);
+        k = childKey(k, c);
+    }
+    return RGB(0.0);  // unreachable for a tiling (checked in the constructor)
+}
+
+RGB LeafField::averageBelow(uint32_t patch, ElementKey key, double* area) const {
+    const Patch& p = scene_->patches[patch];
+    auto it = index_[patch].find(key);
+    double a = elementArea(p, keyDomain(p.kind, key));
+    *area = a;
+    if (it != index_[patch].end()) return leaves_[patch][it->second].value;
+    RGB sum(0.0);
+    double total = 0.0;
+    for (int c = 0; c < 4; ++c) {
+        double ac = 0.0;
+        RGB b = averageBelow(patch, childKey(key, c), &ac);
+        sum += b * ac;
+        total += ac;
+    }
+    return total > 0 ? sum / total : RGB(0.0);
+}
+
+RGB LeafField::average(uint32_t patch, ElementKey key) const {
+    int64_t i = leafAtOrAbove(patch, key);
+    if (i >= 0) return leaves_[patch][size_t(i)].value;  // constant over the leaf
+    double a = 0.0;
+    return averageBelow(patch, key, &a);
+}
+
+void LeafField::forEachLeaf(uint32_t patch,
+                            const std::function<void(ElementKey, const RGB&)>& fn) const {
+    for (const Leaf& l : leaves_[patch]) fn(l.key, l.value);
 }
 
 }  // namespace hrad::scene

@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <unordered_map>
 #include <vector>
 
 #include "scene/element.h"
@@ -71,5 +72,40 @@ class UniformField : public RadiosityField {
 /// Level per patch so that every element has area <= maxArea (level capped at
 /// maxLevel); with maxArea <= 0 every patch gets `level`.
 std::vector<uint8_t> uniformLevels(const Scene& scene, int level, double maxArea, int maxLevel = 12);
+
+/// A field given by an explicit list of leaves per patch (any quadtree cut of
+/// each root patch): a copy of another field's leaves, or a solution read
+/// back from a file (reference/cache.h loadSolution). Lookups descend the key
+/// tree through a hash set of the leaves.
+class LeafField final : public RadiosityField {
+  public:
+    struct Leaf {
+        ElementKey key;
+        RGB value;
+    };
+    /// `leaves[p]` must tile patch p exactly (no overlaps, no holes):
+    /// checked, hrad::Error otherwise.
+    LeafField(const Scene& scene, std::vector<std::vector<Leaf>> leaves);
+    /// The leaves of `field` (on the same scene).
+    explicit LeafField(const RadiosityField& field);
+
+    const Scene& scene() const override { return *scene_; }
+    RGB at(uint32_t patch, double u, double v) const override;
+    RGB average(uint32_t patch, ElementKey key) const override;
+    void forEachLeaf(uint32_t patch,
+                     const std::function<void(ElementKey, const RGB&)>& fn) const override;
+    const std::vector<Leaf>& leaves(uint32_t patch) const { return leaves_[patch]; }
+    size_t numLeaves() const;
+
+  private:
+    /// Index in leaves_[patch] of the leaf equal to or containing `key`, or -1
+    /// when `key` is an interior node.
+    int64_t leafAtOrAbove(uint32_t patch, ElementKey key) const;
+    RGB averageBelow(uint32_t patch, ElementKey key, double* area) const;
+
+    const Scene* scene_;
+    std::vector<std::vector<Leaf>> leaves_;
+    std::vector<std::unordered_map<ElementKey, uint32_t>> index_;
+};
 
 }  // namespace hrad::scene

@@ -118,3 +118,37 @@ TEST(Cli, ExplicitCameraIsUsedAndRecorded) {
     EXPECT_EQ(bad.code, 2) << bad.output;
     EXPECT_NE(bad.output.find("render.fov"), std::string::npos) << bad.output;
 }
+
+static std::string fileBytes(const std::filesystem::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// hrad render: the saved solution rendered with the solve's settings gives
+// the very same image; another camera works; a solution of another scene is
+// refused with exit 2.
+TEST(Cli, RenderASavedSolution) {
+    auto dir = hrad::test::tempDir("cli_render");
+    Result r = run("solve cornell --eps 1e-2 --no-ply --no-progress --width 40 --height 30 -o " +
+                   (dir / "solve").string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    ASSERT_TRUE(std::filesystem::exists(dir / "solve" / "solution.hrsol"));
+    Result again = run("render cornell " + (dir / "solve" / "solution.hrsol").string() +
+                       " --width 40 --height 30 -o " + (dir / "again").string());
+    ASSERT_EQ(again.code, 0) << again.output;
+    EXPECT_EQ(fileBytes(dir / "again" / "image.exr"), fileBytes(dir / "solve" / "image.exr"));
+    EXPECT_EQ(fileBytes(dir / "again" / "image.png"), fileBytes(dir / "solve" / "image.png"));
+    Result moved = run("--set render.eye=100,450,-300 --set render.target=350,150,300 render cornell " +
+                       (dir / "solve" / "solution.hrsol").string() + " --width 40 --height 30 -o " +
+                       (dir / "moved").string());
+    ASSERT_EQ(moved.code, 0) << moved.output;
+    EXPECT_NE(fileBytes(dir / "moved" / "image.exr"), fileBytes(dir / "solve" / "image.exr"));
+    Result wrong = run("render furnace " + (dir / "solve" / "solution.hrsol").string() + " -o " +
+                       (dir / "wrong").string());
+    EXPECT_EQ(wrong.code, 2) << wrong.output;
+    EXPECT_NE(wrong.output.find("another scene"), std::string::npos) << wrong.output;
+    Result none = run("solve cornell --eps 1e-2 --no-ply --no-images --no-solution --no-progress -o " +
+                      (dir / "nosol").string());
+    ASSERT_EQ(none.code, 0) << none.output;
+    EXPECT_FALSE(std::filesystem::exists(dir / "nosol" / "solution.hrsol"));
+}

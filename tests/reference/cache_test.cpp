@@ -85,6 +85,88 @@ TEST(ReferenceCache, SaveThenLoadIsBitwiseIdentical) {
     EXPECT_TRUE(sameBits(loaded->field->values(), field->values()));
 }
 
+// Solution files: a field whose patches are cut at mixed depths (a uniform
+// level on some, an uneven quadtree on others) round-trips bitwise; its
+// averages over any key and its point values equal the original's; a file
+// for another scene, a damaged file and a bad tiling are clear errors.
+TEST(SolutionFile, RoundTripAndErrors) {
+    TempDir dir;
+    scene::Scene s = test::blockerBox();
+    auto uniform = testField(s);
+    // Uneven cut of patch 0: three children at level 1, the fourth split again.
+    std::vector<std::vector<scene::LeafField::Leaf>> leaves(s.patches.size());
+    for (uint32_t p = 0; p < s.patches.size(); ++p)
+        uniform->forEachLeaf(p, [&](scene::ElementKey k, const RGB& b) { leaves[p].push_back({k, b}); });
+    leaves[0] = {{4, RGB(1, 2, 3)}, {5, RGB(0.5)}, {6, RGB(0.25, 0, 1)},
+                 {28, RGB(7)}, {29, RGB(8)}, {30, RGB(9)}, {31, RGB(1e-9)}};
+    scene::LeafField field(s, leaves);
+    std::string path = (dir.path() / "run" / "solution.hrsol").string();
+    saveSolution(path, field);
+    auto back = loadSolution(path, s);
+    ASSERT_TRUE(back);
+    EXPECT_EQ(back->numLeaves(), field.numLeaves());
+    for (uint32_t p = 0; p < s.patches.size(); ++p) {
+        ASSERT_EQ(back->leaves(p).size(), field.leaves(p).size());
+        for (size_t i = 0; i < field.leaves(p).size(); ++i) {
+            EXPECT_EQ(back->leaves(p)[i].key, field.leaves(p)[i].key);
+            EXPECT_EQ(std::memcmp(&back->leaves(p)[i].value, &field.leaves(p)[i].value, sizeof(RGB)), 0);
+        }
+    }
+    // Averages: a leaf, a key below a leaf, the interior node 7 and the root.
+    EXPECT_EQ(back->average(0, 4), RGB(1, 2, 3));
+    EXPECT_EQ(back->average(0, 17), RGB(1, 2, 3));  // 17 = 4 * 4 + 1: inside leaf 4
+    EXPECT_EQ(back->average(0, 21), RGB(0.5));      // 21 = 5 * 4 + 1: inside leaf 5
+    const scene::Patch& p0 = s.patches[0];
+    auto area = [&](scene::ElementKey k) { return scene::elementArea(p0, scene::keyDomain(p0.kind, k)); };
+    RGB in7 = (RGB(7) * area(28) + RGB(8) * area(29) + RGB(9) * area(30) + RGB(1e-9) * area(31)) /
+              (area(28) + area(29) + area(30) + area(31));
+    RGB a7 = back->average(0, 7);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(a7[c], in7[c], 1e-12 * (1 + std::abs(in7[c])));
+    RGB root = (RGB(1, 2, 3) * area(4) + RGB(0.5) * area(5) + RGB(0.25, 0, 1) * area(6) + in7 * area(7)) /
+               p0.area;
+    RGB a1 = back->average(0, 1);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(a1[c], root[c], 1e-12 * (1 + std::abs(root[c])));
+    EXPECT_NEAR(luminance(back->totalPower()), luminance(field.totalPower()), 1e-12 * luminance(field.totalPower()));
+    // Point values agree with the uniform field on patches that kept its leaves.
+    for (uint32_t p = 1; p < s.patches.size(); ++p)
+        for (double u : {0.1, 0.37, 0.8})
+            for (double v : {0.05, 0.5}) {
+                if (s.patches[p].kind == scene::PatchKind::Quad || u + v < 1) {
+                    EXPECT_EQ(back->at(p, u, v), uniform->at(p, u, v)) << p << " " << u << " " << v;
+                }
+            }
+
+    // Another scene: a clear error naming the file.
+    scene::Scene other = test::furnaceBox();
+    try {
+        loadSolution(path, other);
+        FAIL() << "expected an error";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("another scene"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("solution.hrsol"), std::string::npos) << e.what();
+    }
+    // Damaged: one flipped byte in the body, and a truncated file.
+    std::string bytes;
+    {
+        std::ifstream in(path, std::ios::binary);
+        bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    std::string flipped = bytes;
+    flipped[flipped.size() / 2] ^= 0x10;
+    std::ofstream((dir.path() / "flipped.hrsol").string(), std::ios::binary) << flipped;
+    EXPECT_THROW(loadSolution((dir.path() / "flipped.hrsol").string(), s), InputError);
+    std::ofstream((dir.path() / "short.hrsol").string(), std::ios::binary) << bytes.substr(0, bytes.size() - 9);
+    EXPECT_THROW(loadSolution((dir.path() / "short.hrsol").string(), s), InputError);
+    EXPECT_THROW(loadSolution((dir.path() / "missing.hrsol").string(), s), InputError);
+    // Leaves that do not tile a patch.
+    auto bad = leaves;
+    bad[0].pop_back();  // a hole
+    EXPECT_THROW(scene::LeafField(s, bad), Error);
+    bad = leaves;
+    bad[0].push_back({1, RGB(0)});  // the root over its own leaves
+    EXPECT_THROW(scene::LeafField(s, bad), Error);
+}
+
 TEST(ReferenceCache, KeyDependsOnSettingsKindAndSceneContents) {
     TempDir dir;
     scene::Scene s = test::blockerBox();
