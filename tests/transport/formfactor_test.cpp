@@ -401,19 +401,25 @@ Vec3 randomUnit(Pcg32& rng) {
 }
 }  // namespace
 
+/// Two random patches `dist` apart, normals tilted towards each other so that
+/// most pairs face (patch 0 at the origin, size 0.5..1.5; patch 1 0.3..1.8).
+scene::Scene randomFacingPair(Pcg32& rng, double dist) {
+    scene::Scene sc = emptyScene();
+    Vec3 dir = randomUnit(rng);
+    Vec3 n0 = glm::normalize(dir + 0.8 * randomUnit(rng));
+    Vec3 n1 = glm::normalize(-dir + 0.8 * randomUnit(rng));
+    addRandomPatch(sc, rng, Vec3(0.0), n0, 0.5 + rng.nextDouble());
+    addRandomPatch(sc, rng, dist * dir, n1, 0.3 + 1.5 * rng.nextDouble());
+    return sc;
+}
+
 TEST(FormFactor, ReciprocityRandomPairs) {
     Pcg32 rng(42);
     double maxErr = 0.0;
     int tested = 0;
     for (int trial = 0; trial < 200; ++trial) {
-        scene::Scene sc = emptyScene();
-        Vec3 dir = randomUnit(rng);
         double dist = 1.0 + 3.0 * rng.nextDouble();
-        // Normals tilted towards each other so that most pairs face.
-        Vec3 n0 = glm::normalize(dir + 0.8 * randomUnit(rng));
-        Vec3 n1 = glm::normalize(-dir + 0.8 * randomUnit(rng));
-        addRandomPatch(sc, rng, Vec3(0.0), n0, 0.5 + rng.nextDouble());
-        addRandomPatch(sc, rng, dist * dir, n1, 0.3 + 1.5 * rng.nextDouble());
+        scene::Scene sc = randomFacingPair(rng, dist);
         if (sc.patches.size() != 2) continue;
         FormFactorEngine eng(sc, nullptr, gaussSettings(16));
         // Subdivided elements of unequal size on each side.
@@ -439,13 +445,8 @@ TEST(FormFactor, PointRangeBracketsTheAverage) {
     Pcg32 rng(7);
     int tested = 0;
     for (int trial = 0; trial < 100; ++trial) {
-        scene::Scene sc = emptyScene();
-        Vec3 dir = randomUnit(rng);
         double dist = 0.5 + 3.0 * rng.nextDouble();
-        Vec3 n0 = glm::normalize(dir + 0.8 * randomUnit(rng));
-        Vec3 n1 = glm::normalize(-dir + 0.8 * randomUnit(rng));
-        addRandomPatch(sc, rng, Vec3(0.0), n0, 0.5 + rng.nextDouble());
-        addRandomPatch(sc, rng, dist * dir, n1, 0.3 + 1.5 * rng.nextDouble());
+        scene::Scene sc = randomFacingPair(rng, dist);
         ElementRef a{0, scene::keyDomain(sc.patches[0].kind, 4 + trial % 4), 4};
         ElementRef b{1, scene::Domain{}, 1};
         for (std::string rule : {"gauss", "gauss-gauss", "centroid"}) {
