@@ -19,7 +19,12 @@
 // with g the projected-area fraction: cos for a surface, 1/4 for an
 // isotropic cluster, projectedArea/A for an oriented one. For an oriented
 // receiving cluster the factor g_r is applied per surface when pushing, so
-// the link stores K without it.
+// the link stores K without it; an oriented sending cluster sends the
+// radiosity of its surfaces facing the receiver (Hierarchy::directionalB) in
+// gather and push alike. K is multiplied by a visibility fraction estimated
+// with rays; how those links are judged and why (a cluster's brightest
+// surface, independent visibility estimates, all-blocked links) is in
+// hr/solver.h.
 #pragma once
 
 #include <cstddef>

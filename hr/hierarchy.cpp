@@ -52,14 +52,16 @@ void Hierarchy::pullClusters() {
     uint32_t np = numPatches(), nc = numClusters_;
     bool oriented = model_ == cluster::ClusterModel::Oriented;
     if (oriented) moments_.assign(nc, RadiantMoments{});
+    maxB_.resize(nc);
     // Children before parents (pre-order indices, so walk backwards).
     for (uint32_t c = nc; c-- > 0;) {
         uint32_t e = np + c;
-        RGB sum(0.0);
+        RGB sum(0.0), mx(0.0);
         RadiantMoments mom;
         for (uint32_t i = 0; i < numChildren(e); ++i) {
             uint32_t ch = child(e, i);
             sum += area_[ch] * B_[ch];
+            mx = glm::max(mx, isCluster(ch) ? maxB_[ch - np] : B_[ch]);
             if (!oriented) continue;
             if (isCluster(ch)) {
                 const RadiantMoments& cm = moments_[ch - np];
@@ -80,6 +82,7 @@ void Hierarchy::pullClusters() {
             }
         }
         B_[e] = area_[e] > 0 ? sum / area_[e] : RGB(0.0);
+        maxB_[c] = mx;
         if (oriented) moments_[c] = mom;
     }
 }
@@ -287,7 +290,14 @@ void Hierarchy::pushPull() {
             for (uint32_t c = parent_[root]; c != kNone; c = parent_[c]) {
                 for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i) {
                     double cosine = glm::dot(n, clusterLinkDir_[i - clusterLinkBase_]);
-                    if (cosine > 0) h += double(links_[i].K) * cosine * B_[links_[i].sender];
+                    // The sender sends what its surfaces facing this
+                    // cluster carry (directionalB), as in gather(): with
+                    // the mean B a sender cluster holding an emitter and
+                    // surfaces facing elsewhere would send its average.
+                    if (cosine > 0)
+                        h += double(links_[i].K) * cosine *
+                             directionalB(links_[i].sender,
+                                          -Vec3(clusterLinkDir_[i - clusterLinkBase_]));
                 }
             }
         }
@@ -367,7 +377,9 @@ void Hierarchy::reportMemory(MemoryCounters& m) const {
     m.set("links", links_.capacity() * sizeof(Link));
     m.set("link_offsets", linkOffsets_.capacity() * sizeof(uint64_t));
     if (!clusterLinkDir_.empty()) m.set("cluster_link_directions", clusterLinkDir_.capacity() * sizeof(glm::vec3));
-    if (tree_) m.set("clusters", tree_->memoryBytes() + moments_.capacity() * sizeof(RadiantMoments));
+    if (tree_)
+        m.set("clusters", tree_->memoryBytes() + moments_.capacity() * sizeof(RadiantMoments) +
+                              maxB_.capacity() * sizeof(RGB));
 }
 
 // ---- field view ---------------------------------------------------------------

@@ -37,8 +37,11 @@ struct Link {
     uint32_t sender = kNone;
     float K = 0.f;             ///< transfer coefficient: F_rs with visibility
     float Fupper = 0.f;        ///< upper bound on the unoccluded F_rs
-    uint16_t visibility = 0;   ///< visibility fraction, quantised to 1/65535
-    uint8_t flags = 0;         ///< kPartial | kOpen
+    /// Visibility fraction, quantised to 1/65535. For links touching a
+    /// cluster it is the estimate the oracle judges with, from rays
+    /// independent of those in K (hr/solver.h).
+    uint16_t visibility = 0;
+    uint8_t flags = 0;         ///< kPartial | kOpen | kUncertain
     uint8_t reserved = 0;
 
     static constexpr uint8_t kPartial = 1;
@@ -46,6 +49,12 @@ struct Link {
     /// a single-surface cluster, overlapping bounding spheres): it carries
     /// nothing and is opened in the next refinement round, whatever the oracle.
     static constexpr uint8_t kOpen = 2;
+    /// A link touching a cluster whose visibility rays were all blocked: it
+    /// carries nothing (K = 0) but the true visibility may be small and
+    /// non-zero (a doorway), so it is kept for the oracle, which judges it
+    /// with the unoccluded transfer times a bound on the visibility
+    /// (HrSolver::linkEstimate), instead of being dropped.
+    static constexpr uint8_t kUncertain = 4;
 
     double vis() const { return visibility / 65535.0; }
     void setVis(double v) {
@@ -126,8 +135,10 @@ class Hierarchy {
     /// to E + sum of gathered on the path, pull area-weighted averages up.
     /// Parallel over root patches. With clusters, irradiance gathered by a
     /// cluster reaches its root patches first (isotropic: unchanged; oriented:
-    /// per link with each patch's own cosine, see cluster/transfer.h), and
-    /// clusters pull the area-weighted average of their children.
+    /// per link with each patch's own cosine and the sender's directionalB()
+    /// towards the receiving cluster, as gather() uses for cluster senders;
+    /// see cluster/transfer.h), and clusters pull the area-weighted average
+    /// (and maxB()) of their children.
     void pushPull();
     /// Sum over leaves of A (B - E): the reflected power (RGB).
     RGB reflectedPower() const;
@@ -144,6 +155,10 @@ class Hierarchy {
     /// A_k cos; Smits et al. 1994). Falls back to the mean B when nothing
     /// faces d. For elements and isotropic clusters: B(e).
     RGB directionalB(uint32_t e, const Vec3& d) const;
+    /// Largest radiosity (per channel) of the root patches below cluster node
+    /// e (root patches hold the area average of their leaves); B(e) for an
+    /// element. Refinement judges links from a cluster with it (hr/solver.h).
+    RGB maxB(uint32_t e) const { return isCluster(e) ? maxB_[clusterIndex(e)] : B_[e]; }
 
   private:
     void prepareOrientedDirections();
@@ -166,6 +181,8 @@ class Hierarchy {
         std::array<std::array<double, 6>, 3> m{};
     };
     std::vector<RadiantMoments> moments_;
+    /// Per cluster: largest radiosity of the root patches below (maxB()).
+    std::vector<RGB> maxB_;
     // Elements (structure of arrays).
     std::vector<uint32_t> patch_;
     std::vector<scene::ElementKey> key_;
