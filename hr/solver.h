@@ -40,6 +40,9 @@
 //   cluster.builder, cluster.leaf_size, cluster.max_depth   (cluster/tree.h)
 //   cluster.vis_rays   int     8       visibility rays for links that touch a cluster, cast
 //                                       twice (two independent estimates, see below)
+//   cluster.separation double 1.5   a link between two clusters is accepted only when the
+//                                       centroid distance exceeds this times the sum of
+//                                       their bounding radii (1: spheres apart); see below
 //
 // Links that touch a cluster (Smits, Arvo & Greenberg 1994; Sillion 1995):
 // K is the point approximation of cluster/transfer.h times a visibility
@@ -62,6 +65,23 @@
 //     through small openings (doorways) are refined where they matter;
 //   - oriented receiving clusters push with the sender's directional
 //     radiosity, as gather does (hr/hierarchy.h; 1 % on office:2 and 4).
+// Two more remove what the per-link comparison with Monte Carlo integrals
+// of the same links found lost on office:3 and classroom (radiosity power,
+// green, oriented vs unclustered: office:3 -4.1 -> -0.3 %, classroom
+// -11.8 -> -4.0 %; office:1/2/4 stay within 0.2 %):
+//   - visibility rays start on surfaces drawn with the density the transfer
+//     gives them (receiving cluster: A_k cos_k; sending cluster: A_k B_k
+//     cos_k) and the unblocked fraction is weighted by the kernel
+//     cos cos / r^2 of each ray (over the sampling density): the plain
+//     fraction of area-sampled rays weighed a luminaire's housing like its
+//     emitting face and far or non-facing pairs like the near facing pairs
+//     that carry the light, and came out 10-20 % low (classroom);
+//   - two clusters are linked only when their centroids are more than
+//     cluster.separation (1.5) times the sum of their radii apart: at
+//     shorter distances the point approximation along the centroid
+//     direction carried 15-19 % too little unoccluded transfer (office:3,
+//     where the BVH lays clusters across room walls). Costs ~1.3x the solve
+//     time (office:4).
 #pragma once
 
 #include <functional>
@@ -97,6 +117,7 @@ struct HrSettings {
     cluster::ClusterModel clusterModel = cluster::ClusterModel::Auto;
     cluster::ClusterSettings cluster;
     int clusterVisRays = 8;
+    double clusterSeparation = 1.5;
 
     /// Reads the keys above (marks "oracle.*" used only after the oracle has
     /// read them: see HrSolver). Throws InputError on bad values or an unknown
