@@ -13,6 +13,7 @@
 #include "core/memory.h"
 #include "core/timer.h"
 #include "hr/solver.h"
+#include "reference/cache.h"
 #include "reference/fullmatrix.h"
 #include "reference/metrics.h"
 #include "reference/montecarlo.h"
@@ -24,19 +25,12 @@
 #include "scene/loader.h"
 #include "transport/visibility.h"
 
-#if __has_include("reference/cache.h")
-#include "reference/cache.h"
-#define HRAD_HAVE_REFERENCE_CACHE 1
-#else
-#define HRAD_HAVE_REFERENCE_CACHE 0
-#endif
 
 namespace hrad::experiments {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-bool referenceCacheAvailable() { return HRAD_HAVE_REFERENCE_CACHE != 0; }
 
 std::string buildType() { return HRAD_BUILD_TYPE; }
 std::string codeVersion() { return HRAD_VERSION; }
@@ -139,26 +133,20 @@ struct Reference {
 };
 
 std::string cacheDirFor(const RunContext& ctx) {
-#if HRAD_HAVE_REFERENCE_CACHE
     if (!ctx.cacheDir.empty()) return ctx.cacheDir;
     return fs::path(reference::defaultCacheDir()).string();
-#else
-    return ctx.cacheDir;
-#endif
 }
 
 Reference computeReference(const scene::Scene& sc, const transport::Visibility& vis,
                            const Resolved& r, const RunContext& ctx) {
     Reference out;
-    bool useCache = ctx.useCache && HRAD_HAVE_REFERENCE_CACHE;
+    bool useCache = ctx.useCache;
     if (r.refFm) {
         reference::FullMatrixResult res;
-#if HRAD_HAVE_REFERENCE_CACHE
         if (useCache)
             res = reference::cachedFullMatrix(sc, vis, *r.refFm, cacheDirFor(ctx), &out.cached,
                                              ctx.progress);
         else
-#endif
             res = reference::solveFullMatrix(sc, vis, *r.refFm, ctx.progress);
         out.field = std::move(res.field);
         out.stats = json{{"elements", res.stats.elements},
@@ -167,12 +155,10 @@ Reference computeReference(const scene::Scene& sc, const transport::Visibility& 
                          {"converged", res.stats.converged}};
     } else if (r.refMc) {
         reference::MonteCarloResult res;
-#if HRAD_HAVE_REFERENCE_CACHE
         if (useCache)
             res = reference::cachedMonteCarlo(sc, vis, *r.refMc, cacheDirFor(ctx), &out.cached,
                                              ctx.progress);
         else
-#endif
             res = reference::solveMonteCarlo(sc, vis, *r.refMc, ctx.progress);
         out.field = std::move(res.field);
         out.stdError = std::move(res.stdError);
@@ -225,16 +211,13 @@ json prepareReference(const PointSpec& p, const RunContext& ctx) {
     out["reference"] = referenceDescription(r);
     out["cached"] = ref.cached;
     out["cache_dir"] = cacheDirFor(ctx);
-#if HRAD_HAVE_REFERENCE_CACHE
-    // The file name reference/cache.cpp uses: <kind>-<key>.bin.
     std::string key = r.refFm ? reference::referenceCacheKey(sc, reference::kFullMatrixKind,
                                                              r.refFm->describe())
                               : reference::referenceCacheKey(sc, reference::kMonteCarloKind,
                                                              r.refMc->describe());
-    out["cache_file"] = (fs::path(cacheDirFor(ctx)) /
-                         fmt::format("{}-{}.bin", r.refFm ? "fullmatrix" : "montecarlo", key))
-                            .string();
-#endif
+    out["cache_file"] =
+        reference::referenceCacheFile(cacheDirFor(ctx), r.refFm ? "fullmatrix" : "montecarlo", key)
+            .string();
     out["seconds"] = t.seconds();
     out["stats"] = ref.stats;
     return out;
@@ -441,24 +424,29 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                                      {"up", json::array({cam.up.x, cam.up.y, cam.up.z})},
                                      {"fov_y_degrees", cam.fovYDegrees},
                                      {"explicit", r.render.camera.has_value()}};
-            render::Image img = render::renderField(sc, vis, *field, cam, r.render);
+            // With an error map, the reference (and, for regions, the
+            // solution's averages over the reference's regions: what the
+            // L1/L2 metrics compare) go through the same camera in the same
+            // ray cast; pixels mode compares the two reconstructions.
+            std::vector<const scene::RadiosityField*> fields{field};
+            std::unique_ptr<scene::UniformField> onRegions;
+            if (p.outputs.errorMap && ref) {
+                fields.push_back(ref->field.get());
+                if (r.errorOnRegions) {
+                    onRegions = reference::averageOnRegions(*field, *ref->field);
+                    fields.push_back(onRegions.get());
+                }
+            }
+            std::vector<render::Image> imgs = render::renderFields(sc, vis, fields, cam, r.render);
+            const render::Image& img = imgs[0];
             double exposure = r.exposure;
             if (p.outputs.errorMap && ref) {
-                // The reference through the same camera; its exposure is used
-                // for both PNGs, so every run of a scene shares one exposure.
-                render::Image refImg = render::renderField(sc, vis, *ref->field, cam, r.render);
+                // The reference's exposure is used for both PNGs, so every
+                // run of a scene shares one exposure.
+                const render::Image& refImg = imgs[1];
                 if (!(exposure > 0)) exposure = render::pngAutoExposure(refImg);
-                // regions: the solution's averages over the reference's
-                // regions against the reference (what the L1/L2 metrics
-                // compare); pixels: the two reconstructions pixel by pixel.
                 render::ErrorMap em =
-                    r.errorOnRegions
-                        ? render::computeErrorMap(
-                              render::renderField(
-                                  sc, vis, *reference::averageOnRegions(*field, *ref->field), cam,
-                                  r.render),
-                              refImg, r.errorFloor)
-                        : render::computeErrorMap(img, refImg, r.errorFloor);
+                    render::computeErrorMap(imgs[onRegions ? 2 : 0], refImg, r.errorFloor);
                 fs::path refPng = ctx.artefactDir / "reference.png",
                          data = ctx.artefactDir / "error.png",
                          fc = ctx.artefactDir / "error_fc.png";

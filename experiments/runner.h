@@ -86,10 +86,6 @@ nlohmann::json prepareReference(const PointSpec& point, const RunContext& contex
 /// settings description ("" when kind = none).
 std::string referenceId(const PointSpec& point);
 
-/// True when reference/cache.h was available at compile time (otherwise every
-/// point recomputes its reference in memory).
-bool referenceCacheAvailable();
-
 /// Build type baked in at compile time ("Release", "Debug", ...).
 std::string buildType();
 /// git describe of the source tree at configure time.

@@ -245,7 +245,7 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
 
     // ---- references, once per (scene, reference settings) ---------------------------
     std::map<std::string, std::string> referenceFailure;  // refId -> message
-    if (opt.useCache && referenceCacheAvailable() && !byReference.empty()) {
+    if (opt.useCache && !byReference.empty()) {
         std::vector<Task> refTasks;
         int n = 0;
         for (const auto& [refId, pts] : byReference)

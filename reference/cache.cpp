@@ -136,11 +136,6 @@ uint64_t metaUint(const std::map<std::string, std::string>& m, const char* key) 
     return std::strtoull(it->second.c_str(), nullptr, 10);
 }
 
-std::filesystem::path cacheFile(const std::filesystem::path& dir, const std::string& prefix,
-                                const std::string& key) {
-    return dir / (prefix + "-" + key + ".bin");
-}
-
 /// saveReference that only warns (a read-only cache must not fail a solve).
 void trySave(const std::filesystem::path& path, const scene::UniformField& field,
              const std::vector<RGB>* stdError, const std::string& key, const std::string& meta) {
@@ -301,6 +296,11 @@ std::optional<CachedReference> loadReference(const std::string& path, const scen
     return out;
 }
 
+std::filesystem::path referenceCacheFile(const std::filesystem::path& dir,
+                                         const std::string& prefix, const std::string& key) {
+    return dir / (prefix + "-" + key + ".bin");
+}
+
 std::filesystem::path defaultCacheDir() {
     if (const char* c = std::getenv("HRAD_CACHE"); c && *c) return std::filesystem::path(c);
     if (const char* h = std::getenv("HOME"); h && *h)
@@ -315,7 +315,7 @@ FullMatrixResult cachedFullMatrix(const scene::Scene& scene,
                                   bool showProgress) {
     const std::string desc = settings.describe();
     const std::string key = referenceCacheKey(scene, kFullMatrixKind, desc);
-    const std::filesystem::path path = cacheFile(cacheDir, "fullmatrix", key);
+    const std::filesystem::path path = referenceCacheFile(cacheDir, "fullmatrix", key);
     if (auto cached = loadReference(path.string(), scene, key)) {
         if (hit) *hit = true;
         auto m = parseMetadata(cached->metadata);
@@ -356,7 +356,7 @@ MonteCarloResult cachedMonteCarlo(const scene::Scene& scene,
                                   bool showProgress) {
     const std::string desc = settings.describe();
     const std::string key = referenceCacheKey(scene, kMonteCarloKind, desc);
-    const std::filesystem::path path = cacheFile(cacheDir, "montecarlo", key);
+    const std::filesystem::path path = referenceCacheFile(cacheDir, "montecarlo", key);
     if (auto cached = loadReference(path.string(), scene, key)) {
         if (cached->stdError) {
             if (hit) *hit = true;

@@ -78,6 +78,11 @@ std::optional<CachedReference> loadReference(const std::string& path, const scen
 /// ./.hrad-cache. Not created here.
 std::filesystem::path defaultCacheDir();
 
+/// The file the helpers below use for a reference: <dir>/<prefix>-<key>.bin
+/// with prefix "fullmatrix" or "montecarlo".
+std::filesystem::path referenceCacheFile(const std::filesystem::path& dir,
+                                         const std::string& prefix, const std::string& key);
+
 /// Kinds (with algorithm versions) used in the keys by the helpers below.
 inline constexpr const char* kFullMatrixKind = "fullmatrix/2";  // 2: adaptive receiver rule on near pairs
 inline constexpr const char* kMonteCarloKind = "montecarlo/1";

@@ -216,21 +216,32 @@ RGB VertexInterpolation::at(uint32_t patch, double u, double v) const {
 Image renderField(const scene::Scene& scene, const transport::Visibility& visibility,
                   const scene::RadiosityField& field, const scene::Camera& camera,
                   const RenderSettings& settings) {
-    HRAD_CHECK(&field.scene() == &scene || field.scene().patches.size() == scene.patches.size());
+    return std::move(renderFields(scene, visibility, {&field}, camera, settings)[0]);
+}
+
+std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visibility& visibility,
+                                const std::vector<const scene::RadiosityField*>& fields,
+                                const scene::Camera& camera, const RenderSettings& settings) {
+    const size_t nf = fields.size();
+    std::vector<std::unique_ptr<VertexInterpolation>> interp(nf);
+    for (size_t f = 0; f < nf; ++f) {
+        HRAD_CHECK(&fields[f]->scene() == &scene ||
+                   fields[f]->scene().patches.size() == scene.patches.size());
+        if (settings.interpolate) interp[f] = std::make_unique<VertexInterpolation>(*fields[f]);
+    }
     CameraFrame frame(camera, settings.width, settings.height);
-    std::unique_ptr<VertexInterpolation> interp;
-    if (settings.interpolate) interp = std::make_unique<VertexInterpolation>(field);
-    Image img(settings.width, settings.height);
+    std::vector<Image> img(nf, Image(settings.width, settings.height));
     const int spp = settings.spp;
     const int strata = int(std::lround(std::sqrt(double(spp))));
     const bool stratified = strata * strata == spp;
 
     tbb::parallel_for(
         tbb::blocked_range<int>(0, settings.height), [&](const tbb::blocked_range<int>& r) {
+            std::vector<RGB> sum(nf);
             for (int y = r.begin(); y != r.end(); ++y) {
                 for (int x = 0; x < settings.width; ++x) {
                     Pcg32 rng(hashIds(uint64_t(x), uint64_t(y)));
-                    RGB sum(0.0);
+                    std::fill(sum.begin(), sum.end(), RGB(0.0));
                     for (int s = 0; s < spp; ++s) {
                         double jx = 0.5, jy = 0.5;
                         if (spp > 1) {
@@ -247,10 +258,11 @@ Image renderField(const scene::Scene& scene, const transport::Visibility& visibi
                         const scene::Patch& p = scene.patches[hit.patch];
                         if (settings.backFacesBlack && glm::dot(dir, p.normal) > 0) continue;
                         Vec2 uv = clampToPatch(p.kind, scene::patchInverse(p, hit.point));
-                        sum += interp ? interp->at(hit.patch, uv.x, uv.y)
-                                      : field.at(hit.patch, uv.x, uv.y);
+                        for (size_t f = 0; f < nf; ++f)
+                            sum[f] += interp[f] ? interp[f]->at(hit.patch, uv.x, uv.y)
+                                                : fields[f]->at(hit.patch, uv.x, uv.y);
                     }
-                    img.at(x, y) = sum / double(spp);
+                    for (size_t f = 0; f < nf; ++f) img[f].at(x, y) = sum[f] / double(spp);
                 }
             }
         });

@@ -40,6 +40,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "core/params.h"
 #include "render/image.h"
@@ -87,5 +88,10 @@ scene::Camera chooseCamera(const scene::Scene& scene, const transport::Visibilit
 Image renderField(const scene::Scene& scene, const transport::Visibility& visibility,
                   const scene::RadiosityField& field, const scene::Camera& camera,
                   const RenderSettings& settings);
+/// One image per field, with each primary ray cast once and every field
+/// evaluated at its hit (what renderField gives for each, pixel for pixel).
+std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visibility& visibility,
+                                const std::vector<const scene::RadiosityField*>& fields,
+                                const scene::Camera& camera, const RenderSettings& settings);
 
 }  // namespace hrad::render

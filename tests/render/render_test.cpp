@@ -115,6 +115,31 @@ TEST(Render, ConstantReconstructionShowsLeafValues) {
     EXPECT_EQ(img.at(2, 2), RGB(4.0));
 }
 
+// renderFields casts each ray once for several fields; every image equals
+// renderField's for that field (jittered samples and interpolation included).
+TEST(Render, SeveralFieldsInOneCastMatchSeparateRenders) {
+    scene::Scene s = unitSquare();
+    transport::Visibility vis(s);
+    scene::UniformField a(s, {1}), b(s, {2});
+    for (int i = 0; i < 4; ++i) a.value(size_t(i)) = RGB(double(i + 1), 0.5, 0.25);
+    for (int i = 0; i < 16; ++i) b.value(size_t(i)) = RGB(0.1 * i, 1.0, double(i % 3));
+    scene::Camera cam;
+    cam.eye = Vec3(0.3, 0.6, 1.5);
+    cam.target = Vec3(0.5, 0.5, 0.0);
+    cam.fovYDegrees = 50.0;  // the square and some background
+    RenderSettings rs;
+    rs.width = 12;
+    rs.height = 9;
+    rs.spp = 4;
+    rs.interpolate = true;
+    std::vector<Image> both = renderFields(s, vis, {&a, &b}, cam, rs);
+    ASSERT_EQ(both.size(), 2u);
+    Image ia = renderField(s, vis, a, cam, rs), ib = renderField(s, vis, b, cam, rs);
+    EXPECT_EQ(both[0].pixels, ia.pixels);
+    EXPECT_EQ(both[1].pixels, ib.pixels);
+    EXPECT_NE(ia.pixels, ib.pixels);
+}
+
 TEST(Render, VertexInterpolationAveragesLeavesAtCorners) {
     scene::Scene s = unitSquare();
     scene::UniformField f(s, {1});
