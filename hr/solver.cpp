@@ -296,8 +296,7 @@ Link HrSolver::makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint3
         };
         double fractionJudged = 0.0, fractionCarried = 0.0;
         int blockedJudged = estimate(fractionJudged);
-        int blockedCarried = estimate(fractionCarried);
-        (void)blockedCarried;
+        estimate(fractionCarried);  // its blocked count sets no flag
         rays = uint32_t(2 * n);
         judged = fractionJudged;
         carried = fractionCarried;
