@@ -63,6 +63,9 @@ json paramsJson(const Params& p) {
 json metricsJson(const reference::ErrorMetrics& m) {
     return json{{"l1_lum", m.l1Lum}, {"l2_lum", m.l2Lum}, {"linf_lum", m.linfLum},
                 {"l1_rgb", m.l1Rgb}, {"l2_rgb", m.l2Rgb}, {"linf_rgb", m.linfRgb},
+                {"l1_reflected_lum", m.l1ReflLum}, {"l2_reflected_lum", m.l2ReflLum},
+                {"l1_nonemitter_lum", m.l1NonEmitLum}, {"l2_nonemitter_lum", m.l2NonEmitLum},
+                {"mean_ratio_nonemitter", m.meanRatioNonEmit},
                 {"regions", m.regions}};
 }
 
@@ -395,8 +398,11 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         timings["error"] = tErr.seconds() + historyErrorSeconds;
         if (historyErrorSeconds > 0) timings["history_error"] = historyErrorSeconds;
         summary["error"] = e;
-        spdlog::info("error vs {}: L2(lum) = {:.4g}, L1(lum) = {:.4g}", referenceDescription(r),
-                     err.l2Lum, err.l1Lum);
+        spdlog::info(
+            "error vs {}: reflected L1 = {:.4g}, L2 = {:.4g}; non-emitters L1 = {:.4g}, "
+            "L2 = {:.4g}, mean ratio {:.4f}; all regions L1 = {:.4g}, L2 = {:.4g}",
+            referenceDescription(r), err.l1ReflLum, err.l2ReflLum, err.l1NonEmitLum,
+            err.l2NonEmitLum, err.meanRatioNonEmit, err.l1Lum, err.l2Lum);
     }
     if (p.outputs.historyError)
         summary["history_error"] =

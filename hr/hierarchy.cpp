@@ -183,7 +183,13 @@ uint32_t Hierarchy::numLeaves() const {
 }
 
 void Hierarchy::setLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links) {
+    setLinks(receivers, std::move(links), {});
+}
+
+void Hierarchy::setLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links,
+                         std::vector<KernelSamples>&& samples) {
     HRAD_CHECK(receivers.size() == links.size());
+    HRAD_CHECK(samples.empty() || samples.size() == links.size());
     uint32_t n = numElements();
     // Counting sort by receiver; stable, so each row keeps the given order.
     linkOffsets_.assign(size_t(n) + 1, 0);
@@ -194,6 +200,15 @@ void Hierarchy::setLinks(const std::vector<uint32_t>& receivers, std::vector<Lin
     for (uint32_t i = 0; i < n; ++i) linkOffsets_[i + 1] += linkOffsets_[i];
     std::vector<Link> sorted(links.size());
     std::vector<uint64_t> fill(linkOffsets_.begin(), linkOffsets_.end() - 1);
+    samples_.clear();
+    if (!samples.empty()) {
+        samples_.resize(links.size());
+        std::vector<uint64_t> fill2(fill);
+        for (size_t i = 0; i < links.size(); ++i) samples_[fill2[receivers[i]]++] = samples[i];
+        samples.clear();
+        samples.shrink_to_fit();
+    }
+    samples_.shrink_to_fit();
     for (size_t i = 0; i < links.size(); ++i) sorted[fill[receivers[i]]++] = links[i];
     links_ = std::move(sorted);
     links_.shrink_to_fit();
@@ -369,13 +384,15 @@ uint64_t Hierarchy::elementBytes() const {
 
 uint64_t Hierarchy::linkBytes() const {
     return links_.capacity() * sizeof(Link) + linkOffsets_.capacity() * sizeof(uint64_t) +
-           clusterLinkDir_.capacity() * sizeof(glm::vec3);
+           clusterLinkDir_.capacity() * sizeof(glm::vec3) +
+           samples_.capacity() * sizeof(KernelSamples);
 }
 
 void Hierarchy::reportMemory(MemoryCounters& m) const {
     m.set("elements", elementBytes());
     m.set("links", links_.capacity() * sizeof(Link));
     m.set("link_offsets", linkOffsets_.capacity() * sizeof(uint64_t));
+    if (!samples_.empty()) m.set("link_kernel_samples", samples_.capacity() * sizeof(KernelSamples));
     if (!clusterLinkDir_.empty()) m.set("cluster_link_directions", clusterLinkDir_.capacity() * sizeof(glm::vec3));
     if (tree_)
         m.set("clusters", tree_->memoryBytes() + moments_.capacity() * sizeof(RadiantMoments) +

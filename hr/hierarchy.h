@@ -64,6 +64,12 @@ struct Link {
 };
 static_assert(sizeof(Link) == 16, "Link must stay 16 bytes");
 
+/// Unoccluded point form factors of a link at its receiver's kernel sample
+/// points (transport FormFactorEngine::kernelSamples), cached per link for
+/// the receiver-aggregate error (hr/receiver_error.h): geometry only, so
+/// computed once when the link is made. Float: an error estimate needs no more.
+using KernelSamples = std::array<float, 9>;
+
 class Hierarchy {
   public:
     /// Without a cluster tree (or with model None) there are no cluster nodes.
@@ -119,6 +125,12 @@ class Hierarchy {
     /// Replaces all links. `receivers[i]` is the receiver of links[i]; the
     /// arrays are sorted stably by receiver into CSR form.
     void setLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links);
+    /// The same with each link's kernel samples (kept in link order; empty
+    /// `samples` drops them).
+    void setLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links,
+                  std::vector<KernelSamples>&& samples);
+    /// Kernel samples of every link (empty when no oracle asked for them).
+    const std::vector<KernelSamples>& kernelSamples() const { return samples_; }
     uint64_t numLinks() const { return links_.size(); }
     /// Links of receiver e: [linkBegin(e), linkEnd(e)).
     uint64_t linkBegin(uint32_t e) const { return e < linkOffsets_.size() - 1 ? linkOffsets_[e] : links_.size(); }
@@ -194,6 +206,7 @@ class Hierarchy {
     // Links (CSR by receiver).
     std::vector<uint64_t> linkOffsets_;
     std::vector<Link> links_;
+    std::vector<KernelSamples> samples_;
 };
 
 /// The hierarchical solution viewed as a RadiosityField (the values are the

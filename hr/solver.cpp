@@ -11,6 +11,7 @@
 #include "core/log.h"
 #include "core/rng.h"
 #include "core/timer.h"
+#include "hr/receiver_error.h"
 #include "oracles/registry.h"
 
 namespace hrad::hr {
@@ -18,6 +19,11 @@ namespace hrad::hr {
 using oracles::Decision;
 
 namespace {
+/// A link between two surface elements (no cluster on either side).
+bool surfacePair(const Hierarchy& h, uint32_t r, uint32_t s) {
+    return s != kNone && !h.isCluster(r) && !h.isCluster(s);
+}
+
 std::vector<double> parseSchedule(const std::string& text, const SourceLocation& where) {
     std::vector<double> out;
     std::stringstream ss(text);
@@ -61,6 +67,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.clusterModel = cluster::parseClusterModel(
         p.getEnum("cluster.model", "auto", cluster::clusterModelNames()));
     s.cluster = cluster::ClusterSettings::fromParams(p);
+    s.receiverEps = p.getDouble("hr.receiver_eps", -1.0, -1.0, 1.0);
     s.clusterVisRays = int(p.getInt("cluster.vis_rays", s.clusterVisRays, 0, 1024));
     s.clusterSeparation = p.getDouble("cluster.separation", s.clusterSeparation, 1.0, 100.0);
     // Validate the oracle settings now (unknown keys included), so a bad
@@ -447,6 +454,12 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
     // emitters are linked as surfaces. Gather still uses directionalB().
     e.senderB = h.isCluster(s) ? h.maxB(s) : h.B(s);
     e.receiverRho = h.rho(r);
+    if (!h.isCluster(s) && h.firstChild(s) != kNone) {
+        double spread = 0.0;
+        for (uint32_t c = 0; c < h.numChildren(s); ++c)
+            spread = std::max(spread, maxComponent(e.receiverRho * glm::abs(h.B(h.child(s, c)) - h.B(s))));
+        e.senderSpread = spread;
+    }
     e.receiverIsCluster = h.isCluster(r);
     e.senderIsCluster = h.isCluster(s);
     if (e.receiverIsCluster && h.clusterModel() == cluster::ClusterModel::Oriented) {
@@ -480,6 +493,31 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
     std::vector<uint8_t> decision;
     std::vector<uint8_t> mark;
     const bool bounds = oracle.needsBounds();
+    // The receiver check for oracles that do not judge the aggregate
+    // themselves (guardEps > 0).
+    double guardEps = 0.0;
+    if (!oracle.needsReceiverError() && s_.oracle != "uniform") {
+        guardEps = s_.receiverEps > 0.0 ? s_.receiverEps : 0.0;
+    }
+    const bool aggregate = oracle.needsReceiverError() || guardEps > 0.0;
+    std::vector<ReceiverError> rerr;
+    // Kernel samples travel with their links (geometry: computed once, when
+    // the link is made; the initial links get theirs here).
+    std::vector<KernelSamples> pendingS, finalS;
+    if (aggregate) {
+        pendingS = h.kernelSamples();
+        if (pendingS.size() != pending.size()) {
+            pendingS.assign(pending.size(), KernelSamples{});
+            tbb::parallel_for(tbb::blocked_range<size_t>(0, pending.size(), 256),
+                              [&](const auto& range) {
+                                  for (size_t i = range.begin(); i != range.end(); ++i)
+                                      if (surfacePair(h, recv[i], pending[i].sender))
+                                          pendingS[i] = linkKernelSamples(h, engine_, recv[i],
+                                                                          pending[i].sender);
+                              });
+        }
+        finalS.reserve(pendingS.size());
+    }
 
     while (!pending.empty()) {
         size_t n = pending.size();
@@ -489,6 +527,8 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
             res.linkCapHit = true;
             spdlog::warn("hr.max_links = {} reached: refinement stops here", s_.maxLinks);
         }
+        if (!capHit && aggregate)
+            receiverErrors(h, recv, pending, pendingS, finalRecv, finalLinks, finalS, rerr);
         if (!capHit) {
             tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const auto& range) {
                 for (size_t i = range.begin(); i != range.end(); ++i) {
@@ -499,7 +539,19 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
                         continue;
                     }
                     oracles::LinkEstimate e = linkEstimate(h, r, l, bounds);
-                    decision[i] = uint8_t(oracles::constrain(oracle.decide(e), e));
+                    if (aggregate) {
+                        e.receiverRange = rerr[i].range;
+                        e.receiverDeviation = rerr[i].deviation;
+                        e.linkDeviation = rerr[i].linkDeviation;
+                        e.receiverLinks = rerr[i].links;
+                    }
+                    Decision d = oracles::constrain(oracle.decide(e), e);
+                    if (d == Decision::Accept && guardEps > 0.0 && e.receiverRange >= 0.0 &&
+                        e.receiverRange * e.receiverArea > guardEps * e.emittedPower &&
+                        e.linkDeviation * std::max<uint32_t>(1, e.receiverLinks) >=
+                            e.receiverRange)
+                        d = oracles::constrain(Decision::RefineReceiver, e);
+                    decision[i] = uint8_t(d);
                 }
             });
         }
@@ -513,6 +565,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
             if (d == Decision::Accept) {
                 finalRecv.push_back(recv[i]);
                 finalLinks.push_back(pending[i]);
+                if (aggregate) finalS.push_back(pendingS[i]);
             } else {
                 bool rr = d == Decision::RefineReceiver || d == Decision::RefineBoth;
                 bool ss = d == Decision::RefineSender || d == Decision::RefineBoth;
@@ -535,6 +588,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
         // each slot is written by exactly one task).
         std::vector<uint32_t> nrecv(newCount);
         std::vector<Link> nlinks(newCount);
+        std::vector<KernelSamples> nS(aggregate ? newCount : 0);
         std::atomic<uint64_t> rays{0};
         tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 64), [&](const auto& range) {
             uint64_t localRays = 0;
@@ -555,6 +609,8 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
                         // patches); between clusters it is kept, to be opened.
                         nlinks[o] = rc == sc && !h.isCluster(rc) ? Link{} : makeLink(h, rc, sc, nr);
                         nrecv[o] = rc;
+                        if (aggregate && nlinks[o].K > 0 && surfacePair(h, rc, sc))
+                            nS[o] = linkKernelSamples(h, engine_, rc, sc);
                         localRays += nr;
                         ++o;
                     }
@@ -577,14 +633,17 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
             if (!(nlinks[i].K > 0) && !keep) continue;
             nlinks[w] = nlinks[i];
             nrecv[w] = nrecv[i];
+            if (aggregate) nS[w] = nS[i];
             ++w;
         }
         nlinks.resize(w);
         nrecv.resize(w);
+        if (aggregate) nS.resize(w);
         pending = std::move(nlinks);
         recv = std::move(nrecv);
+        pendingS = std::move(nS);
     }
-    h.setLinks(finalRecv, std::move(finalLinks));
+    h.setLinks(finalRecv, std::move(finalLinks), std::move(finalS));
     return refined;
 }
 

@@ -35,18 +35,31 @@
 // kernel sample). Compared with `error` (Fmax - Fmin), the variation is
 // measured from the link's own value, so for the same link kv <= error <= 2 kv.
 //
-// Cost: the solver re-evaluates the receiver-point form factors (9 contour
-// integrals with the default 3 x 3 rule, no rays) for every link it judges,
-// in every iteration. Measured on cornell at eps 1e-4 (L2 vs the fm level-3
-// reference; solve time): error 21.5k links, 0.45 %, 0.47 s; kv 14.8k links,
-// 0.54 %, 0.34 s; bfa 23.1k links, 0.53 %, 0.12 s: a lower error per link
-// for ~3-4x the time of bfa.
+// Surface links are judged by their receiver's aggregate (what eps bounds).
+// A receiver gets the error D(x) = rho_r sum_l B_l v_l (F_l(x) - F_l) from all
+// its surface links together (hr/receiver_error.h, LinkEstimate::
+// receiverRange / receiverDeviation), sampled at its corners, edge midpoints
+// and centroid. With norm = power the receiver's links are accepted when
+//     A_r * E_r <= eps * (total emitted power, max channel),
+// E_r = max_k |D(x_k)| (the largest deviation): eps bounds the power the receiver's
+// piecewise-constant irradiance misplaces, as a fraction of the light in the
+// scene. Otherwise the links carrying at least an even share of E_r are
+// refined on the receiver side; the sender is refined when
+// F rho_r max_c |B_c - B_s| over its children (the sender's own variation)
+// exceeds the same bound. Judged link by link (as before), the kernel
+// variations of many links on one receiver passed one by one and added up
+// (furnace L1 7.1 % (error) and 7.5 % (kv) at eps 1e-3); judged together,
+// links whose kernels compensate (in a closed room sum_l F_l(x) = 1) are not
+// refined, and the furnace stays exact. Links touching a cluster have no
+// aggregate and keep the per-link estimate below. Cost: the kernel samples
+// are computed once per link when it is made and cached with it (36 bytes
+// per link, Hierarchy::kernelSamples); each refinement round sums them.
 //
 // Settings:
 //   eps       double  1e-3     threshold (0, 1], relative as set by norm
 //   norm      string  "power"  "power" | "radiosity"
 //   min_area  double  0        elements at or below this area are not subdivided
-//   side      string  "larger" which element a refused link subdivides: "larger"
+//   side      string  "larger" (links touching a cluster) which element a refused link subdivides: "larger"
 //                              (refineLarger, HSA91) or "receiver" (the element
 //                              whose variation is measured; the other side only
 //                              when the receiver cannot subdivide). Measured on
@@ -67,6 +80,7 @@ class KernelVariationOracle final : public VariationOracle {
     using VariationOracle::VariationOracle;
     std::string name() const override { return "kv"; }
     double linkError(const LinkEstimate& e) const override;
+    double receiverError(const LinkEstimate& e) const override { return e.receiverDeviation; }
 };
 
 }  // namespace hrad::oracles

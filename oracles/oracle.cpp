@@ -1,3 +1,4 @@
+#include <algorithm>
 #include "oracles/oracle.h"
 
 #include <fmt/format.h>
@@ -64,10 +65,34 @@ VariationOracle::Settings VariationOracle::Settings::fromParams(const Params& p)
 }
 
 Decision VariationOracle::decide(const LinkEstimate& e) const {
-    if (errorWithinEps(linkError(e), s_.eps, s_.norm, e)) return Decision::Accept;
     LinkEstimate c = e;
     c.receiverCanSubdivide = e.receiverCanSubdivide && e.receiverArea > s_.minArea;
     c.senderCanSubdivide = e.senderCanSubdivide && e.senderArea > s_.minArea;
+    if (e.receiverRange >= 0.0) {
+        // A surface link is judged by its receiver's aggregate error: the
+        // receiver's links are accepted together when it is within eps.
+        // Otherwise the links that carry at least an even share of it are
+        // refined on the receiver side (at least one link always is), the
+        // others wait for the next round, which evaluates the aggregate
+        // again. Refining the sender would not change the receiver's
+        // irradiance (the children's coefficients sum to the parent's), so
+        // the sender is refined only for its own error: the spread of its
+        // children's radiosities.
+        double err = receiverError(e) * e.importance;
+        bool receiverBad = !errorWithinEps(err, s_.eps, s_.norm, e) &&
+                           e.linkDeviation * e.importance *
+                                   std::max<uint32_t>(1, e.receiverLinks) >= err;
+        bool senderBad =
+            !errorWithinEps(e.F * e.senderSpread * e.importance, s_.eps, s_.norm, e);
+        if (!receiverBad && !senderBad) return Decision::Accept;
+        Decision d = receiverBad && senderBad ? Decision::RefineBoth
+                     : receiverBad            ? Decision::RefineReceiver
+                                              : Decision::RefineSender;
+        if (d == Decision::RefineBoth && !c.senderCanSubdivide) d = Decision::RefineReceiver;
+        if (d == Decision::RefineBoth && !c.receiverCanSubdivide) d = Decision::RefineSender;
+        return constrain(d, c);
+    }
+    if (errorWithinEps(linkError(e), s_.eps, s_.norm, e)) return Decision::Accept;
     if (s_.refineReceiver) return constrain(Decision::RefineReceiver, c);
     return refineLarger(c);
 }

@@ -41,6 +41,30 @@ struct LinkEstimate {
     /// pointRange; a partially visible link has Fmin = 0; a link touching a
     /// cluster has [0, max(F, Fupper)]). The defaults are the trivial interval.
     double Fmin = 0.0, Fmax = 1.0;
+    /// Receiver-aggregate kernel error (hr/receiver_error.h), filled only for
+    /// oracles whose needsReceiverError() is true and only for links between
+    /// two surface elements (negative otherwise: not evaluated). With x_k the
+    /// receiver's sample points (corners, edge midpoints, centroid) and
+    ///   D(x_k) = sum over the receiver's surface links l of
+    ///            rho_r B_l v_l (F_l(x_k) - F_l)
+    /// (F_l(x) the point-to-sender form factor, F_l its receiver average,
+    /// v_l the link's visibility fraction), D is the error that giving
+    /// every point of the receiver the average makes, all links together:
+    /// links whose kernels vary in opposite directions cancel (in a closed
+    /// room the point form factors to all senders sum to one everywhere).
+    /// Partially visible links add rho_r B_l F_l unsigned (where the shadow
+    /// falls is unknown). Radiosity units, max channel.
+    double receiverRange = -1.0;      ///< max_k D(x_k) - min_k D(x_k)
+    double receiverDeviation = -1.0;  ///< max_k |D(x_k)|
+    /// This link's own part: max_k |rho_r B_s v (F(x_k) - F)| (+ the unsigned
+    /// partial-visibility term).
+    double linkDeviation = 0.0;
+    uint32_t receiverLinks = 0;       ///< surface links the aggregate sums
+    /// Largest rho_r |B_c - B_s| (max channel) over the children c of a
+    /// subdivided surface sender, 0 for a leaf or a cluster: F times it is
+    /// the error of gathering the sender's average instead of its parts
+    /// (the sender side of Lischinski, Smits & Greenberg 1994).
+    double senderSpread = 0.0;
     int receiverLevel = 0, senderLevel = 0;
     bool receiverCanSubdivide = false, senderCanSubdivide = false;
     bool receiverIsCluster = false, senderIsCluster = false;
@@ -57,6 +81,11 @@ class Oracle {
     /// extra point-to-element form factors for every link judged, so the
     /// solver only does it when asked.
     virtual bool needsBounds() const { return false; }
+    /// True when decide() reads the receiver aggregate (receiverRange,
+    /// receiverDeviation, linkDeviation, receiverLinks); it costs point form
+    /// factors at 7-9 receiver points for every surface link of every
+    /// receiver judged.
+    virtual bool needsReceiverError() const { return false; }
     virtual std::string name() const = 0;
     /// One line with every setting, written next to each result.
     virtual std::string describe() const = 0;
@@ -101,9 +130,15 @@ class VariationOracle : public Oracle {
     /// `side`, constrained by what may subdivide (and min_area).
     Decision decide(const LinkEstimate& e) const final;
     bool needsBounds() const final { return true; }
+    bool needsReceiverError() const final { return true; }
     std::string describe() const final;
-    /// The radiosity error dB of the link at its receiver (max channel, with importance).
+    /// The radiosity error dB of the link at its receiver (max channel, with
+    /// importance), from the link's own form-factor range: used for links
+    /// that touch a cluster, which have no receiver aggregate.
     virtual double linkError(const LinkEstimate& e) const = 0;
+    /// The error of the receiver's irradiance from all its surface links
+    /// (LinkEstimate::receiverRange or receiverDeviation).
+    virtual double receiverError(const LinkEstimate& e) const = 0;
 
   protected:
     Settings s_;

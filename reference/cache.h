@@ -84,7 +84,7 @@ std::filesystem::path referenceCacheFile(const std::filesystem::path& dir,
                                          const std::string& prefix, const std::string& key);
 
 /// Kinds (with algorithm versions) used in the keys by the helpers below.
-inline constexpr const char* kFullMatrixKind = "fullmatrix/2";  // 2: adaptive receiver rule on near pairs
+inline constexpr const char* kFullMatrixKind = "fullmatrix/3";  // 2: adaptive receiver rule on near pairs; 3: kernel-weighted visibility
 inline constexpr const char* kMonteCarloKind = "montecarlo/1";
 
 /// Full-matrix reference through the cache in `cacheDir` (file

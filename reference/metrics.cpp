@@ -19,9 +19,11 @@ double ratio(double num, double den) {
 
 std::string ErrorMetrics::describe() const {
     return fmt::format(
-        "lum L1={:.4g} L2={:.4g} Linf={:.4g}  rgb L1={:.4g} L2={:.4g} Linf={:.4g}  "
-        "({} regions, area {:.4g})",
-        l1Lum, l2Lum, linfLum, l1Rgb, l2Rgb, linfRgb, regions, refArea);
+        "reflected L1={:.4g} L2={:.4g}  non-emitters L1={:.4g} L2={:.4g} mean ratio={:.4f}  "
+        "all regions: lum L1={:.4g} L2={:.4g} Linf={:.4g}  rgb L1={:.4g} L2={:.4g} "
+        "Linf={:.4g}  ({} regions, area {:.4g})",
+        l1ReflLum, l2ReflLum, l1NonEmitLum, l2NonEmitLum, meanRatioNonEmit, l1Lum, l2Lum,
+        linfLum, l1Rgb, l2Rgb, linfRgb, regions, refArea);
 }
 
 ErrorMetrics computeError(const scene::RadiosityField& solution,
@@ -33,8 +35,12 @@ ErrorMetrics computeError(const scene::RadiosityField& solution,
     // Sums in a fixed order (patches, then elements): deterministic.
     double dLum1 = 0, rLum1 = 0, dLum2 = 0, rLum2 = 0, dLumMax = 0, rLumMax = 0;
     double dRgb1 = 0, rRgb1 = 0, dRgb2 = 0, rRgb2 = 0, dRgbMax = 0, rRgbMax = 0;
+    double reflLum1 = 0, reflLum2 = 0;                        // reflected denominators
+    double neD1 = 0, neR1 = 0, neD2 = 0, neR2 = 0, neS = 0, neR = 0;  // non-emitters
     ErrorMetrics m;
     for (uint32_t p = 0; p < scene.patches.size(); ++p) {
+        const double E = luminance(scene.patches[p].emission);
+        const bool emitter = maxComponent(scene.patches[p].emission) > 0.0;
         for (size_t l = 0; l < reference.count(p); ++l) {
             size_t idx = reference.offset(p) + l;
             double A = reference.area(idx);
@@ -48,6 +54,17 @@ ErrorMetrics computeError(const scene::RadiosityField& solution,
             rLum2 += A * rl * rl;
             dLumMax = std::max(dLumMax, dl);
             rLumMax = std::max(rLumMax, rl);
+            double rr = std::fabs(luminance(R) - E);
+            reflLum1 += A * rr;
+            reflLum2 += A * rr * rr;
+            if (!emitter) {
+                neD1 += A * dl;
+                neR1 += A * rl;
+                neD2 += A * dl * dl;
+                neR2 += A * rl * rl;
+                neS += A * luminance(S);
+                neR += A * luminance(R);
+            }
             dRgb1 += A * dc;
             rRgb1 += A * rc;
             dRgb2 += A * dc * dc;
@@ -61,6 +78,11 @@ ErrorMetrics computeError(const scene::RadiosityField& solution,
     m.l1Lum = ratio(dLum1, rLum1);
     m.l2Lum = ratio(std::sqrt(dLum2), std::sqrt(rLum2));
     m.linfLum = ratio(dLumMax, rLumMax);
+    m.l1ReflLum = ratio(dLum1, reflLum1);
+    m.l2ReflLum = ratio(std::sqrt(dLum2), std::sqrt(reflLum2));
+    m.l1NonEmitLum = ratio(neD1, neR1);
+    m.l2NonEmitLum = ratio(std::sqrt(neD2), std::sqrt(neR2));
+    m.meanRatioNonEmit = neR > 0 ? neS / neR : 1.0;
     m.l1Rgb = ratio(dRgb1, rRgb1);
     m.l2Rgb = ratio(std::sqrt(dRgb2), std::sqrt(rRgb2));
     m.linfRgb = ratio(dRgbMax, rRgbMax);

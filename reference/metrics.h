@@ -14,6 +14,16 @@
 // once with |.| the absolute value of luminance (core/types.h, Rec. 709
 // weights) and once with |.| the Euclidean norm of the RGB triple. A ratio
 // whose denominator is 0 is 0 when its numerator is 0 too, else +infinity.
+// The all-region numbers above are dominated by the emitters, whose radiosity
+// is E by construction: they flatter a solver. What the solver computes is
+// the reflected part B - E, so two more families are reported (luminance):
+//
+//   reflected     L1 = sum_k A_k |S_k - R_k| / sum_k A_k |R_k - E_k|, L2 the
+//                 same with squares: the error relative to the reflected
+//                 radiosity (the numerator is unchanged, S - R = (S-E) - (R-E));
+//   non-emitter   L1, L2 over the regions of patches with E = 0 only, and the
+//                 mean ratio sum_k A_k S_k / sum_k A_k R_k over them: the
+//                 systematic darkness (< 1) or brightness of the lit surfaces.
 #pragma once
 
 #include <cstddef>
@@ -27,6 +37,9 @@ namespace hrad::reference {
 struct ErrorMetrics {
     double l1Lum = 0.0, l2Lum = 0.0, linfLum = 0.0;
     double l1Rgb = 0.0, l2Rgb = 0.0, linfRgb = 0.0;
+    double l1ReflLum = 0.0, l2ReflLum = 0.0;  ///< relative to the reflected part R - E
+    double l1NonEmitLum = 0.0, l2NonEmitLum = 0.0;  ///< over non-emitting regions only
+    double meanRatioNonEmit = 1.0;  ///< sum A S / sum A R over non-emitting regions
     size_t regions = 0;    ///< reference elements compared
     double refArea = 0.0;  ///< sum of their areas
 

@@ -133,6 +133,18 @@ class FormFactorEngine {
     /// boundary). Used by error-driven oracles (oracles/error_oracle.h).
     PointRange pointRange(const ElementRef& r, const ElementRef& s) const;
 
+    /// Receiver sample points for kernel-error estimates: the corners, the
+    /// edge midpoints and the centroid of r (9 for a quad, 7 for a triangle),
+    /// corners and midpoints moved towards the centroid by a relative 1e-6.
+    /// The same points, in the same order, for every sender.
+    static constexpr int kMaxKernelSamples = 9;
+    int kernelSamplePoints(const ElementRef& r, Vec3 out[kMaxKernelSamples]) const;
+    /// Unoccluded point-to-element form factor F_{dA(x_k) -> s} at the
+    /// receiver sample points x_k of kernelSamplePoints (exact contour
+    /// integral; 0 where x_k is behind s's plane). Returns the count.
+    int kernelSamples(const ElementRef& r, const ElementRef& s,
+                      double out[kMaxKernelSamples]) const;
+
     /// Cheap estimate of F_rs (centroid point-to-disc, no visibility).
     double estimate(const ElementRef& r, const ElementRef& s) const;
 

@@ -12,6 +12,7 @@
 
 #include "core/params.h"
 #include "core/rng.h"
+#include "tests/scenes.h"
 #include "scene/element.h"
 #include "scene/scene.h"
 #include "transport/quadrature.h"
@@ -456,8 +457,10 @@ TEST(FormFactor, PointRangeBracketsTheAverage) {
             FormFactorEngine eng(sc, nullptr, st);
             FormFactorResult f = eng.compute(a, b);
             PointRange pr = eng.pointRange(a, b);
-            EXPECT_EQ(pr.min, f.pointMin) << rule;
-            EXPECT_EQ(pr.max, f.pointMax) << rule;
+            // pointRange adds the receiver's corners and edge midpoints to
+            // the rule's points: it contains compute()'s range.
+            EXPECT_LE(pr.min, f.pointMin) << rule;
+            EXPECT_GE(pr.max, f.pointMax) << rule;
             if (f.unoccludedF == 0.0) continue;
             double tol = 1e-12 * f.unoccludedF;
             EXPECT_LE(f.pointMin, f.unoccludedF + tol) << rule << " trial " << trial;
@@ -491,6 +494,20 @@ TEST(FormFactor, PointRangeBracketsTheAverage) {
     FormFactorEngine ef(far, nullptr, gaussSettings(3));
     FormFactorResult ff = ef.compute({0, {}, 1}, {1, {}, 2});
     EXPECT_LT(ff.pointMax - ff.pointMin, 1e-3 * ff.F);
+    // At a shared edge the point form factor peaks on the edge itself: the
+    // boundary points of pointRange see more of the peak than the 3 x 3 rule.
+    PointRange pp = ep.pointRange({0, {}, 1}, {1, {}, 2});
+    EXPECT_GT(pp.max, fp.pointMax + 0.05);
+    // Kernel samples: corners, edge midpoints and centroid, 9 for a quad; at
+    // the corner on the shared edge close to F = 1/2 - ... of a point on the
+    // edge of a perpendicular unit square, and inside [pp.min, pp.max].
+    double ks[FormFactorEngine::kMaxKernelSamples];
+    int nk = ep.kernelSamples({0, {}, 1}, {1, {}, 2}, ks);
+    EXPECT_EQ(nk, 9);
+    for (int k = 0; k < nk; ++k) {
+        EXPECT_GE(ks[k], pp.min - 1e-12);
+        EXPECT_LE(ks[k], pp.max + 1e-12);
+    }
     // Pairs that do not face: an empty range.
     PointRange none = ep.pointRange({0, {}, 1}, {0, {}, 1});
     EXPECT_EQ(none.min, 0.0);
@@ -701,4 +718,29 @@ TEST(FormFactor, ComputeTiming) {
         std::cout << "[timing] compute() gauss 3x3, vis_rays " << rays << ": " << us
                   << " us/call\n";
     }
+}
+
+// A floor under a box, and the box's side facing +x: floor points under the
+// box are behind the side's plane, so the unoccluded form factor already gives
+// them no weight and nothing occludes the rest. The visibility fraction must
+// therefore be ~1: the plain fraction of unblocked segments (rays from under
+// the box, blocked by its bottom) counted that loss a second time and gave
+// about half the form factor (the source of a 3.7 % loss of gathered light on
+// the Cornell box, measured against Monte Carlo integrals of the same links).
+TEST(FormFactor, VisibilityIgnoresSegmentsThatCarryNoKernel) {
+    scene::Scene sc;
+    uint32_t m = sc.addMaterial({"grey", RGB(0.5), RGB(0.0)});
+    test::addQuadFacing(sc, Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(2, 2, 0), Vec3(0, 2, 0), m,
+                        Vec3(1, 1, 1));
+    test::addBox(sc, Vec3(0.5, 0.5, 0.0), Vec3(1.5, 1.5, 1.0), {m, m, m, m, m, m}, false);
+    transport::Visibility vis(sc);
+    FormFactorSettings st = gaussSettings(3);
+    st.visRays = 64;
+    FormFactorEngine eng(sc, &vis, st);
+    // Patch 2 is the box side at x = 1.5 facing +x (addBox order: -x, +x, ...).
+    ASSERT_GT(sc.patches[2].normal.x, 0.99);
+    FormFactorResult f = eng.compute({0, {}, 1}, {2, {}, 2});
+    ASSERT_GT(f.unoccludedF, 0.0);
+    EXPECT_GT(f.visibility, 0.98);
+    EXPECT_NEAR(f.F, f.unoccludedF, 0.02 * f.unoccludedF);
 }

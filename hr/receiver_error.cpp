@@ -1,0 +1,121 @@
+#include "hr/receiver_error.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+namespace hrad::hr {
+
+KernelSamples linkKernelSamples(const Hierarchy& h, const transport::FormFactorEngine& engine,
+                                uint32_t r, uint32_t s) {
+    KernelSamples out{};
+    transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
+    transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
+    double vals[transport::FormFactorEngine::kMaxKernelSamples];
+    int m = engine.kernelSamples(er, es, vals);
+    for (int k = 0; k < m; ++k) out[k] = float(vals[k]);
+    return out;
+}
+
+void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
+                    const std::vector<Link>& pending,
+                    const std::vector<KernelSamples>& pendingSamples,
+                    const std::vector<uint32_t>& acceptedRecv, const std::vector<Link>& accepted,
+                    const std::vector<KernelSamples>& acceptedSamples,
+                    std::vector<ReceiverError>& out) {
+    const size_t np = pending.size();
+    out.assign(np, ReceiverError{});
+    const uint32_t n = h.numElements();
+    auto surfaceLink = [&](uint32_t r, const Link& l) {
+        return !h.isCluster(r) && l.sender != kNone && !h.isCluster(l.sender) &&
+               !(l.flags & Link::kOpen);
+    };
+    // Receivers to evaluate: those with a pending surface link.
+    std::vector<uint8_t> wanted(n, 0);
+    for (size_t i = 0; i < np; ++i)
+        if (surfaceLink(pendingRecv[i], pending[i])) wanted[pendingRecv[i]] = 1;
+    // Their surface links, pending (code 2i + 1) and accepted (code 2i), in
+    // CSR form by receiver (counting sort, stable).
+    std::vector<uint64_t> offset(size_t(n) + 1, 0);
+    auto count = [&](const std::vector<uint32_t>& recv, const std::vector<Link>& links) {
+        for (size_t i = 0; i < links.size(); ++i)
+            if (wanted[recv[i]] && surfaceLink(recv[i], links[i])) ++offset[recv[i] + 1];
+    };
+    count(acceptedRecv, accepted);
+    count(pendingRecv, pending);
+    for (uint32_t e = 0; e < n; ++e) offset[e + 1] += offset[e];
+    std::vector<uint64_t> items(offset[n]);
+    {
+        std::vector<uint64_t> fill(offset.begin(), offset.end() - 1);
+        for (size_t i = 0; i < accepted.size(); ++i)
+            if (wanted[acceptedRecv[i]] && surfaceLink(acceptedRecv[i], accepted[i]))
+                items[fill[acceptedRecv[i]]++] = 2 * uint64_t(i);
+        for (size_t i = 0; i < np; ++i)
+            if (wanted[pendingRecv[i]] && surfaceLink(pendingRecv[i], pending[i]))
+                items[fill[pendingRecv[i]]++] = 2 * uint64_t(i) + 1;
+    }
+    constexpr int K = transport::FormFactorEngine::kMaxKernelSamples;
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 64), [&](const auto& range) {
+        std::vector<float> linkDev;
+        for (uint32_t r = range.begin(); r != range.end(); ++r) {
+            if (!wanted[r]) continue;
+            const RGB rho = h.rho(r);
+            // Triangles have 7 sample points, quads 9 (kernelSamplePoints).
+            const int m = h.scene().patches[h.patch(r)].kind == scene::PatchKind::Quad ? 9 : 7;
+            RGB D[K];
+            for (auto& d : D) d = RGB(0.0);
+            RGB unsignedPart(0.0);
+            uint64_t b = offset[r], e = offset[r + 1];
+            linkDev.assign(e - b, 0.f);
+            for (uint64_t j = b; j < e; ++j) {
+                uint64_t code = items[j];
+                const Link& l = (code & 1) ? pending[code >> 1] : accepted[code >> 1];
+                const KernelSamples& vals =
+                    (code & 1) ? pendingSamples[code >> 1] : acceptedSamples[code >> 1];
+                const uint32_t s = l.sender;
+                double v = l.vis();
+                double Fu = v > 0 ? double(l.K) / v : 0.0;
+                RGB w = rho * h.B(s) * v;  // rho_r B_s v per channel
+                double dev = 0.0, wmax = maxComponent(w);
+                for (int k = 0; k < m; ++k) {
+                    double d = vals[k] - Fu;
+                    D[k] += w * d;
+                    dev = std::max(dev, wmax * std::fabs(d));
+                }
+                if (l.flags & Link::kPartial) {
+                    // Where the shadow falls on the receiver is unknown: the
+                    // link's whole transfer may be misplaced.
+                    RGB t = rho * h.B(s) * double(l.K);
+                    unsignedPart += t;
+                    dev += maxComponent(t);
+                }
+                linkDev[j - b] = float(dev);
+            }
+            double rangeMax = 0.0, devMax = 0.0;
+            for (int c = 0; c < 3; ++c) {
+                double lo = 1e300, hi = -1e300, dv = 0.0;
+                for (int k = 0; k < m; ++k) {
+                    lo = std::min(lo, D[k][c]);
+                    hi = std::max(hi, D[k][c]);
+                    dv = std::max(dv, std::fabs(D[k][c]));
+                }
+                if (m == 0) lo = hi = 0.0;
+                rangeMax = std::max(rangeMax, hi - lo + unsignedPart[c]);
+                devMax = std::max(devMax, dv + unsignedPart[c]);
+            }
+            for (uint64_t j = b; j < e; ++j) {
+                uint64_t code = items[j];
+                if (!(code & 1)) continue;
+                ReceiverError& o = out[code >> 1];
+                o.range = float(rangeMax);
+                o.deviation = float(devMax);
+                o.linkDeviation = linkDev[j - b];
+                o.links = uint32_t(e - b);
+            }
+        }
+    });
+}
+
+}  // namespace hrad::hr

@@ -1,0 +1,59 @@
+// The receiver-aggregate kernel error that error-driven oracles judge links by
+// (oracles::LinkEstimate::receiverRange and friends).
+//
+// Hierarchical radiosity gives every point of a receiver element the same
+// gathered radiosity rho_r sum_l K_l B_l, and pushes it unchanged to the
+// element's leaves. The exact irradiance from the same senders (B constant on
+// each sender) at a point x is rho_r sum_l v_l F_l(x) B_l. The difference,
+//     D(x) = rho_r sum_l B_l v_l (F_l(x) - F_l),
+// is the error of the receiver's piecewise-constant irradiance, and it is the
+// sum over links that matters: judged link by link, the variation of each
+// kernel over a receiver is large near every shared edge even where the links
+// of one receiver compensate each other (in a closed room sum_l F_l(x) = 1 at
+// every x), while many links whose variations have the same sign (a coarse
+// receiver next to a finely linked wall) each pass a per-link threshold and
+// add up to an error of several per cent. Measured on the furnace (closed
+// cube, rho 0.5): with per-link criteria the mean |sum of a leaf's
+// coefficients - 1| was 8-14 % (bfa, error, kv at eps 1e-3), from the
+// receiver-average coefficients of links accepted on coarse receivers; the
+// quadrature error of the coefficients themselves was below 0.1 %. The
+// aggregate is the error estimate of Holzschuch & Sillion 1998 and
+// Lischinski, Smits & Greenberg 1994 taken over all links of a receiver
+// rather than per link, sampled at the receiver's corners, edge midpoints and
+// centroid (transport FormFactorEngine::kernelSamples), where the kernel of a
+// planar receiver takes its extremes.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "hr/hierarchy.h"
+#include "transport/formfactor.h"
+
+namespace hrad::hr {
+
+/// The aggregate of one receiver and one link's part in it (see LinkEstimate).
+struct ReceiverError {
+    float range = -1.f, deviation = -1.f;  ///< negative: not evaluated
+    float linkDeviation = 0.f;
+    uint32_t links = 0;
+};
+
+/// For every link of `pending` whose receiver and sender are surface
+/// elements: the aggregate over all surface links of its receiver, in
+/// `pending` and in `accepted` together (the links refinement has already
+/// kept this round count too), and the link's own part. Parallel over
+/// receivers; deterministic.
+void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
+                    const std::vector<Link>& pending,
+                    const std::vector<KernelSamples>& pendingSamples,
+                    const std::vector<uint32_t>& acceptedRecv, const std::vector<Link>& accepted,
+                    const std::vector<KernelSamples>& acceptedSamples,
+                    std::vector<ReceiverError>& out);
+
+/// The kernel samples of the link from surface element s to surface element
+/// r (zeros past the receiver's sample count).
+KernelSamples linkKernelSamples(const Hierarchy& h, const transport::FormFactorEngine& engine,
+                                uint32_t r, uint32_t s);
+
+}  // namespace hrad::hr
