@@ -295,8 +295,10 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         summary["oracle"] = hrRes.oracleDescription;
         summary["cluster_model"] = hrRes.clusterModel;
         summary["converged"] = hrRes.converged;
+        summary["residual"] = hrRes.history.empty() ? json(nullptr) : json(hrRes.history.back().residual);
         summary["link_cap_hit"] = hrRes.linkCapHit;
         summary["min_area"] = hrRes.minArea;
+        summary["error_estimate"] = hrRes.errorEstimate;
         summary["counts"] = json{{"elements", h.numElements()},
                                  {"leaves", h.numLeaves()},
                                  {"links", h.numLinks()},
@@ -327,6 +329,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                                 {"rays", it.rays},
                                 {"form_factors", it.formFactors},
                                 {"residual", it.residual},
+                                {"extrapolation", it.extrapolation},
                                 {"reflected_power", rgbJson(it.reflectedPower)},
                                 {"refine_s", it.refineSeconds},
                                 {"gather_s", it.gatherSeconds},

@@ -361,6 +361,29 @@ void Hierarchy::pushPull() {
     if (nc) pullClusters();
 }
 
+void Hierarchy::extrapolateLeaves(const std::vector<RGB>& previous, const RGB& factor) {
+    HRAD_CHECK(previous.size() == B_.size());
+    const uint32_t n = numElements(), np = numPatches(), first = np + numClusters_;
+    for (uint32_t e = 0; e < n; ++e)
+        if (isLeaf(e)) B_[e] += factor * (B_[e] - previous[e]);
+    // Pull: sub-elements are allocated after their parents, so a descending
+    // sweep sees children before parents; root patches last.
+    auto pullOne = [&](uint32_t e) {
+        uint32_t fc = firstChild_[e];
+        if (fc == kNone) return;
+        RGB sum(0.0);
+        double a = 0.0;
+        for (uint32_t c = fc; c < fc + 4; ++c) {
+            sum += area_[c] * B_[c];
+            a += area_[c];
+        }
+        B_[e] = sum / a;
+    };
+    for (uint32_t e = n; e-- > first;) pullOne(e);
+    for (uint32_t e = 0; e < np; ++e) pullOne(e);
+    if (numClusters_) pullClusters();
+}
+
 RGB Hierarchy::reflectedPower() const {
     RGB s(0.0);
     for (uint32_t e = 0; e < numElements(); ++e)

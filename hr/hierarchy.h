@@ -109,6 +109,8 @@ class Hierarchy {
     double area(uint32_t e) const { return area_[e]; }
     scene::Domain domain(uint32_t e) const;
     const RGB& B(uint32_t e) const { return B_[e]; }
+    /// Every node's B (for a copy one iteration earlier).
+    const std::vector<RGB>& allB() const { return B_; }
     RGB& B(uint32_t e) { return B_[e]; }
     const RGB& gathered(uint32_t e) const { return gathered_[e]; }
     RGB& gathered(uint32_t e) { return gathered_[e]; }
@@ -152,6 +154,12 @@ class Hierarchy {
     /// see cluster/transfer.h), and clusters pull the area-weighted average
     /// (and maxB()) of their children.
     void pushPull();
+    /// Moves every leaf's radiosity along the change from `previous` (the
+    /// B of the same elements one iteration earlier), per channel:
+    /// B += factor_c (B - previous), then pulls the averages up again
+    /// (surface elements and clusters). Extrapolates the geometric tail of
+    /// the gather iteration (see HrSolver, hr.extrapolate).
+    void extrapolateLeaves(const std::vector<RGB>& previous, const RGB& factor);
     /// Sum over leaves of A (B - E): the reflected power (RGB).
     RGB reflectedPower() const;
     /// Sum over leaves of A * B (RGB).

@@ -68,6 +68,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
         p.getEnum("cluster.model", "auto", cluster::clusterModelNames()));
     s.cluster = cluster::ClusterSettings::fromParams(p);
     s.receiverEps = p.getDouble("hr.receiver_eps", -1.0, -1.0, 1.0);
+    s.extrapolate = p.getBool("hr.extrapolate", s.extrapolate);
     s.clusterVisRays = int(p.getInt("cluster.vis_rays", s.clusterVisRays, 0, 1024));
     s.clusterSeparation = p.getDouble("cluster.separation", s.clusterSeparation, 1.0, 100.0);
     // Validate the oracle settings now (unknown keys included), so a bad
@@ -481,6 +482,41 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
     return e;
 }
 
+double HrSolver::estimateError(const Hierarchy& h) const {
+    std::vector<uint32_t> recv = h.linkReceivers();
+    const std::vector<Link>& links = h.links();
+    std::vector<KernelSamples> samples = h.kernelSamples();
+    if (samples.size() != links.size()) {
+        samples.assign(links.size(), KernelSamples{});
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, links.size(), 256), [&](const auto& range) {
+            for (size_t i = range.begin(); i != range.end(); ++i)
+                if (surfacePair(h, recv[i], links[i].sender))
+                    samples[i] = linkKernelSamples(h, engine_, recv[i], links[i].sender);
+        });
+    }
+    std::vector<ReceiverError> err;
+    receiverErrors(h, recv, links, samples, {}, {}, {}, err);
+    double sum = 0.0;
+    uint32_t last = kNone;
+    for (size_t i = 0; i < links.size(); ++i) {
+        uint32_t r = recv[i];
+        if (h.isCluster(r)) continue;
+        if (err[i].range >= 0.0f && r != last) {
+            sum += h.area(r) * double(err[i].range) / 4.0;
+            last = r;
+        }
+        uint32_t s = links[i].sender;
+        if (!h.isCluster(s) && h.firstChild(s) != kNone) {
+            double spread = 0.0;
+            for (uint32_t c = 0; c < h.numChildren(s); ++c)
+                spread = std::max(spread, maxComponent(h.rho(r) * glm::abs(h.B(h.child(s, c)) - h.B(s))));
+            sum += h.area(r) * double(links[i].K) * spread / 2.0;
+        }
+    }
+    double reflected = maxComponent(h.reflectedPower());
+    return reflected > 0 ? sum / reflected : 0.0;
+}
+
 uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
                           IterationRecord& rec) {
     std::vector<uint32_t> recv = h.linkReceivers();
@@ -549,7 +585,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
                     if (d == Decision::Accept && guardEps > 0.0 && e.receiverRange >= 0.0 &&
                         e.receiverRange * e.receiverArea > guardEps * e.emittedPower &&
                         e.linkDeviation * std::max<uint32_t>(1, e.receiverLinks) >=
-                            e.receiverRange)
+                            e.receiverDeviation)
                         d = oracles::constrain(Decision::RefineReceiver, e);
                     decision[i] = uint8_t(d);
                 }
@@ -685,6 +721,11 @@ HrResult HrSolver::solve(bool progress) {
 
     RGB lastReflected = h.reflectedPower();
     int iteration = 0;
+    // Aitken extrapolation state (hr.extrapolate): B one iteration earlier,
+    // the last change of reflected power and its ratio, per channel.
+    std::vector<RGB> previousB;
+    RGB lastChange(0.0), lastRatio(0.0);
+    int quietIterations = 0, sinceExtrapolation = 2;
     res.converged = false;
     for (size_t stage = 0; stage < stages.size(); ++stage) {
         Params op = s_.oracleParams;
@@ -707,6 +748,34 @@ HrResult HrSolver::solve(bool progress) {
             h.pushPull();
             rec.pushPullSeconds = tp.seconds();
             RGB reflected = h.reflectedPower();
+            if (s_.extrapolate) {
+                RGB change = reflected - lastReflected, ratio(0.0), factor(0.0);
+                quietIterations = rec.refinedLinks == 0 ? quietIterations + 1 : 0;
+                bool ok = quietIterations >= 2 && sinceExtrapolation >= 2 &&
+                          previousB.size() == h.allB().size();
+                for (int c = 0; c < 3; ++c) {
+                    ratio[c] = lastChange[c] != 0.0 ? change[c] / lastChange[c] : 0.0;
+                    bool stable = ratio[c] > 0.0 && ratio[c] < 0.99999 &&
+                                  std::fabs(ratio[c] - lastRatio[c]) <= 0.05 * ratio[c];
+                    // A channel whose power no longer changes needs nothing.
+                    if (change[c] == 0.0) continue;
+                    if (!stable) ok = false;
+                    factor[c] = ratio[c] / (1.0 - ratio[c]);
+                }
+                lastRatio = ratio;
+                lastChange = change;
+                ++sinceExtrapolation;
+                if (ok && maxComponent(factor) > 0.0) {
+                    h.extrapolateLeaves(previousB, factor);
+                    rec.extrapolation = maxComponent(factor);
+                    sinceExtrapolation = 0;
+                    // The extrapolated state starts a new geometric sequence.
+                    lastChange = h.reflectedPower() - lastReflected;
+                    lastRatio = RGB(0.0);
+                    reflected = h.reflectedPower();
+                }
+                previousB = h.allB();
+            }
             rec.reflectedPower = reflected;
             rec.residual = relativeChange(reflected, lastReflected);
             lastReflected = reflected;
@@ -736,6 +805,7 @@ HrResult HrSolver::solve(bool progress) {
         res.converged = stageConverged;
     }
     res.field = std::make_unique<HierarchyField>(h);
+    res.errorEstimate = estimateError(h);
     h.reportMemory(res.memory);
     for (uint32_t r = 0; r < h.numElements(); ++r) {
         bool rc = h.isCluster(r);

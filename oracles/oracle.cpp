@@ -79,9 +79,11 @@ Decision VariationOracle::decide(const LinkEstimate& e) const {
         // the sender is refined only for its own error: the spread of its
         // children's radiosities.
         double err = receiverError(e) * e.importance;
+        // The share compares deviations with deviations (the range of one
+        // link's error can exceed its largest deviation from the mean).
         bool receiverBad = !errorWithinEps(err, s_.eps, s_.norm, e) &&
-                           e.linkDeviation * e.importance *
-                                   std::max<uint32_t>(1, e.receiverLinks) >= err;
+                           e.linkDeviation * std::max<uint32_t>(1, e.receiverLinks) >=
+                               e.receiverDeviation;
         bool senderBad =
             !errorWithinEps(e.F * e.senderSpread * e.importance, s_.eps, s_.norm, e);
         if (!receiverBad && !senderBad) return Decision::Accept;

@@ -21,13 +21,27 @@ inline std::optional<std::filesystem::path> sharedScenesDir() {
     return std::nullopt;
 }
 
-/// A fresh temporary directory for one test.
-inline std::filesystem::path tempDir(const std::string& name) {
+/// A fresh temporary directory for one test, removed with everything in it
+/// when the object goes out of scope (tests leave nothing behind). It is a
+/// path, so it is used like one; it cannot be copied (a copy would remove the
+/// directory early).
+class TempDir : public std::filesystem::path {
+  public:
+    explicit TempDir(std::filesystem::path p) : std::filesystem::path(std::move(p)) {}
+    TempDir(const TempDir&) = delete;
+    TempDir& operator=(const TempDir&) = delete;
+    ~TempDir() {
+        std::error_code ec;
+        std::filesystem::remove_all(*this, ec);
+    }
+};
+
+inline TempDir tempDir(const std::string& name) {
     auto dir = std::filesystem::temp_directory_path() / ("hrad_test_" + name + "_" +
                                                          std::to_string(::getpid()));
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir);
-    return dir;
+    return TempDir(dir);
 }
 
 inline std::filesystem::path writeFile(const std::filesystem::path& path, const std::string& text) {

@@ -12,6 +12,10 @@ from .store import StoreError
 
 LABELS = {
     "l2_lum": "relative $L_2$ error (luminance)",
+    "l1_reflected_lum": "relative $L_1$ error of the reflected radiosity $B-E$",
+    "l2_reflected_lum": "relative $L_2$ error of the reflected radiosity $B-E$",
+    "l2_nonemitter_lum": "relative $L_2$ error over non-emitting surfaces",
+    "error_estimate": "a posteriori error estimate",
     "l1_lum": "relative $L_1$ error (luminance)",
     "linf_lum": r"relative $L_\infty$ error (luminance)",
     "l2_rgb": "relative $L_2$ error (RGB)",

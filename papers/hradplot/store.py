@@ -84,6 +84,29 @@ def _derive(runs):
             except (TypeError, ValueError, KeyError):
                 return np.nan
         runs["patches"] = runs["summary"].map(patches).astype(float) if len(runs) else []
+    if "summary" in runs.columns and len(runs):
+        # Error families recorded in the summary (reference/metrics.h): the
+        # reflected part and the non-emitting surfaces, the mean ratio of
+        # the solution to the reference on them, and the solver's a
+        # posteriori estimate. NaN where a run did not record them.
+        def from_summary(path):
+            def get(s):
+                try:
+                    v = json.loads(s)
+                    for k in path:
+                        v = v[k]
+                    return float(v)
+                except (TypeError, ValueError, KeyError):
+                    return np.nan
+            return get
+        for col, path in (("l1_reflected_lum", ("error", "l1_reflected_lum")),
+                          ("l2_reflected_lum", ("error", "l2_reflected_lum")),
+                          ("l1_nonemitter_lum", ("error", "l1_nonemitter_lum")),
+                          ("l2_nonemitter_lum", ("error", "l2_nonemitter_lum")),
+                          ("mean_ratio_nonemitter", ("error", "mean_ratio_nonemitter")),
+                          ("error_estimate", ("error_estimate",))):
+            if col not in runs.columns:
+                runs[col] = runs["summary"].map(from_summary(path)).astype(float)
     if "wall_s" in runs.columns:
         # Solve time: the point's wall clock without reference, error and
         # render phases (which a sweep adds and a solver would not pay).
