@@ -574,7 +574,10 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
                         decision[i] = uint8_t(forcedDecision(h, r, s));
                         continue;
                     }
-                    oracles::LinkEstimate e = linkEstimate(h, r, l, bounds);
+                    // Surface links judged by the receiver aggregate need no
+                    // per-link form-factor range (17 contour integrals each).
+                    const bool wantBounds = bounds && !(aggregate && surfacePair(h, r, s));
+                    oracles::LinkEstimate e = linkEstimate(h, r, l, wantBounds);
                     if (aggregate) {
                         e.receiverRange = rerr[i].range;
                         e.receiverDeviation = rerr[i].deviation;
