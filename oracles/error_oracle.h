@@ -22,14 +22,14 @@
 // Otherwise the element that looks larger from the other is subdivided
 // (refineLarger, HSA91; setting side), constrained by what may subdivide.
 //
-// Fmin and Fmax come from the solver (LinkEstimate; needsBounds() is true):
-// the smallest and largest point-to-element form factor over the receiver
-// points of the form-factor rule (transport/formfactor.h pointRange), with
-// partial visibility widening the interval to [0, Fmax]. They are sample
-// estimates, not the fully reliable bounds of Holzschuch & Sillion 1998: the
-// extremes of F(x) may lie between the rule's points. The bound also ignores
-// the error of B_s itself, which Lischinski, Smits & Greenberg 1994 propagate
-// through interreflections.
+// This per-link bound is what links touching a cluster are judged by (the
+// solver gives them [Fmin, Fmax] = [0, max(F, Fupper)]: a point
+// approximation has no receiver points). For links between two surfaces the
+// solver skips it (no per-link range is evaluated) and the receiver
+// aggregate below decides. The estimates are sampled, not the fully reliable
+// bounds of Holzschuch & Sillion 1998, and ignore the error of B_s itself,
+// which Lischinski, Smits & Greenberg 1994 propagate through
+// interreflections.
 //
 // Surface links are judged by their receiver's aggregate (what eps bounds).
 // A receiver gets the error D(x) = rho_r sum_l B_l v_l (F_l(x) - F_l) from all

@@ -29,11 +29,10 @@
 // subdivides the larger of the two; setting side), constrained by what may
 // subdivide.
 //
-// Differences from RenderPark: G(x_i) comes from the solver's form-factor rule
-// (transport/formfactor.h pointRange) with visibility factored out: a link
-// with partial visibility gets Fmin = 0 (RenderPark evaluates visibility per
-// kernel sample). Compared with `error` (Fmax - Fmin), the variation is
-// measured from the link's own value, so for the same link kv <= error <= 2 kv.
+// This per-link estimate now judges only links touching a cluster (with
+// [Fmin, Fmax] = [0, max(F, Fupper)]); links between two surfaces are judged
+// by the receiver aggregate below, kv taking its largest deviation where
+// `error` takes its range, so for the same receiver kv <= error <= 2 kv.
 //
 // Surface links are judged by their receiver's aggregate (what eps bounds).
 // A receiver gets the error D(x) = rho_r sum_l B_l v_l (F_l(x) - F_l) from all
