@@ -30,17 +30,30 @@ scene::Camera autoCamera(const scene::Scene& scene) {
         S += p.area * p.normal;
         area += p.area;
     }
-    Vec3 dir = glm::normalize(Vec3(1.0, 0.8, 1.6));
+    // The format's up axis u gets the 0.8 component; of the two horizontal
+    // axes the longer one gets 1.6, so a closed scene is seen along its
+    // longest horizontal extent (ties: z for y-up scenes).
+    const int u = (scene.upAxis >= 0 && scene.upAxis < 3) ? scene.upAxis : 1;
+    const int a1 = (u + 1) % 3, a2 = (u + 2) % 3;
+    Vec3 e = b.extent();
+    Vec3 dir(0.0);
+    dir[u] = 0.8;
+    dir[e[a1] >= e[a2] ? a1 : a2] = 1.6;
+    dir[e[a1] >= e[a2] ? a2 : a1] = 1.0;
+    dir = glm::normalize(dir);
     if (glm::length(S) > 1e-3 * area) {
-        // The candidate diagonal (|x|,|y|,|z| = 1, 0.8, 1.6 or 1.6, 0.8, 1)
-        // most aligned with S; ties go to the first (upper, +x) one.
+        // The candidate diagonal (0.8 along up, 1 and 1.6 or 1.6 and 1 along
+        // the horizontal axes a1, a2) most aligned with S; ties go to the
+        // first (upper) one.
         double best = -1e300;
         for (int swap = 0; swap < 2; ++swap)
-            for (int sy : {1, -1})
-                for (int sx : {1, -1})
-                    for (int sz : {1, -1}) {
-                        Vec3 d = swap ? Vec3(1.6 * sx, 0.8 * sy, 1.0 * sz)
-                                      : Vec3(1.0 * sx, 0.8 * sy, 1.6 * sz);
+            for (int su : {1, -1})
+                for (int s2 : {1, -1})
+                    for (int s1 : {1, -1}) {
+                        Vec3 d(0.0);
+                        d[u] = 0.8 * su;
+                        d[a1] = (swap ? 1.0 : 1.6) * s1;
+                        d[a2] = (swap ? 1.6 : 1.0) * s2;
                         d = glm::normalize(d);
                         double score = glm::dot(d, S);
                         if (score > best + 1e-12 * area) {
@@ -53,7 +66,8 @@ scene::Camera autoCamera(const scene::Scene& scene) {
     double dist = radius / std::sin(0.5 * c.fovYDegrees * kPi / 180.0);
     c.target = b.center();
     c.eye = c.target + dir * dist;
-    c.up = Vec3(0.0, 1.0, 0.0);
+    c.up = Vec3(0.0);
+    c.up[u] = 1.0;
     return c;
 }
 
@@ -78,7 +92,9 @@ scene::Camera interiorCamera(const scene::Scene& scene, const transport::Visibil
     scene::Bounds3 b = scene.bounds();
     if (!b.valid()) return best;
     Vec3 e = b.extent();
-    int upAxis = e.x <= e.y && e.x <= e.z ? 0 : (e.y <= e.z ? 1 : 2);
+    // The format's up axis (scene.upAxis), not the smallest extent: a tall
+    // nave is narrower than high and would otherwise be seen sideways.
+    const int upAxis = (scene.upAxis >= 0 && scene.upAxis < 3) ? scene.upAxis : 1;
     int a1 = (upAxis + 1) % 3, a2 = (upAxis + 2) % 3;
     double diag = b.diagonal(), minDist = 0.03 * diag;
     double fovY = 60.0, tanY = std::tan(0.5 * fovY * kPi / 180.0), tanX = tanY * 1.0;

@@ -15,12 +15,15 @@ namespace hrad::render {
 scene::Camera standardCornellCamera();
 
 /// A camera that sees the whole scene: it looks at the centre of the bounding
-/// box from outside, along a diagonal direction (y up), at the distance where
-/// the bounding sphere fits the vertical field of view (40 degrees). The
-/// direction is (1, 0.8, 1.6) (normalised) unless the scene is open: then the
-/// vector area sum_k A_k n_k (zero for closed surfaces) points out of the
-/// opening, and the diagonal among (+-1, +-0.8, +-1.6) and (+-1.6, +-0.8, +-1)
-/// most aligned with it is used (the Cornell box is seen through its open
+/// box from outside, along a diagonal direction (up = scene.upAxis), at the
+/// distance where the bounding sphere fits the vertical field of view (40
+/// degrees). The direction has 0.8 along the up axis, 1.6 along the longer
+/// horizontal axis and 1 along the shorter one (normalised; (1, 0.8, 1.6) for
+/// a y-up cube), so the view runs along the longest horizontal extent, unless
+/// the scene is open: then the vector area sum_k A_k n_k (zero for closed
+/// surfaces) points out of the opening, and the diagonal among
+/// (+-1, +-0.8, +-1.6) and (+-1.6, +-0.8, +-1) (components permuted so 0.8 is
+/// on the up axis) most aligned with it is used (the Cornell box is seen through its open
 /// front). A closed scene seen from outside shows only back faces (black by
 /// default, render.back_faces); such scenes should carry their own camera.
 scene::Camera autoCamera(const scene::Scene& scene);
@@ -29,7 +32,7 @@ scene::Camera autoCamera(const scene::Scene& scene);
 scene::Camera cameraFor(const scene::Scene& scene);
 
 /// A view from inside a closed scene (buildings, rooms): candidate eyes on a
-/// 5 x 5 x 2 grid inside the bounding box (up = the axis of smallest extent,
+/// 5 x 5 x 2 grid inside the bounding box (up = scene.upAxis,
 /// eyes at 35 % and 55 % of the height), 8 horizontal view directions each;
 /// a fan of 7 x 5 rays scores a view by the fraction of rays that hit a front
 /// face farther than 3 % of the box diagonal, plus their mean free distance.

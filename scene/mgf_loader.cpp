@@ -190,6 +190,7 @@ class MgfLoader {
     Scene run(const std::string& path) {
         scene_.name = path;
         scene_.source = "mgf";
+        scene_.upAxis = 2;
         const FileText& ft = file(path, SourceLocation{path, 0, 0});
         exec(ft, 0, ft.stmts.size(), Xf{}, 0);
         for (auto& [kind, where] : warned_)

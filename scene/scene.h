@@ -88,6 +88,10 @@ class Scene {
     std::vector<Patch> patches;
     std::vector<Material> materials;
     std::optional<Camera> camera;
+    /// The format's up axis (0 x, 1 y, 2 z) for the automatic camera: Y for
+    /// OBJ, PLY and glTF (their conventions), Z for MGF (Ward's examples and
+    /// RenderPark's scenes are z-up).
+    int upAxis = 1;
     LoadStats stats;
 
     uint32_t addMaterial(Material m);

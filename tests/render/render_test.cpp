@@ -95,6 +95,67 @@ TEST_F(FurnaceRender, BackFacesAreBlackUnlessAsked) {
     EXPECT_NE(front.at(16, 16), RGB(0.0));
 }
 
+/// A closed box [0,X] x [0,Y] x [0,Z] (faces facing inwards).
+scene::Scene closedBox(double X, double Y, double Z, int upAxis) {
+    scene::Scene s;
+    s.upAxis = upAxis;
+    uint32_t m = s.addMaterial(scene::Material{});
+    Vec3 p[8];
+    for (int i = 0; i < 8; ++i) p[i] = Vec3(i & 1 ? X : 0, i & 2 ? Y : 0, i & 4 ? Z : 0);
+    // Each face once; opposite faces have opposite normals, so the vector
+    // area is zero whichever way they face.
+    s.addQuad(p[0], p[1], p[3], p[2], m);
+    s.addQuad(p[4], p[6], p[7], p[5], m);
+    s.addQuad(p[0], p[4], p[5], p[1], m);
+    s.addQuad(p[2], p[3], p[7], p[6], m);
+    s.addQuad(p[0], p[2], p[6], p[4], m);
+    s.addQuad(p[1], p[5], p[7], p[3], m);
+    return s;
+}
+
+int largestAxis(const Vec3& v) {
+    Vec3 a = glm::abs(v);
+    return a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
+}
+
+TEST(AutoCamera, UsesTheFormatsUpAxisAndTheLongestHorizontalExtent) {
+    struct Case {
+        Vec3 size;
+        int up, longest;
+    };
+    // A long hall, z-up (MGF) and y-up (OBJ/glTF), long along either
+    // horizontal axis; the last case is a flat y-up slab whose smallest
+    // extent is its up axis.
+    for (Case c : {Case{Vec3(10, 2, 3), 2, 0}, Case{Vec3(2, 10, 3), 2, 1},
+                   Case{Vec3(10, 3, 2), 1, 0}, Case{Vec3(2, 3, 10), 1, 2},
+                   Case{Vec3(10, 0.5, 4), 1, 0}}) {
+        scene::Scene s = closedBox(c.size.x, c.size.y, c.size.z, c.up);
+        ASSERT_EQ(s.patches.size(), 6u);
+        scene::Camera cam = autoCamera(s);
+        Vec3 up(0.0);
+        up[c.up] = 1.0;
+        EXPECT_EQ(cam.up, up) << c.size.x << " " << c.size.y << " " << c.size.z;
+        Vec3 view = cam.target - cam.eye;
+        EXPECT_EQ(largestAxis(view), c.longest);
+        // Seen from above: the eye is higher than the target.
+        EXPECT_GT(cam.eye[c.up], cam.target[c.up]);
+        // The frame built from it is upright: its up vector has a positive
+        // component along the scene's up axis.
+        CameraFrame f(cam, 8, 8);
+        EXPECT_GT(f.up[c.up], 0.5);
+    }
+}
+
+TEST(AutoCamera, InteriorViewIsLevelInTheFormatsUpAxis) {
+    // A tall z-up nave (smallest extent x, not z): the interior camera's up is
+    // z, and it looks horizontally.
+    scene::Scene s = closedBox(4, 20, 12, 2);
+    transport::Visibility vis(s);
+    scene::Camera cam = interiorCamera(s, vis);
+    EXPECT_EQ(cam.up, Vec3(0, 0, 1));
+    EXPECT_NEAR((cam.target - cam.eye).z, 0.0, 1e-12);
+}
+
 TEST(Render, ConstantReconstructionShowsLeafValues) {
     scene::Scene s = unitSquare();
     transport::Visibility vis(s);

@@ -158,6 +158,7 @@ sph a -1
 )");
     Scene s = loadScene(path.string());
     EXPECT_NEAR(s.patches[0].normal.z, 1.0, 1e-12);
+    EXPECT_EQ(s.upAxis, 2);  // MGF is z-up (for the automatic camera)
     EXPECT_NEAR(s.patches[0].v[1].x + s.patches[0].v[2].x + s.patches[0].v[0].x, -1.0, 1e-12);
     for (size_t i = 1; i < s.patches.size(); ++i)
         EXPECT_LT(glm::dot(s.patches[i].normal, s.patches[i].centroid()), 0.0);
