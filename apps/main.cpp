@@ -135,7 +135,8 @@ int main(int argc, char** argv) {
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        // --help/--version exit 0; every malformed command line is an input error: exit 2 (issue 16).
+        return app.exit(e) == 0 ? 0 : 2;
     }
 
     initLogging(logLevel);

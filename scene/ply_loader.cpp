@@ -172,10 +172,15 @@ Scene loadPly(const std::string& path, const PlyOptions& options) {
             else headerFail("unknown PLY format '" + f + "'");
         } else if (key == "element") {
             Element e;
-            long long n = -1;
-            ss >> e.name >> n;
-            if (e.name.empty() || n < 0) headerFail("malformed element line");
-            e.count = size_t(n);
+            std::string countText, extra;
+            ss >> e.name >> countText >> extra;
+            // The count is parsed strictly: the whole token is decimal digits ("4e3" is not 4).
+            if (e.name.empty() || countText.empty() || !extra.empty() || countText.size() > 18 ||
+                countText.find_first_not_of("0123456789") != std::string::npos)
+                headerFail("malformed element line (expected 'element NAME COUNT' with a decimal count)");
+            e.count = size_t(std::stoull(countText));
+            for (const Element& old : elements)
+                if (old.name == e.name) headerFail("element '" + e.name + "' declared twice");
             elements.push_back(e);
         } else if (key == "property") {
             if (elements.empty()) headerFail("property before any element");
@@ -203,6 +208,26 @@ Scene loadPly(const std::string& path, const PlyOptions& options) {
     }
     if (!ended) headerFail("missing end_header");
     if (format < 0) headerFail("missing format line");
+    // Element counts are checked against the bytes left in the file before anything is allocated:
+    // an ASCII instance takes at least one line (2 bytes), a binary one at least the sum of its
+    // fixed-size properties (1 byte per list count). An element without properties cannot hold data.
+    {
+        std::streampos here = in.tellg();
+        in.seekg(0, std::ios::end);
+        double remaining = double(in.tellg() - here);
+        in.seekg(here);
+        double needed = 0;
+        for (const Element& e : elements) {
+            if (e.count > 0 && e.props.empty())
+                headerFail(fmt::format("element '{}' has {} instances but no properties", e.name, e.count));
+            double per = 0;
+            for (const Property& p : e.props) per += p.list ? typeSize(p.countType) : typeSize(p.type);
+            needed += double(e.count) * (format == 0 ? 2.0 : per);
+        }
+        if (needed > remaining)
+            headerFail(fmt::format("element counts need at least {:.0f} bytes of data but the file has {:.0f} after the header",
+                                   needed, remaining));
+    }
 
     Scene scene;
     scene.name = path;

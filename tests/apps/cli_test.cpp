@@ -152,3 +152,13 @@ TEST(Cli, RenderASavedSolution) {
     ASSERT_EQ(none.code, 0) << none.output;
     EXPECT_FALSE(std::filesystem::exists(dir / "nosol" / "solution.hrsol"));
 }
+
+// Issue 16: a malformed command line is an input error (exit 2), not CLI11's own codes (104/105).
+TEST(Cli, MalformedArgumentsExitTwo) {
+    for (const char* args : {"solve cornell --eps abc -o /tmp/hrad_cli_unused",
+                             "--threads -1 solve cornell -o /tmp/hrad_cli_unused", "--nosuchflag info cornell"}) {
+        Result r = run(args);
+        EXPECT_EQ(r.code, 2) << args << ": " << r.output;
+    }
+    EXPECT_EQ(run("--help").code, 0);
+}

@@ -121,5 +121,31 @@ TEST(PlyLoader, ErrorsNameFileAndLine) {
     EXPECT_NE(errorOf(miss.string()).find(miss.string() + ":23"), std::string::npos) << errorOf(miss.string());
 }
 
+
+// Issue 16 reproducers: element lines are parsed strictly and checked against the file size.
+TEST(PlyLoader, HostileElementHeadersAreErrorsWithLine) {
+    auto dir = test::tempDir("ply_hostile");
+    const std::string head = "ply\nformat ascii 1.0\n";
+    struct Case { std::string name, text, expect; };
+    std::vector<Case> cases = {
+        {"sci.ply", head + "element vertex 4e3\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
+         ":3: error"},
+        {"huge.ply", head + "element vertex 4000000000\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n",
+         "bytes of data"},
+        {"twice.ply", head + "element vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+                             "element vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+                             "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n0 0 0\n0 0 0 1 2 3\n",
+         "declared twice"},
+        {"noprops.ply", "ply\nformat binary_little_endian 1.0\nelement junk 1000000000000000\nend_header\n",
+         "no properties"},
+    };
+    for (const Case& c : cases) {
+        auto path = test::writeFile(dir / c.name, c.text);
+        std::string err = errorOf(path.string());
+        EXPECT_NE(err.find(path.string() + ":"), std::string::npos) << err;
+        EXPECT_NE(err.find(c.expect), std::string::npos) << c.name << ": " << err;
+    }
+}
+
 }  // namespace
 }  // namespace hrad::scene
