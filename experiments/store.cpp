@@ -1,5 +1,7 @@
 #include "experiments/store.h"
 
+#include <algorithm>
+
 #include <sqlite3.h>
 
 #include <fstream>
@@ -31,7 +33,9 @@ CREATE TABLE IF NOT EXISTS runs (
   links_ss INTEGER, links_sc INTEGER, links_cs INTEGER, links_cc INTEGER,
   l1_lum REAL, l2_lum REAL, linf_lum REAL, l1_rgb REAL, l2_rgb REAL, linf_rgb REAL,
   mc_stderr_l2_lum REAL, mc_stderr_l2_rgb REAL, regions INTEGER, reference_desc TEXT,
-  bytes TEXT, summary TEXT);
+  bytes TEXT, summary TEXT,
+  l1_reflected_lum REAL, l2_reflected_lum REAL, l1_nonemitter_lum REAL,
+  l2_nonemitter_lum REAL, mean_ratio_nonemitter REAL, error_estimate REAL, residual REAL);
 CREATE TABLE IF NOT EXISTS iterations (
   run_key TEXT, iteration INTEGER, stage INTEGER, eps REAL, links INTEGER,
   elements INTEGER, leaves INTEGER, refined_links INTEGER, rays INTEGER,
@@ -44,6 +48,17 @@ CREATE TABLE IF NOT EXISTS failures (
 )sql";
 
 const char* kTables[] = {"studies", "runs", "iterations", "failures"};
+
+/// Columns added to `runs` after the first stores were written (the error
+/// of the reflected part and of non-emitting surfaces, reference/metrics.h;
+/// the solver's error estimate and final residual). Stores without them get
+/// them on opening for writing (NULL in the old rows; the values are in each
+/// row's `summary` too).
+const std::pair<const char*, const char*> kAddedRunColumns[] = {
+    {"l1_reflected_lum", "REAL"},  {"l2_reflected_lum", "REAL"},
+    {"l1_nonemitter_lum", "REAL"}, {"l2_nonemitter_lum", "REAL"},
+    {"mean_ratio_nonemitter", "REAL"}, {"error_estimate", "REAL"},
+    {"residual", "REAL"}};
 
 /// A prepared statement with positional binding of JSON values.
 class Stmt {
@@ -146,7 +161,22 @@ ResultStore::ResultStore(const fs::path& path, bool readOnly) : path_(path) {
         exec("PRAGMA journal_mode=WAL");
         exec("PRAGMA synchronous=NORMAL");
         exec(kSchema);
+        std::vector<std::string> have = columns("main", "runs");
+        for (const auto& [name, type] : kAddedRunColumns)
+            if (std::find(have.begin(), have.end(), name) == have.end())
+                exec(fmt::format("ALTER TABLE runs ADD COLUMN {} {}", name, type));
     }
+}
+
+std::vector<std::string> ResultStore::columns(const std::string& schema,
+                                              const std::string& table) const {
+    std::vector<std::string> out;
+    Stmt st(db_, fmt::format("PRAGMA {}.table_info({})", schema, table));
+    while (sqlite3_step(st.get()) == SQLITE_ROW) {
+        const char* n = reinterpret_cast<const char*>(sqlite3_column_text(st.get(), 1));
+        if (n) out.emplace_back(n);
+    }
+    return out;
 }
 
 ResultStore::~ResultStore() {
@@ -181,7 +211,9 @@ void ResultStore::addRun(const std::string& key, const std::string& study, int64
         "links", "rays", "form_factors", "iterations", "converged", "links_ss", "links_sc",
         "links_cs", "links_cc", "l1_lum", "l2_lum",
         "linf_lum", "l1_rgb", "l2_rgb", "linf_rgb", "mc_stderr_l2_lum", "mc_stderr_l2_rgb",
-        "regions", "reference_desc", "bytes", "summary"};
+        "regions", "reference_desc", "bytes", "summary", "l1_reflected_lum",
+        "l2_reflected_lum", "l1_nonemitter_lum", "l2_nonemitter_lum", "mean_ratio_nonemitter",
+        "error_estimate", "residual"};
     json settings = at(s, "settings");
     json oracle = nullptr;
     if (at(s, "solver") == "hr")
@@ -235,7 +267,14 @@ void ResultStore::addRun(const std::string& key, const std::string& study, int64
                               at(s, "error", "regions"),
                               at(s, "error", "reference"),
                               at(s, "memory").dump(),
-                              s.dump()};
+                              s.dump(),
+                              at(s, "error", "l1_reflected_lum"),
+                              at(s, "error", "l2_reflected_lum"),
+                              at(s, "error", "l1_nonemitter_lum"),
+                              at(s, "error", "l2_nonemitter_lum"),
+                              at(s, "error", "mean_ratio_nonemitter"),
+                              at(s, "error_estimate"),
+                              at(s, "residual")};
     exec("BEGIN IMMEDIATE");
     try {
         Stmt st(db_, insertSql("runs", cols, "INSERT OR REPLACE"));
@@ -326,12 +365,22 @@ int64_t ResultStore::mergeFrom(const fs::path& other) {
     attach.bind(1, other.string()).step();
     try {
         exec("BEGIN IMMEDIATE");
-        exec("INSERT OR IGNORE INTO studies SELECT * FROM src.studies");
-        exec("INSERT OR IGNORE INTO runs SELECT * FROM src.runs");
-        exec("INSERT OR IGNORE INTO iterations SELECT * FROM src.iterations "
-             "WHERE run_key IN (SELECT key FROM runs)");
-        exec("INSERT OR IGNORE INTO failures SELECT * FROM src.failures "
-             "WHERE key NOT IN (SELECT key FROM runs)");
+        // By column name, the columns both stores have: a store written
+        // before columns were added merges with NULL in them.
+        auto copy = [&](const char* table, const char* where) {
+            std::vector<std::string> mine = columns("main", table), theirs = columns("src", table);
+            std::string cols;
+            for (const std::string& c : mine)
+                if (std::find(theirs.begin(), theirs.end(), c) != theirs.end())
+                    cols += (cols.empty() ? "" : ", ") + c;
+            if (cols.empty()) return;
+            exec(fmt::format("INSERT OR IGNORE INTO {0} ({1}) SELECT {1} FROM src.{0} {2}", table,
+                             cols, where));
+        };
+        copy("studies", "");
+        copy("runs", "");
+        copy("iterations", "WHERE run_key IN (SELECT key FROM runs)");
+        copy("failures", "WHERE key NOT IN (SELECT key FROM runs)");
         exec("DELETE FROM failures WHERE key IN (SELECT key FROM runs)");
         exec("COMMIT");
     } catch (...) {

@@ -77,6 +77,8 @@ class ResultStore {
 
   private:
     void exec(const std::string& sql) const;
+    /// Column names of `table` in attached database `schema` ("main", "src").
+    std::vector<std::string> columns(const std::string& schema, const std::string& table) const;
     sqlite3* db_ = nullptr;
     std::filesystem::path path_;
 };

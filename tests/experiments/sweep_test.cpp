@@ -9,6 +9,8 @@
 #include <unistd.h>
 
 #include <fstream>
+
+#include <fmt/format.h>
 #include <set>
 
 #include "experiments/store.h"
@@ -302,6 +304,44 @@ TEST(Sweep, ShardsMergeToTheUnshardedRows) {
     EXPECT_EQ(keysOf(dir / "merged.sqlite", q), keysOf(dir / "whole.sqlite", q));
     const char* qi = "SELECT run_key || ':' || iteration || ':' || links FROM iterations";
     EXPECT_EQ(keysOf(dir / "merged.sqlite", qi), keysOf(dir / "whole.sqlite", qi));
+}
+
+// The error columns of reference/metrics.h are stored (with a reference),
+// and a store written before they existed is upgraded on opening and merges
+// by column name.
+TEST(Store, ErrorColumnsAndOlderStores) {
+    auto dir = test::tempDir("store_columns");
+    Study study = parseStudy(kStudy, "tiny.toml", dir);
+    runSweep(study, options(dir, "new.sqlite"));
+    auto rows = keysOf(dir / "new.sqlite",
+                       "SELECT printf('%d', l1_reflected_lum > 0 AND l2_nonemitter_lum > 0 AND "
+                       "mean_ratio_nonemitter > 0 AND error_estimate >= 0 AND residual >= 0) "
+                       "FROM runs WHERE scene LIKE 'plates%'");
+    EXPECT_EQ(rows, std::set<std::string>{"1"});
+    // An older store: the same file without the added columns.
+    fs::copy_file(dir / "new.sqlite", dir / "old.sqlite");
+    {
+        sqlite3* db = nullptr;
+        ASSERT_EQ(sqlite3_open((dir / "old.sqlite").string().c_str(), &db), SQLITE_OK);
+        for (const char* c : {"l1_reflected_lum", "l2_reflected_lum", "l1_nonemitter_lum",
+                              "l2_nonemitter_lum", "mean_ratio_nonemitter", "error_estimate",
+                              "residual"})
+            ASSERT_EQ(sqlite3_exec(db, fmt::format("ALTER TABLE runs DROP COLUMN {}", c).c_str(),
+                                   nullptr, nullptr, nullptr),
+                      SQLITE_OK);
+        sqlite3_close(db);
+    }
+    int64_t n = ResultStore(dir / "new.sqlite").count("runs");
+    {
+        ResultStore merged(dir / "merged.sqlite");
+        EXPECT_EQ(merged.mergeFrom(dir / "old.sqlite"), n);
+    }
+    EXPECT_EQ(keysOf(dir / "merged.sqlite", "SELECT printf('%d', l1_reflected_lum IS NULL) FROM runs"),
+              std::set<std::string>{"1"});
+    // Opened for writing, the older store gets the columns.
+    { ResultStore upgraded(dir / "old.sqlite"); }
+    EXPECT_EQ(keysOf(dir / "old.sqlite", "SELECT printf('%d', error_estimate IS NULL) FROM runs"),
+              std::set<std::string>{"1"});
 }
 
 TEST(Store, CsvExportHasTheColumns) {
