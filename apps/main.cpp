@@ -32,10 +32,15 @@ void addSets(Params& params, const std::vector<std::string>& sets) {
 int main(int argc, char** argv) {
     CLI::App app{"hrad: hierarchical and clustered radiosity"};
     app.require_subcommand(1);
+    // Global options (--threads, --set, --log) may also follow the
+    // subcommand, as users type them: `hrad solve cornell --threads 1`.
+    // Subcommands created below inherit this.
+    app.fallthrough();
     app.set_version_flag("--version", HRAD_VERSION);
     std::string logLevel = "info";
     app.add_option("--log", logLevel, "log level: quiet, info, debug")
-        ->check(CLI::IsMember({"quiet", "info", "debug"}));
+        ->check(CLI::IsMember({"quiet", "info", "debug"}))
+        ->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
     int threads = 0;
     app.add_option("--threads", threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
     std::vector<std::string> sets;

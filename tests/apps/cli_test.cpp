@@ -154,6 +154,15 @@ TEST(Cli, RenderASavedSolution) {
 }
 
 // Issue 16: a malformed command line is an input error (exit 2), not CLI11's own codes (104/105).
+// Global options are accepted after the subcommand too.
+TEST(Cli, GlobalOptionsAfterTheSubcommand) {
+    Result r = run("info furnace --threads 1 --log quiet --set obj.default_rho=0.5");
+    EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("patches"), std::string::npos) << r.output;
+    // And still checked there.
+    EXPECT_EQ(run("info furnace --threads -1").code, 2);
+}
+
 TEST(Cli, MalformedArgumentsExitTwo) {
     for (const char* args : {"solve cornell --eps abc -o /tmp/hrad_cli_unused",
                              "--threads -1 solve cornell -o /tmp/hrad_cli_unused", "--nosuchflag info cornell"}) {
