@@ -316,6 +316,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         timings["refine"] = hrRes.refineSeconds;
         timings["gather"] = hrRes.gatherSeconds;
         timings["push_pull"] = hrRes.pushPullSeconds;
+        timings["error_estimate"] = hrRes.errorEstimateSeconds;
         for (const auto& [k, v] : hrRes.memory.all()) memory.set(k, v);
         json hist = json::array();
         for (const auto& it : hrRes.history)

@@ -808,7 +808,9 @@ HrResult HrSolver::solve(bool progress) {
         res.converged = stageConverged;
     }
     res.field = std::make_unique<HierarchyField>(h);
+    Timer te;
     res.errorEstimate = estimateError(h);
+    res.errorEstimateSeconds = te.seconds();
     h.reportMemory(res.memory);
     for (uint32_t r = 0; r < h.numElements(); ++r) {
         bool rc = h.isCluster(r);

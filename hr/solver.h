@@ -197,6 +197,7 @@ struct HrResult {
     /// A posteriori estimate of the solve's relative L1 error of the
     /// reflected radiosity (HrSolver::estimateError); NaN when not computed.
     double errorEstimate = std::numeric_limits<double>::quiet_NaN();
+    double errorEstimateSeconds = 0.0;
     MemoryCounters memory;
 };
 
