@@ -24,6 +24,16 @@ bool surfacePair(const Hierarchy& h, uint32_t r, uint32_t s) {
     return s != kNone && !h.isCluster(r) && !h.isCluster(s);
 }
 
+/// Largest rho_r |B_c - B_s| (max channel) over the children of a subdivided
+/// surface sender s; 0 for a leaf or a cluster (LinkEstimate::senderSpread).
+double senderSpread(const Hierarchy& h, uint32_t r, uint32_t s) {
+    if (h.isCluster(s) || h.firstChild(s) == kNone) return 0.0;
+    double spread = 0.0;
+    for (uint32_t c = 0; c < h.numChildren(s); ++c)
+        spread = std::max(spread, maxComponent(h.rho(r) * glm::abs(h.B(h.child(s, c)) - h.B(s))));
+    return spread;
+}
+
 std::vector<double> parseSchedule(const std::string& text, const SourceLocation& where) {
     std::vector<double> out;
     std::stringstream ss(text);
@@ -455,12 +465,7 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
     // emitters are linked as surfaces. Gather still uses directionalB().
     e.senderB = h.isCluster(s) ? h.maxB(s) : h.B(s);
     e.receiverRho = h.rho(r);
-    if (!h.isCluster(s) && h.firstChild(s) != kNone) {
-        double spread = 0.0;
-        for (uint32_t c = 0; c < h.numChildren(s); ++c)
-            spread = std::max(spread, maxComponent(e.receiverRho * glm::abs(h.B(h.child(s, c)) - h.B(s))));
-        e.senderSpread = spread;
-    }
+    e.senderSpread = senderSpread(h, r, s);
     e.receiverIsCluster = h.isCluster(r);
     e.senderIsCluster = h.isCluster(s);
     if (e.receiverIsCluster && h.clusterModel() == cluster::ClusterModel::Oriented) {
@@ -482,18 +487,26 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
     return e;
 }
 
+std::vector<KernelSamples> HrSolver::kernelSamplesOf(const Hierarchy& h,
+                                                     const std::vector<uint32_t>& recv,
+                                                     const std::vector<Link>& links) const {
+    // The cached samples when h holds them for these links (they were made
+    // with the links); otherwise computed now (initial links, or an oracle
+    // that did not ask for them).
+    if (h.kernelSamples().size() == links.size()) return h.kernelSamples();
+    std::vector<KernelSamples> out(links.size(), KernelSamples{});
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, links.size(), 256), [&](const auto& range) {
+        for (size_t i = range.begin(); i != range.end(); ++i)
+            if (surfacePair(h, recv[i], links[i].sender))
+                out[i] = linkKernelSamples(h, engine_, recv[i], links[i].sender);
+    });
+    return out;
+}
+
 double HrSolver::estimateError(const Hierarchy& h) const {
     std::vector<uint32_t> recv = h.linkReceivers();
     const std::vector<Link>& links = h.links();
-    std::vector<KernelSamples> samples = h.kernelSamples();
-    if (samples.size() != links.size()) {
-        samples.assign(links.size(), KernelSamples{});
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, links.size(), 256), [&](const auto& range) {
-            for (size_t i = range.begin(); i != range.end(); ++i)
-                if (surfacePair(h, recv[i], links[i].sender))
-                    samples[i] = linkKernelSamples(h, engine_, recv[i], links[i].sender);
-        });
-    }
+    std::vector<KernelSamples> samples = kernelSamplesOf(h, recv, links);
     std::vector<ReceiverError> err;
     receiverErrors(h, recv, links, samples, {}, {}, {}, err);
     double sum = 0.0;
@@ -505,13 +518,7 @@ double HrSolver::estimateError(const Hierarchy& h) const {
             sum += h.area(r) * double(err[i].range) / 4.0;
             last = r;
         }
-        uint32_t s = links[i].sender;
-        if (!h.isCluster(s) && h.firstChild(s) != kNone) {
-            double spread = 0.0;
-            for (uint32_t c = 0; c < h.numChildren(s); ++c)
-                spread = std::max(spread, maxComponent(h.rho(r) * glm::abs(h.B(h.child(s, c)) - h.B(s))));
-            sum += h.area(r) * double(links[i].K) * spread / 2.0;
-        }
+        sum += h.area(r) * double(links[i].K) * senderSpread(h, r, links[i].sender) / 2.0;
     }
     double reflected = maxComponent(h.reflectedPower());
     return reflected > 0 ? sum / reflected : 0.0;
@@ -541,17 +548,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
     // the link is made; the initial links get theirs here).
     std::vector<KernelSamples> pendingS, finalS;
     if (aggregate) {
-        pendingS = h.kernelSamples();
-        if (pendingS.size() != pending.size()) {
-            pendingS.assign(pending.size(), KernelSamples{});
-            tbb::parallel_for(tbb::blocked_range<size_t>(0, pending.size(), 256),
-                              [&](const auto& range) {
-                                  for (size_t i = range.begin(); i != range.end(); ++i)
-                                      if (surfacePair(h, recv[i], pending[i].sender))
-                                          pendingS[i] = linkKernelSamples(h, engine_, recv[i],
-                                                                          pending[i].sender);
-                              });
-        }
+        pendingS = kernelSamplesOf(h, recv, pending);
         finalS.reserve(pendingS.size());
     }
 

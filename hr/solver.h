@@ -242,6 +242,11 @@ class HrSolver {
 
   private:
     struct Pending;
+    /// Kernel samples of `links` (receivers `recv`): h's cache when it holds
+    /// them, else computed for the surface links.
+    std::vector<KernelSamples> kernelSamplesOf(const Hierarchy& h,
+                                               const std::vector<uint32_t>& recv,
+                                               const std::vector<Link>& links) const;
     void initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vector<Link>& links,
                       HrResult& res, bool progress);
     uint64_t refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
