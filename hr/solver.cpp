@@ -79,8 +79,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.cluster = cluster::ClusterSettings::fromParams(p);
     s.receiverEps = p.getDouble("hr.receiver_eps", -1.0, -1.0, 1.0);
     s.extrapolate = p.getBool("hr.extrapolate", s.extrapolate);
-    s.clusterVisRays = int(p.getInt("cluster.vis_rays", s.clusterVisRays, 0, 1024));
-    s.clusterSeparation = p.getDouble("cluster.separation", s.clusterSeparation, 1.0, 100.0);
+    s.clusterLink = cluster::ClusterLinkSettings::fromParams(p);
     // Validate the oracle settings now (unknown keys included), so a bad
     // setting fails before any work is done.
     Params probe = s.oracleParams;
@@ -94,11 +93,9 @@ std::string HrSettings::describe() const {
     std::string sched = fmt::format("{}", fmt::join(epsSchedule, ","));
     return fmt::format(
         "hr(oracle={}, eps_schedule=[{}], min_area={}, min_area_rel={}, max_level={}, "
-        "max_iterations={}, tolerance={}, {}, cluster_model={}, {}, cluster_vis_rays={}, "
-        "cluster_separation={})",
+        "max_iterations={}, tolerance={}, {}, cluster_model={}, {}, {})",
         oracle, sched, minArea, minAreaRel, maxLevel, maxIterations, tolerance, ff.describe(),
-        cluster::clusterModelName(clusterModel), cluster.describe(), clusterVisRays,
-        clusterSeparation);
+        cluster::clusterModelName(clusterModel), cluster.describe(), clusterLink.describe());
 }
 
 HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visibility,
@@ -118,219 +115,52 @@ bool HrSolver::canSubdivide(const Hierarchy& h, uint32_t e) const {
     return h.level(e) < s_.maxLevel && 0.25 * h.area(e) >= minArea_;
 }
 
-double HrSolver::projectedFraction(const Hierarchy& h, uint32_t e, const Vec3& d) const {
-    if (!h.isCluster(e)) return std::max(0.0, glm::dot(scene_->patches[h.patch(e)].normal, d));
-    if (h.clusterModel() == cluster::ClusterModel::Isotropic) return 0.25;
-    double a = h.area(e);
-    return a > 0 ? h.clusterTree()->projectedArea(h.clusterIndex(e), d) / a : 0.0;
+cluster::LinkEnd HrSolver::endOf(const Hierarchy& h, uint32_t e) const {
+    cluster::LinkEnd x;
+    x.isCluster = h.isCluster(e);
+    if (x.isCluster) {
+        x.cluster = h.clusterIndex(e);
+        x.singleSurface = h.numChildren(e) == 1 && !h.isCluster(h.child(e, 0));
+        x.maxB = maxComponent(h.maxB(e));
+    } else {
+        x.patch = h.patch(e);
+        x.domain = h.domain(e);
+    }
+    x.center = h.center(e);
+    x.radius = h.radius(e);
+    x.area = h.area(e);
+    x.stableId = h.stableId(e);
+    return x;
 }
 
 Decision HrSolver::forcedDecision(const Hierarchy& h, uint32_t r, uint32_t s) const {
     if (r == s) return Decision::RefineBoth;  // a cluster's self-link must be opened
-    return openDecision(h, r, s, glm::length(h.center(r) - h.center(s)), h.radius(r), h.radius(s));
-}
-
-Decision HrSolver::openDecision(const Hierarchy& h, uint32_t r, uint32_t s, double dist,
-                                double rr, double rs) const {
-    if (r == s) return Decision::RefineBoth;
-    bool rc = h.isCluster(r), sc = h.isCluster(s);
-    if (!rc && !sc) return Decision::Accept;
-    // A cluster holding a single surface is that surface: open it at once
-    // rather than approximate the surface by a cluster model.
-    bool r1 = rc && h.numChildren(r) == 1 && !h.isCluster(h.child(r, 0));
-    bool s1 = sc && h.numChildren(s) == 1 && !h.isCluster(h.child(s, 0));
-    if (r1 || s1) return r1 && s1 ? Decision::RefineBoth : r1 ? Decision::RefineReceiver : Decision::RefineSender;
-    // The point approximation of a cluster transfer needs the two bounding
-    // spheres to be apart; otherwise open the cluster side(s). Between two
-    // clusters it needs more: both sides' projected areas and the receiver's
-    // cosines are taken along the one centroid direction, and with spheres
-    // barely apart the directions between their surfaces spread by up to 90
-    // degrees. Measured per link against a Monte Carlo integral of the
-    // unoccluded kernel (office:3, eps 1e-3), accepted cluster-cluster links
-    // with dist < 2 (rr + rs) carried 15-19 % too little, the main loss of
-    // office:3 (-4.1 %); surface-cluster links, whose surface side is exact,
-    // did not. Cluster pairs must therefore be cluster.separation times
-    // further apart than touching (Smits et al. 1994 and Sillion 1995 accept
-    // cluster links only for well-separated clusters).
-    double sep = rc && sc ? s_.clusterSeparation : 1.0;
-    if (dist > sep * (rr + rs)) return Decision::Accept;
-    if (rc && sc) return rr >= 2 * rs   ? Decision::RefineReceiver
-                         : rs >= 2 * rr ? Decision::RefineSender
-                                        : Decision::RefineBoth;
-    return rc ? Decision::RefineReceiver : Decision::RefineSender;
-}
-
-double HrSolver::clusterKernel(const Hierarchy& h, uint32_t r, uint32_t s) const {
-    // Point approximation between the two nodes' centroids (cluster/transfer.h):
-    // K = A_s g_s(u) g_r(-u) / (pi r^2); for an oriented receiving cluster
-    // without g_r (applied per surface when pushing), 0 when nothing of the
-    // receiver faces the sender.
-    Vec3 d = h.center(r) - h.center(s);
-    double dist2 = glm::dot(d, d);
-    if (!(dist2 > 0)) return 0.0;
-    Vec3 u = d / std::sqrt(dist2);
-    double gs = projectedFraction(h, s, u);
-    bool orientedReceiver =
-        h.isCluster(r) && h.clusterModel() == cluster::ClusterModel::Oriented;
-    double gr = orientedReceiver ? 1.0 : projectedFraction(h, r, -u);
-    if (orientedReceiver && projectedFraction(h, r, -u) <= 0) return 0.0;
-    return h.area(s) * gs * gr / (kPi * dist2);
-}
-
-double HrSolver::blockedVisibilityBound() const {
-    // All n rays blocked: the visibility fraction v with P(all n blocked | v)
-    // = (1 - v)^n = 0.05 is the one-sided 95 % upper confidence bound
-    // (Clopper-Pearson for zero successes): 0.31 for 8 rays, 0.046 for 64.
-    int n = std::max(1, s_.clusterVisRays);
-    return 1.0 - std::pow(0.05, 1.0 / n);
+    switch (linker_->opening(endOf(h, r), endOf(h, s))) {
+        case cluster::Opening::None: return Decision::Accept;
+        case cluster::Opening::Receiver: return Decision::RefineReceiver;
+        case cluster::Opening::Sender: return Decision::RefineSender;
+        case cluster::Opening::Both: return Decision::RefineBoth;
+    }
+    return Decision::RefineBoth;
 }
 
 Link HrSolver::makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const {
-    // Point approximation (clusterKernel) times a visibility fraction
-    // estimated with rays between points on the surfaces of both nodes.
+    cluster::ClusterLink c = linker_->link(endOf(h, r), endOf(h, s), h.allB());
     Link l;
     l.sender = s;
-    rays = 0;
-    Vec3 cr = h.center(r), cs = h.center(s);
-    double radR = h.radius(r), radS = h.radius(s);
-    Vec3 d = cr - cs;
-    double dist2 = glm::dot(d, d);
-    if (openDecision(h, r, s, std::sqrt(dist2), radR, radS) != Decision::Accept) {
-        // Not valid in the point approximation: no transfer computed, opened
+    rays = c.rays;
+    if (c.open != cluster::Opening::None) {
+        // Not valid in the point approximation: nothing computed, opened
         // next round (refine() asks forcedDecision which side).
         l.flags = Link::kOpen;
         return l;
     }
-    double K = clusterKernel(h, r, s);
-    if (!(K > 0)) return l;
-    // Upper bound: all cosines <= 1 and the nearest points of the spheres.
-    double gap = std::sqrt(dist2) - radR - radS;
-    double iso = h.clusterModel() == cluster::ClusterModel::Isotropic ? 0.25 : 1.0;
-    double bound = gap > 0 ? h.area(s) * (h.isCluster(s) ? iso : 1.0) *
-                                 (h.isCluster(r) ? iso : 1.0) / (kPi * gap * gap)
-                           : 3.0e38;
-    double judged = 1.0, carried = 1.0;
-    int n = s_.clusterVisRays;
-    if (n > 0 && vis_) {
-        Pcg32 rng(hashIds(h.stableId(r), h.stableId(s)));
-        transport::Segment seg[64];
-        uint8_t occ[64];
-        // A point on node e for a ray towards the other node's centroid
-        // `towards`, drawn with the density the transfer gives the node's
-        // surfaces: on a receiving cluster proportional to A_k cos_k (the
-        // irradiance a surface takes), on a sending cluster to A_k B_k cos_k
-        // (the power it sends that way, B_k its root patch's radiosity), so
-        // the fraction of unblocked rays estimates the visibility that
-        // K * directionalB() needs. Area-uniform points (as before) weighed
-        // a luminaire's dark housing and the emitting face alike, and the
-        // surfaces that carry the light are the visible ones: on classroom
-        // links from clusters came out 10-20 % low against a Monte Carlo
-        // integral of the same links. Rejection sampling against the bound
-        // cos <= 1, B_k <= maxB (a cluster whose surfaces carry nothing yet
-        // uses cos alone); after 32 rejections the best candidate is used.
-        // `cosine` returns the sampled surface's cosine towards `towards`
-        // (1 for a surface element, which is sampled uniformly).
-        auto samplePoint = [&](uint32_t e, const Vec3& towards, uint32_t& patch, bool sender,
-                               double& cosine) {
-            double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
-            cosine = 1.0;
-            if (h.isCluster(e)) {
-                double bmax = sender ? maxComponent(h.maxB(e)) : 0.0;
-                Vec3 x, best(0.0);
-                uint32_t bestPatch = 0;
-                double bestW = -1.0, bestCos = 0.0;
-                for (int t = 0; t < 32; ++t) {
-                    x = h.clusterTree()->samplePoint(h.clusterIndex(e), a, b, c, patch);
-                    Vec3 dd = towards - x;
-                    double len = glm::length(dd);
-                    double cs = len > 0 ? glm::dot(scene_->patches[patch].normal, dd) / len : 0.0;
-                    double w = std::max(0.0, cs);
-                    if (bmax > 0) w *= maxComponent(h.B(patch)) / bmax;
-                    if (rng.nextDouble() < w) {
-                        cosine = cs;
-                        return x;
-                    }
-                    if (w > bestW) bestW = w, best = x, bestPatch = patch, bestCos = cs;
-                    a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
-                }
-                patch = bestPatch;
-                cosine = bestCos;
-                return best;
-            }
-            patch = h.patch(e);
-            const auto& P = scene_->patches[patch];
-            if (P.kind == scene::PatchKind::Triangle && a + b > 1) {
-                a = 1 - a;
-                b = 1 - b;
-            }
-            return scene::elementPoint(P, h.domain(e), a, b);
-        };
-        // Two independent estimates of the visibility fraction from n rays
-        // each: `judged` (stored in Link::visibility) is what the oracle
-        // sees, `carried` sets K. With one estimate for both, refinement
-        // selects: links whose estimate came out low are accepted and keep
-        // it, those that came out high are refined and re-estimated, so the
-        // accepted links are biased low (by O(1/n)). On office:2 with 8 rays
-        // that lost 1.4 % of the power at any eps (eps 1e-4 did not reduce
-        // it; 16/32/64/256 rays: -1.0/-0.5/-0.35/+0.1 %). Independent rays
-        // make the carried K unbiased whatever the oracle decides.
-        //
-        // Each estimate is the kernel-weighted fraction of unblocked rays,
-        // sum w_i V_i / sum w_i with w_i = cos_a cos_b / r^2 of the segment
-        // divided by the cosines towards the centroids that the sampling
-        // density above already holds: the visibility the transfer
-        // integral sees, where the plain fraction of rays gave as much
-        // weight to far pairs and to pairs that exchange no light (a point
-        // behind the other's plane, whose ray runs into its own object) as
-        // to the near, facing pairs that carry the light. Blocked counts
-        // still set the flags below.
-        auto estimate = [&](double& fraction) {
-            int blocked = 0, done = 0;
-            double wsum = 0.0, wvis = 0.0;
-            double cosA[64], cosB[64];
-            while (done < n) {
-                int m = std::min(64, n - done);
-                for (int i = 0; i < m; ++i) {
-                    seg[i].a = samplePoint(r, cs, seg[i].patchA, false, cosA[i]);
-                    seg[i].b = samplePoint(s, cr, seg[i].patchB, true, cosB[i]);
-                }
-                vis_->occluded(seg, size_t(m), occ);
-                for (int i = 0; i < m; ++i) {
-                    blocked += occ[i];
-                    Vec3 dd = seg[i].b - seg[i].a;
-                    double d2 = glm::dot(dd, dd);
-                    double ca = glm::dot(scene_->patches[seg[i].patchA].normal, dd);
-                    double cb = -glm::dot(scene_->patches[seg[i].patchB].normal, dd);
-                    double w = ca > 0 && cb > 0 && d2 > 0 && cosA[i] > 0 && cosB[i] > 0
-                                   ? ca * cb / (d2 * d2 * cosA[i] * cosB[i])
-                                   : 0.0;
-                    wsum += w;
-                    if (!occ[i]) wvis += w;
-                }
-                done += m;
-            }
-            fraction = wsum > 0 ? wvis / wsum : double(n - blocked) / n;
-            return blocked;
-        };
-        double fractionJudged = 0.0, fractionCarried = 0.0;
-        int blockedJudged = estimate(fractionJudged);
-        estimate(fractionCarried);  // its blocked count sets no flag
-        rays = uint32_t(2 * n);
-        judged = fractionJudged;
-        carried = fractionCarried;
-        if (blockedJudged > 0 && blockedJudged < n) l.flags |= Link::kPartial;
-        // No judged ray got through, but a few rays cannot tell "occluded"
-        // from "visible through a small opening". Dropping such links (as
-        // before) lost light systematically (on office:2 they carried ~0.6 %
-        // of the reflected power directly, more after interreflection, and
-        // no eps recovered it). The link is kept, whatever K carries, for
-        // the oracle to judge with a visibility bound (linkEstimate), so
-        // refinement resolves the opening where it matters.
-        if (blockedJudged == n) l.flags |= Link::kUncertain;
-    }
-    l.K = float(K * carried);
-    l.Fupper = float(std::min(bound, 3.0e38));
-    l.setVis(judged);
+    if (!(c.K > 0) && !c.partial && !c.uncertain && c.rays == 0) return l;
+    if (c.partial) l.flags |= Link::kPartial;
+    if (c.uncertain) l.flags |= Link::kUncertain;
+    l.K = float(c.K);
+    l.Fupper = float(std::min(c.Fupper, 3.0e38));
+    l.setVis(c.judged);
     return l;
 }
 
@@ -438,13 +268,13 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
         // A link touching a cluster is judged with its own visibility
         // estimate (Link::visibility), independent of the one in K
         // (makeClusterLink), times the unoccluded point approximation.
-        e.unoccludedF = clusterKernel(h, r, s);
+        e.unoccludedF = linker_->kernel(endOf(h, r), endOf(h, s));
         if (l.flags & Link::kUncertain) {
             // All judged rays blocked: the oracle sees the unoccluded
             // transfer times the 95 % upper bound of the visibility, so the
             // link is refined (clusters opened) where that much light could
             // matter, and accepted (carrying what K carries) where not.
-            e.visibility = blockedVisibilityBound();
+            e.visibility = linker_->blockedVisibilityBound();
             e.partialVisibility = true;
         }
         e.F = e.visibility * e.unoccludedF;
@@ -473,7 +303,7 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
         // fraction (applied per surface when pushing).
         Vec3 u = h.center(s) - h.center(r);
         double len = glm::length(u);
-        double g = len > 0 ? projectedFraction(h, r, u / len) : 1.0;
+        double g = len > 0 ? linker_->projectedFraction(endOf(h, r), u / len) : 1.0;
         e.F *= g;
         e.unoccludedF *= g;
     }
@@ -702,6 +532,8 @@ HrResult HrSolver::solve(bool progress) {
     }
     res.hierarchy = std::make_unique<Hierarchy>(*scene_, res.clusterTree.get(), s_.clusterModel);
     Hierarchy& h = *res.hierarchy;
+    linker_ = std::make_unique<cluster::ClusterLinker>(*scene_, res.clusterTree.get(),
+                                                       s_.clusterModel, vis_, s_.clusterLink);
 
     Timer t;
     {

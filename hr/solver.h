@@ -50,50 +50,14 @@
 //                                       clustering the solve starts from the root cluster's
 //                                       self-link instead of linking all pairs of patches
 //   cluster.builder, cluster.leaf_size, cluster.max_depth   (cluster/tree.h)
-//   cluster.vis_rays   int     8       visibility rays for links that touch a cluster, cast
-//                                       twice (two independent estimates, see below)
-//   cluster.separation double 1.5   a link between two clusters is accepted only when the
-//                                       centroid distance exceeds this times the sum of
-//                                       their bounding radii (1: spheres apart); see below
+//   cluster.vis_rays, cluster.separation   links that touch a cluster (cluster/link.h)
 //
-// Links that touch a cluster (Smits, Arvo & Greenberg 1994; Sillion 1995):
-// K is the point approximation of cluster/transfer.h times a visibility
-// fraction from rays between points on the surfaces of both nodes. Four
-// choices keep these links from losing light (measured with bfa, eps 1e-3,
-// 8 rays; radiosity power of oriented clustering vs the unclustered solve,
-// before -> after: office:1 -1.7 -> -0.7 %, office:2 -5.0 -> -0.1 %,
-// office:4 -8 -> -0.5 %; the solve takes ~1.7x the old clustered time,
-// office:4 0.7 s against 13 s unclustered):
-//   - the oracle judges a link from a cluster with the largest radiosity of
-//     the root patches below it (Hierarchy::maxB), not the mean, so clusters
-//     holding an emitter are opened (alone worth 8 % on office:4);
-//   - the visibility the oracle sees (Link::visibility) and the one in K
-//     come from independent rays: with one estimate, links whose estimate
-//     came out low were accepted and kept it, the others refined, a
-//     selection bias of O(1/n) that no eps removed (1.4 % on office:2);
-//   - a link whose judged rays are all blocked is kept (Link::kUncertain)
-//     and judged with the unoccluded transfer times the 95 % bound on the
-//     visibility, 1 - 0.05^(1/n), instead of being dropped, so links
-//     through small openings (doorways) are refined where they matter;
-//   - oriented receiving clusters push with the sender's directional
-//     radiosity, as gather does (hr/hierarchy.h; 1 % on office:2 and 4).
-// Two more remove what the per-link comparison with Monte Carlo integrals
-// of the same links found lost on office:3 and classroom (radiosity power,
-// green, oriented vs unclustered: office:3 -4.1 -> -0.3 %, classroom
-// -11.8 -> -4.0 %; office:1/2/4 stay within 0.2 %):
-//   - visibility rays start on surfaces drawn with the density the transfer
-//     gives them (receiving cluster: A_k cos_k; sending cluster: A_k B_k
-//     cos_k) and the unblocked fraction is weighted by the kernel
-//     cos cos / r^2 of each ray (over the sampling density): the plain
-//     fraction of area-sampled rays weighed a luminaire's housing like its
-//     emitting face and far or non-facing pairs like the near facing pairs
-//     that carry the light, and came out 10-20 % low (classroom);
-//   - two clusters are linked only when their centroids are more than
-//     cluster.separation (1.5) times the sum of their radii apart: at
-//     shorter distances the point approximation along the centroid
-//     direction carried 15-19 % too little unoccluded transfer (office:3,
-//     where the BVH lays clusters across room walls). Costs ~1.3x the solve
-//     time (office:4).
+// Links touching a cluster are built by cluster::ClusterLinker (cluster/link.h:
+// point approximation, visibility rays, validity); surface links by
+// transport::FormFactorEngine. This file asks for links and judges them: the
+// oracle judges a link from a cluster with the largest radiosity of the root
+// patches below it (Hierarchy::maxB) and, when all its judged rays were
+// blocked, with the 95 % visibility bound (linkEstimate).
 //
 // Extrapolation (hr.extrapolate). The gather iteration is a Jacobi iteration
 // whose error shrinks by about the scene's largest reflectance per iteration:
@@ -117,6 +81,7 @@
 #include <string>
 #include <vector>
 
+#include "cluster/link.h"
 #include "cluster/transfer.h"
 #include "cluster/tree.h"
 #include "core/memory.h"
@@ -147,8 +112,7 @@ struct HrSettings {
     /// judge it themselves (see solver.h header); negative = the default.
     double receiverEps = -1.0;
     bool extrapolate = true;
-    int clusterVisRays = 8;
-    double clusterSeparation = 1.5;
+    cluster::ClusterLinkSettings clusterLink;
 
     /// Reads the keys above (marks "oracle.*" used only after the oracle has
     /// read them: see HrSolver). Throws InputError on bad values or an unknown
@@ -253,22 +217,13 @@ class HrSolver {
                     IterationRecord& rec);
     Link makeLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
     Link makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
-    /// Unoccluded point-approximation transfer of a link touching a cluster
-    /// (without the receiver's projected-area fraction for an oriented
-    /// receiving cluster); 0 when the nodes do not face each other.
-    double clusterKernel(const Hierarchy& h, uint32_t r, uint32_t s) const;
-    /// 95 % upper bound on the visibility of a cluster link whose
-    /// cluster.vis_rays rays were all blocked: 1 - 0.05^(1/n).
-    double blockedVisibilityBound() const;
-    /// Projected-area fraction of node e towards unit direction d.
-    double projectedFraction(const Hierarchy& h, uint32_t e, const Vec3& d) const;
+    /// Node e as the cluster link builder sees it.
+    cluster::LinkEnd endOf(const Hierarchy& h, uint32_t e) const;
     /// Refinement forced by validity (self-links, single-surface clusters,
     /// clusters too close for the point approximation), independent of the
     /// oracle; Accept means "valid". makeClusterLink() evaluates it once and
     /// marks invalid links Link::kOpen; refine() asks it only for those.
     oracles::Decision forcedDecision(const Hierarchy& h, uint32_t r, uint32_t s) const;
-    oracles::Decision openDecision(const Hierarchy& h, uint32_t r, uint32_t s, double dist,
-                                   double radiusR, double radiusS) const;
     bool canSubdivide(const Hierarchy& h, uint32_t e) const;
     /// Fills e.Fmin / e.Fmax for link l of receiver r (only for oracles whose
     /// needsBounds() is true; the other fields of e must be set).
@@ -282,6 +237,7 @@ class HrSolver {
     double emittedPower_ = 1.0;
     double emittedRadiosity_ = 1.0;  ///< largest max-channel emission of any patch
     IterationHook hook_;
+    std::unique_ptr<cluster::ClusterLinker> linker_;  ///< made by solve() with the tree
 };
 
 }  // namespace hrad::hr

@@ -1,0 +1,181 @@
+#include "cluster/link.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "core/rng.h"
+
+namespace hrad::cluster {
+
+ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
+    ClusterLinkSettings s;
+    s.visRays = int(p.getInt("cluster.vis_rays", s.visRays, 0, 1024));
+    s.separation = p.getDouble("cluster.separation", s.separation, 1.0, 100.0);
+    return s;
+}
+
+std::string ClusterLinkSettings::describe() const {
+    return fmt::format("cluster_vis_rays={}, cluster_separation={}", visRays, separation);
+}
+
+ClusterLinker::ClusterLinker(const scene::Scene& scene, const ClusterTree* tree,
+                             ClusterModel model, const transport::Visibility* visibility,
+                             ClusterLinkSettings settings)
+    : scene_(&scene), tree_(tree), model_(model), vis_(visibility), s_(settings) {}
+
+double ClusterLinker::projectedFraction(const LinkEnd& e, const Vec3& d) const {
+    if (!e.isCluster) return std::max(0.0, glm::dot(scene_->patches[e.patch].normal, d));
+    if (model_ == ClusterModel::Isotropic) return 0.25;
+    return e.area > 0 ? tree_->projectedArea(e.cluster, d) / e.area : 0.0;
+}
+
+double ClusterLinker::kernel(const LinkEnd& r, const LinkEnd& s) const {
+    Vec3 d = r.center - s.center;
+    double dist2 = glm::dot(d, d);
+    if (!(dist2 > 0)) return 0.0;
+    Vec3 u = d / std::sqrt(dist2);
+    double gs = projectedFraction(s, u);
+    bool orientedReceiver = r.isCluster && model_ == ClusterModel::Oriented;
+    double gr = orientedReceiver ? 1.0 : projectedFraction(r, -u);
+    if (orientedReceiver && projectedFraction(r, -u) <= 0) return 0.0;
+    return s.area * gs * gr / (kPi * dist2);
+}
+
+Opening ClusterLinker::opening(const LinkEnd& r, const LinkEnd& s) const {
+    bool rc = r.isCluster, sc = s.isCluster;
+    if (!rc && !sc) return Opening::None;
+    // A cluster holding a single surface is that surface: open it at once
+    // rather than approximate the surface by a cluster model.
+    bool r1 = rc && r.singleSurface, s1 = sc && s.singleSurface;
+    if (r1 || s1) return r1 && s1 ? Opening::Both : r1 ? Opening::Receiver : Opening::Sender;
+    // Spheres apart (surface-cluster links, whose surface side is exact), or
+    // `separation` times further apart than touching (cluster-cluster links;
+    // measured per link against a Monte Carlo integral of the unoccluded
+    // kernel, accepted cluster pairs closer than 2 (rr + rs) carried 15-19 %
+    // too little on office:3).
+    double dist = glm::length(r.center - s.center);
+    double sep = rc && sc ? s_.separation : 1.0;
+    if (dist > sep * (r.radius + s.radius)) return Opening::None;
+    if (rc && sc) return r.radius >= 2 * s.radius   ? Opening::Receiver
+                         : s.radius >= 2 * r.radius ? Opening::Sender
+                                                    : Opening::Both;
+    return rc ? Opening::Receiver : Opening::Sender;
+}
+
+double ClusterLinker::blockedVisibilityBound() const {
+    // (1 - v)^n = 0.05: 0.31 for 8 rays, 0.046 for 64.
+    int n = std::max(1, s_.visRays);
+    return 1.0 - std::pow(0.05, 1.0 / n);
+}
+
+ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
+                                std::span<const RGB> rootB) const {
+    ClusterLink out;
+    out.open = opening(r, s);
+    if (out.open != Opening::None) return out;  // opened next round, nothing computed
+    double K = kernel(r, s);
+    if (!(K > 0)) return out;
+    Vec3 cr = r.center, cs = s.center;
+    double dist = glm::length(cr - cs);
+    // Upper bound: all cosines <= 1 and the nearest points of the spheres.
+    double gap = dist - r.radius - s.radius;
+    double iso = model_ == ClusterModel::Isotropic ? 0.25 : 1.0;
+    out.Fupper = gap > 0 ? s.area * (s.isCluster ? iso : 1.0) * (r.isCluster ? iso : 1.0) /
+                               (kPi * gap * gap)
+                         : 3.0e38;
+    double judged = 1.0, carried = 1.0;
+    const int n = s_.visRays;
+    if (n > 0 && vis_) {
+        Pcg32 rng(hashIds(r.stableId, s.stableId));
+        transport::Segment seg[64];
+        uint8_t occ[64];
+        // A point on node e for a ray towards the other node's centroid
+        // `towards`, drawn with the density the transfer gives the node's
+        // surfaces: on a receiving cluster proportional to A_k cos_k, on a
+        // sending cluster to A_k B_k cos_k (B_k its root patch's radiosity).
+        // Rejection sampling against cos <= 1, B_k <= maxB (a cluster whose
+        // surfaces carry nothing yet uses cos alone); after 32 rejections the
+        // best candidate is used. `cosine` is the sampled surface's cosine
+        // towards `towards` (1 for a surface element, sampled uniformly).
+        auto samplePoint = [&](const LinkEnd& e, const Vec3& towards, uint32_t& patch,
+                               bool sender, double& cosine) {
+            double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
+            cosine = 1.0;
+            if (e.isCluster) {
+                double bmax = sender ? e.maxB : 0.0;
+                Vec3 x, best(0.0);
+                uint32_t bestPatch = 0;
+                double bestW = -1.0, bestCos = 0.0;
+                for (int t = 0; t < 32; ++t) {
+                    x = tree_->samplePoint(e.cluster, a, b, c, patch);
+                    Vec3 dd = towards - x;
+                    double len = glm::length(dd);
+                    double cosx = len > 0 ? glm::dot(scene_->patches[patch].normal, dd) / len : 0.0;
+                    double w = std::max(0.0, cosx);
+                    if (bmax > 0) w *= maxComponent(rootB[patch]) / bmax;
+                    if (rng.nextDouble() < w) {
+                        cosine = cosx;
+                        return x;
+                    }
+                    if (w > bestW) bestW = w, best = x, bestPatch = patch, bestCos = cosx;
+                    a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
+                }
+                patch = bestPatch;
+                cosine = bestCos;
+                return best;
+            }
+            patch = e.patch;
+            const auto& P = scene_->patches[patch];
+            if (P.kind == scene::PatchKind::Triangle && a + b > 1) {
+                a = 1 - a;
+                b = 1 - b;
+            }
+            return scene::elementPoint(P, e.domain, a, b);
+        };
+        // One estimate of the visibility fraction from n rays: the
+        // kernel-weighted fraction of unblocked rays, sum w_i V_i / sum w_i
+        // with w_i = cos_a cos_b / r^2 of the segment over the cosines towards
+        // the centroids that the sampling density already holds. Returns the
+        // number of blocked rays.
+        auto estimate = [&](double& fraction) {
+            int blocked = 0, done = 0;
+            double wsum = 0.0, wvis = 0.0;
+            double cosA[64], cosB[64];
+            while (done < n) {
+                int m = std::min(64, n - done);
+                for (int i = 0; i < m; ++i) {
+                    seg[i].a = samplePoint(r, cs, seg[i].patchA, false, cosA[i]);
+                    seg[i].b = samplePoint(s, cr, seg[i].patchB, true, cosB[i]);
+                }
+                vis_->occluded(seg, size_t(m), occ);
+                for (int i = 0; i < m; ++i) {
+                    blocked += occ[i];
+                    Vec3 dd = seg[i].b - seg[i].a;
+                    double d2 = glm::dot(dd, dd);
+                    double ca = glm::dot(scene_->patches[seg[i].patchA].normal, dd);
+                    double cb = -glm::dot(scene_->patches[seg[i].patchB].normal, dd);
+                    double w = ca > 0 && cb > 0 && d2 > 0 && cosA[i] > 0 && cosB[i] > 0
+                                   ? ca * cb / (d2 * d2 * cosA[i] * cosB[i])
+                                   : 0.0;
+                    wsum += w;
+                    if (!occ[i]) wvis += w;
+                }
+                done += m;
+            }
+            fraction = wsum > 0 ? wvis / wsum : double(n - blocked) / n;
+            return blocked;
+        };
+        int blockedJudged = estimate(judged);
+        estimate(carried);  // independent: its blocked count sets no flag
+        out.rays = uint32_t(2 * n);
+        out.partial = blockedJudged > 0 && blockedJudged < n;
+        out.uncertain = blockedJudged == n;
+    }
+    out.K = K * carried;
+    out.judged = judged;
+    return out;
+}
+
+}  // namespace hrad::cluster

@@ -1,0 +1,140 @@
+// Links that touch a cluster: when the point approximation is valid, the
+// unoccluded transfer it gives, and the visibility estimated with rays
+// (DESIGN.md "Clustering"; Smits, Arvo & Greenberg 1994, "A clustering
+// algorithm for radiosity in complex environments"; Sillion 1995, "A unified
+// hierarchical algorithm for global illumination with scattering volumes and
+// object clusters").
+//
+// This is the physics of a cluster link; hr/ (the refinement driver) asks for
+// a link between two of its nodes, described by a plain LinkEnd, and stores
+// what comes back. cluster/ does not see the hierarchy.
+//
+// Transfer (cluster/transfer.h): K = A_s g_s(u) g_r(-u) / (pi r^2) between
+// the two nodes' centroids, times a visibility fraction from rays between
+// points on the surfaces of both nodes. Four choices keep these links from
+// losing light (measured per link against Monte Carlo integrals of the same
+// links: papers/README.md, "Clustering accuracy"):
+//   - the oracle judges a link from a cluster with the largest radiosity of
+//     the root patches below it (LinkEnd::maxB), not the mean, so clusters
+//     holding an emitter are opened (hr/solver.cpp linkEstimate);
+//   - the visibility the oracle sees (judged) and the one in K (carried)
+//     come from independent rays: with one estimate, links whose estimate
+//     came out low were accepted and kept it, the others refined, a
+//     selection bias of O(1/n) that no eps removes;
+//   - a link whose judged rays are all blocked is kept (uncertain) and
+//     judged with the unoccluded transfer times the 95 % bound on the
+//     visibility, 1 - 0.05^(1/n), instead of being dropped, so links through
+//     small openings (doorways) are refined where they matter;
+//   - ray end points are drawn with the density the transfer gives the
+//     surfaces (receiving cluster: A_k cos_k; sending cluster: A_k B_k cos_k)
+//     and the unblocked fraction is weighted by the kernel cos cos / r^2 of
+//     each ray over that density, so a luminaire's housing does not weigh
+//     like its emitting face, nor far or non-facing pairs like the near,
+//     facing pairs that carry the light.
+// Validity: a link is valid in the point approximation when the bounding
+// spheres are apart, and, between two clusters, when the centroids are more
+// than `separation` times the sum of the radii apart: at shorter distances
+// the directions between the two clusters' surfaces spread by up to 90
+// degrees around the centroid direction along which both projected areas and
+// the receiver's cosines are taken; Smits et al. 1994 and Sillion 1995 accept
+// cluster links only for well-separated clusters. A cluster holding a single
+// surface is that surface and is opened at once.
+//
+// Settings (Params keys):
+//   cluster.vis_rays    int     8    visibility rays per estimate for links that
+//                                     touch a cluster (two independent estimates)
+//   cluster.separation  double  1.5  cluster-cluster links need a centroid distance
+//                                     above this times the sum of the bounding radii
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+
+#include "cluster/transfer.h"
+#include "cluster/tree.h"
+#include "core/params.h"
+#include "core/types.h"
+#include "scene/element.h"
+#include "scene/scene.h"
+#include "transport/visibility.h"
+
+namespace hrad::cluster {
+
+/// One end of a link as the cluster transfer sees it: a cluster of the tree,
+/// or a surface element (a parametric domain of a root patch).
+struct LinkEnd {
+    bool isCluster = false;
+    uint32_t cluster = 0;      ///< tree index (clusters)
+    uint32_t patch = 0;        ///< root patch (surface elements)
+    scene::Domain domain;      ///< parametric domain (surface elements)
+    Vec3 center{0.0};
+    double radius = 0.0;
+    double area = 0.0;
+    uint64_t stableId = 0;     ///< seeds the link's rays (thread-independent results)
+    /// A cluster whose only child is one surface: it is that surface.
+    bool singleSurface = false;
+    /// Largest radiosity (max channel) of the root patches below a cluster.
+    double maxB = 0.0;
+};
+
+/// Which side(s) must be opened for the point approximation to hold.
+enum class Opening : uint8_t { None, Receiver, Sender, Both };
+
+struct ClusterLinkSettings {
+    int visRays = 8;
+    double separation = 1.5;
+    static ClusterLinkSettings fromParams(const Params& p);
+    std::string describe() const;
+};
+
+/// What link() computed.
+struct ClusterLink {
+    double K = 0.0;          ///< unoccluded point transfer times the carried visibility
+    double Fupper = 0.0;     ///< upper bound (all cosines 1, nearest sphere points)
+    double judged = 1.0;     ///< independent visibility estimate for the oracle
+    Opening open = Opening::None;  ///< not None: invalid, nothing computed
+    bool partial = false;    ///< some, not all, judged rays blocked
+    bool uncertain = false;  ///< all judged rays blocked
+    uint32_t rays = 0;
+};
+
+class ClusterLinker {
+  public:
+    ClusterLinker(const scene::Scene& scene, const ClusterTree* tree, ClusterModel model,
+                  const transport::Visibility* visibility, ClusterLinkSettings settings);
+
+    /// Projected-area fraction of e towards unit direction d: cos for a
+    /// surface, 1/4 for an isotropic cluster, projectedArea/A for an oriented one.
+    double projectedFraction(const LinkEnd& e, const Vec3& d) const;
+
+    /// Unoccluded point-approximation transfer from s to r (without the
+    /// receiver's projected-area fraction for an oriented receiving cluster,
+    /// which is applied per surface when pushing); 0 when they do not face.
+    double kernel(const LinkEnd& r, const LinkEnd& s) const;
+
+    /// Sides to open before the point approximation holds (None: valid).
+    /// For two surface elements always None (not a cluster link).
+    Opening opening(const LinkEnd& r, const LinkEnd& s) const;
+
+    /// 95 % upper bound on the visibility of a link whose vis_rays judged
+    /// rays were all blocked: 1 - 0.05^(1/n) (Clopper-Pearson, zero successes).
+    double blockedVisibilityBound() const;
+
+    /// The link from s to r (at least one a cluster). `rootB` holds the
+    /// current radiosity of every root patch (indexed by patch): the sender's
+    /// ray end points are drawn in proportion to it.
+    ClusterLink link(const LinkEnd& r, const LinkEnd& s, std::span<const RGB> rootB) const;
+
+    ClusterModel model() const { return model_; }
+    const ClusterLinkSettings& settings() const { return s_; }
+
+  private:
+    const scene::Scene* scene_;
+    const ClusterTree* tree_;
+    ClusterModel model_;
+    const transport::Visibility* vis_;
+    ClusterLinkSettings s_;
+};
+
+}  // namespace hrad::cluster
