@@ -318,6 +318,18 @@ void Hierarchy::pushPull() {
         }
         return P.rho * h;
     };
+    // What the clusters hand each root patch, computed for all patches before
+    // any B is overwritten: a link into an ancestor cluster may come from a
+    // surface element of another root patch, whose B the traversal below
+    // rewrites (reading it there made the result depend on thread timing).
+    std::vector<RGB> fromAbove;
+    if (nc) {
+        fromAbove.resize(np);
+        tbb::parallel_for(tbb::blocked_range<uint32_t>(0, np, 64), [&](const auto& range) {
+            for (uint32_t root = range.begin(); root != range.end(); ++root)
+                fromAbove[root] = fromClusters(root);
+        });
+    }
     // Iterative depth-first traversal per root patch: push the accumulated
     // gathered radiosity down, set leaves, pull averages up on the way back.
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, np, 16), [&](const auto& range) {
@@ -330,7 +342,7 @@ void Hierarchy::pushPull() {
         for (uint32_t root = range.begin(); root != range.end(); ++root) {
             const RGB& E = scene_->patches[root].emission;
             stack.clear();
-            stack.push_back({root, gathered_[root] + fromClusters(root), 0});
+            stack.push_back({root, gathered_[root] + (nc ? fromAbove[root] : RGB(0.0)), 0});
             while (!stack.empty()) {
                 Frame& f = stack.back();
                 uint32_t fc = firstChild_[f.e];
