@@ -13,11 +13,15 @@ ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
     ClusterLinkSettings s;
     s.visRays = int(p.getInt("cluster.vis_rays", s.visRays, 0, 1024));
     s.separation = p.getDouble("cluster.separation", s.separation, 1.0, 100.0);
+    s.sampleNear = p.getEnum("cluster.near", "open", {"open", "sample"}) == "sample";
+    s.nearRays = int(p.getInt("cluster.near_rays", s.nearRays, 2, 4096));
     return s;
 }
 
 std::string ClusterLinkSettings::describe() const {
-    return fmt::format("cluster_vis_rays={}, cluster_separation={}", visRays, separation);
+    return fmt::format("cluster_vis_rays={}, cluster_separation={}, cluster_near={}, "
+                       "cluster_near_rays={}",
+                       visRays, separation, sampleNear ? "sample" : "open", nearRays);
 }
 
 ClusterLinker::ClusterLinker(const scene::Scene& scene, const ClusterTree* tree,
@@ -74,7 +78,17 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
                                 std::span<const RGB> rootB) const {
     ClusterLink out;
     out.open = opening(r, s);
-    if (out.open != Opening::None) return out;  // opened next round, nothing computed
+    if (out.open != Opening::None) {
+        // Two clusters whose spheres are apart but that are too close for the
+        // point approximation: estimated by sampling when so set.
+        bool near = s_.sampleNear && r.isCluster && s.isCluster && !r.singleSurface &&
+                    !s.singleSurface && glm::length(r.center - s.center) > r.radius + s.radius;
+        if (near) {
+            ClusterLink sampled = sampledLink(r, s);
+            if (sampled.open == Opening::None) return sampled;
+        }
+        return out;  // opened next round, nothing computed
+    }
     double K = kernel(r, s);
     if (!(K > 0)) return out;
     Vec3 cr = r.center, cs = s.center;
@@ -175,6 +189,128 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
     }
     out.K = K * carried;
     out.judged = judged;
+    return out;
+}
+
+Vec3 ClusterLinker::uniformPoint(const LinkEnd& e, Pcg32& rng, uint32_t& patch) const {
+    double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
+    if (e.isCluster) return tree_->samplePoint(e.cluster, a, b, c, patch);
+    patch = e.patch;
+    const auto& P = scene_->patches[patch];
+    if (P.kind == scene::PatchKind::Triangle && a + b > 1) {
+        a = 1 - a;
+        b = 1 - b;
+    }
+    return scene::elementPoint(P, e.domain, a, b);
+}
+
+ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s) const {
+    ClusterLink out;
+    out.sampled = true;
+    Vec3 u = s.center - r.center;
+    double dist = glm::length(u);
+    u /= dist;
+    double gap = dist - r.radius - s.radius;
+    const bool orientedReceiver = r.isCluster && model_ == ClusterModel::Oriented;
+    const int n = std::max(2, s_.nearRays);
+    Pcg32 rng(hashIds(r.stableId, s.stableId, 0x6e656172ULL));
+    // One estimate from n point pairs: sums of the kernel k_i, of k_i V_i and
+    // of its square, of the receiver's cosine towards the sender's centroid
+    // (oriented receivers), and the rays cast and blocked (pairs with a zero
+    // kernel cast none).
+    struct Estimate {
+        double k = 0.0, kv = 0.0, kv2 = 0.0, cosR = 0.0, kvAway = 0.0;
+        int cast = 0, blocked = 0;
+    };
+    auto estimate = [&](Estimate& e) {
+        transport::Segment seg[64];
+        uint8_t occ[64];
+        double kern[64];
+        bool away[64];
+        int done = 0;
+        while (done < n) {
+            int m = std::min(64, n - done), cast = 0;
+            for (int i = 0; i < m; ++i) {
+                transport::Segment t;
+                t.a = uniformPoint(r, rng, t.patchA);
+                t.b = uniformPoint(s, rng, t.patchB);
+                const Vec3& na = scene_->patches[t.patchA].normal;
+                const Vec3& nb = scene_->patches[t.patchB].normal;
+                double cu = glm::dot(na, u);
+                if (orientedReceiver) e.cosR += std::max(0.0, cu);
+                Vec3 d = t.b - t.a;
+                double d2 = glm::dot(d, d);
+                double ca = glm::dot(na, d), cb = -glm::dot(nb, d);
+                if (!(ca > 0 && cb > 0 && d2 > 0)) continue;
+                away[cast] = cu <= 0;
+                kern[cast] = ca * cb / (kPi * d2 * d2);
+                seg[cast++] = t;
+            }
+            if (cast > 0 && vis_) vis_->occluded(seg, size_t(cast), occ);
+            for (int i = 0; i < cast; ++i) {
+                bool blocked = vis_ && occ[i];
+                e.k += kern[i];
+                e.blocked += blocked;
+                if (!blocked) {
+                    e.kv += kern[i];
+                    e.kv2 += kern[i] * kern[i];
+                    if (away[i]) e.kvAway += kern[i];
+                }
+            }
+            e.cast += cast;
+            done += m;
+        }
+    };
+    Estimate judged, carried;
+    estimate(judged);
+    estimate(carried);
+    out.rays = uint32_t(judged.cast + carried.cast);
+    // Receiver factor: the model hands an oriented receiving cluster's
+    // surfaces K cos_k+(u), i.e. K A_r E[cos+] in all.
+    auto receiverFactor = [&](const Estimate& e) {
+        return orientedReceiver ? e.cosR / n : 1.0;
+    };
+    // Estimates the model cannot use; the pair is opened instead:
+    //  - an oriented receiver hands the light to its surfaces facing the
+    //    sender's centroid; when more than 10 % of the sampled transfer
+    //    arrives on surfaces facing away from it (or none faces it), that
+    //    hand-over misplaces it;
+    //  - a transfer above what any receiver point can take (a point-to-area
+    //    form factor is at most 1: K cos <= 1) is sampling noise of a
+    //    near-singular kernel;
+    //  - an estimate whose error bound (two standard errors) exceeds itself.
+    double meanJudged = judged.kv / n, meanCarried = carried.kv / n;
+    bool unusable = false;
+    if (orientedReceiver) {
+        unusable = !(receiverFactor(judged) > 0 && receiverFactor(carried) > 0) ||
+                   judged.kvAway > 0.1 * judged.kv || carried.kvAway > 0.1 * carried.kv;
+    }
+    double K = unusable ? 0.0 : s.area * meanCarried / receiverFactor(carried);
+    double judgedK = unusable ? 0.0 : s.area * meanJudged / receiverFactor(judged);
+    if (!unusable && (K > 1.0 || judgedK > 1.0)) unusable = true;
+    if (!unusable && meanJudged > 0) {
+        double var = std::max(0.0, judged.kv2 / n - meanJudged * meanJudged);
+        out.relativeError = 2.0 * std::sqrt(var / (n - 1)) / meanJudged;
+        if (out.relativeError > 1.0) unusable = true;
+    }
+    if (unusable) {
+        out.open = opening(r, s);
+        return out;
+    }
+    out.K = K;
+    out.judgedF = s.area * meanJudged;
+    out.judged = judged.k > 0 ? judged.kv / judged.k : 0.0;
+    out.partial = judged.blocked > 0 && judged.blocked < judged.cast;
+    if (judged.k > 0 && judged.kv == 0) {
+        // Every judged ray with a kernel was blocked: judged with the 95 %
+        // bound on the visibility, like a point-approximation link.
+        out.uncertain = true;
+        double bound = 1.0 - std::pow(0.05, 1.0 / std::max(1, judged.cast));
+        out.judgedF = s.area * bound * judged.k / n;
+        out.judged = bound;
+        out.relativeError = 1.0;
+    }
+    out.Fupper = gap > 0 ? s.area / (kPi * gap * gap) : 3.0e38;
     return out;
 }
 

@@ -40,11 +40,44 @@
 // cluster links only for well-separated clusters. A cluster holding a single
 // surface is that surface and is opened at once.
 //
+// Near cluster pairs (cluster.near = sample; experimental, off by default).
+// Two clusters whose spheres are apart but closer than `separation` need not
+// be opened: their transfer is estimated by Monte Carlo integration of the
+// kernel with visibility,
+//     P = A_r A_s E[ cos_x+ cos_y+ V(x, y) / (pi |x - y|^2) ],
+// x and y drawn uniformly by area on the surfaces below each node (an
+// unbiased estimate of the power exchanged per unit uniform sender radiosity,
+// whatever the distance, since no direction is assumed), and stored as the K
+// that the gather and the oriented push turn back into that power: K = P / A_r
+// for an isotropic receiver, K = P / (A_r E[cos+(n_x, u)]) for an oriented
+// receiving cluster (u towards the sender's centroid), whose push hands each
+// surface K cos_k+(u). Two independent estimates again (judged, carried); the
+// judged one's error bound (two standard errors) travels with the link
+// (Link::uncertainty), and refinement opens the link when the power it may
+// carry wrongly exceeds the oracle's eps times the emitted power. Estimates
+// the model cannot use are opened instead (sampledLink: light arriving on
+// receiver surfaces that face away from the sender's centroid, a transfer
+// above 1, an error bound above the estimate).
+// Why it is off by default: K is geometric (uniform sender radiosity), but
+// the gather multiplies it by the sender's radiosity towards the receiver,
+// and in lit rooms the surfaces of a near sender that see the receiver are
+// brighter than that estimate: measured against the unclustered solve (bfa,
+// eps 1e-3, reflected power, green) office:3 and office:4 lose 1.9 % and
+// 1.7 % (cluster.near = open: -0.6 % and -0.4 %), for 40-45 % fewer links;
+// with 512 rays per estimate the loss stays, so it is the model, not the
+// noise (papers/README.md, "Clustering accuracy").
+//
 // Settings (Params keys):
 //   cluster.vis_rays    int     8    visibility rays per estimate for links that
 //                                     touch a cluster (two independent estimates)
 //   cluster.separation  double  1.5  cluster-cluster links need a centroid distance
 //                                     above this times the sum of the bounding radii
+//                                     for the point approximation
+//   cluster.near        string  "open"  near cluster pairs (spheres apart, closer
+//                                     than `separation`): open (always opened) | sample
+//                                     (Monte Carlo transfer, above; experimental)
+//   cluster.near_rays   int     32   rays per estimate of a sampled near link (two
+//                                     estimates per link)
 #pragma once
 
 #include <cstdint>
@@ -54,6 +87,7 @@
 #include "cluster/transfer.h"
 #include "cluster/tree.h"
 #include "core/params.h"
+#include "core/rng.h"
 #include "core/types.h"
 #include "scene/element.h"
 #include "scene/scene.h"
@@ -84,6 +118,8 @@ enum class Opening : uint8_t { None, Receiver, Sender, Both };
 struct ClusterLinkSettings {
     int visRays = 8;
     double separation = 1.5;
+    bool sampleNear = false;
+    int nearRays = 32;
     static ClusterLinkSettings fromParams(const Params& p);
     std::string describe() const;
 };
@@ -97,6 +133,13 @@ struct ClusterLink {
     bool partial = false;    ///< some, not all, judged rays blocked
     bool uncertain = false;  ///< all judged rays blocked
     uint32_t rays = 0;
+    /// Near pair estimated by Monte Carlo (see above): `judgedF` is the judged
+    /// estimate of the power per unit receiver area and unit sender radiosity
+    /// (receiver factor included), `relativeError` twice its relative standard
+    /// error, and `judged` the judged visibility fraction.
+    bool sampled = false;
+    double judgedF = 0.0;
+    double relativeError = 0.0;
 };
 
 class ClusterLinker {
@@ -130,6 +173,11 @@ class ClusterLinker {
     const ClusterLinkSettings& settings() const { return s_; }
 
   private:
+    /// Monte Carlo transfer of a near pair (cluster.near = sample).
+    ClusterLink sampledLink(const LinkEnd& r, const LinkEnd& s) const;
+    /// A uniform point (by area) on the surfaces below e; `patch` its patch.
+    Vec3 uniformPoint(const LinkEnd& e, Pcg32& rng, uint32_t& patch) const;
+
     const scene::Scene* scene_;
     const ClusterTree* tree_;
     ClusterModel model_;

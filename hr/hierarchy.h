@@ -41,8 +41,10 @@ struct Link {
     /// cluster it is the estimate the oracle judges with, from rays
     /// independent of those in K (hr/solver.h).
     uint16_t visibility = 0;
-    uint8_t flags = 0;         ///< kPartial | kOpen | kUncertain
-    uint8_t reserved = 0;
+    uint8_t flags = 0;         ///< kPartial | kOpen | kUncertain | kSampled
+    /// kSampled links: twice the relative standard error of the judged
+    /// transfer, in percent, rounded up (255: 2.55 or more).
+    uint8_t uncertainty = 0;
 
     static constexpr uint8_t kPartial = 1;
     /// A cluster link whose point approximation is not valid (a self-link,
@@ -55,6 +57,10 @@ struct Link {
     /// with the unoccluded transfer times a bound on the visibility
     /// (HrSolver::linkEstimate), instead of being dropped.
     static constexpr uint8_t kUncertain = 4;
+    /// A near cluster pair whose transfer is a Monte Carlo estimate
+    /// (cluster/link.h): Fupper holds the judged estimate of F (receiver
+    /// factor included) instead of a bound, `uncertainty` its error.
+    static constexpr uint8_t kSampled = 8;
 
     double vis() const { return visibility / 65535.0; }
     void setVis(double v) {

@@ -161,11 +161,23 @@ Link HrSolver::makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint3
     l.K = float(c.K);
     l.Fupper = float(std::min(c.Fupper, 3.0e38));
     l.setVis(c.judged);
+    if (c.sampled) {
+        l.flags |= Link::kSampled;
+        l.Fupper = float(c.judgedF);
+        l.uncertainty = uint8_t(std::min(255.0, std::ceil(100.0 * c.relativeError)));
+    }
     return l;
 }
 
 void HrSolver::fillBounds(const Hierarchy& h, uint32_t r, const Link& l,
                           oracles::LinkEstimate& e) const {
+    if (l.flags & Link::kSampled) {
+        // The sampled transfer's error bound (twice its standard error).
+        double rel = l.uncertainty / 100.0;
+        e.Fmin = std::max(0.0, e.F * (1.0 - rel));
+        e.Fmax = e.F * (1.0 + rel);
+        return;
+    }
     if (e.receiverIsCluster || e.senderIsCluster) {
         // The point approximation of a cluster transfer has no receiver
         // points: use the widest interval the link knows, [0, upper bound].
@@ -264,7 +276,14 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
     e.unoccludedF = v > 0 ? l.K / v : l.K;
     e.Fupper = l.Fupper;
     e.partialVisibility = (l.flags & Link::kPartial) != 0;
-    if (h.isCluster(r) || h.isCluster(s)) {
+    if (l.flags & Link::kSampled) {
+        // A near cluster pair estimated by sampling (cluster/link.h): the
+        // judged estimate, receiver factor included, and its error bound.
+        e.F = l.Fupper;
+        e.unoccludedF = v > 0 ? e.F / v : e.F;
+        e.Fupper = e.F * (1.0 + l.uncertainty / 100.0);
+        e.partialVisibility = (l.flags & (Link::kPartial | Link::kUncertain)) != 0;
+    } else if (h.isCluster(r) || h.isCluster(s)) {
         // A link touching a cluster is judged with its own visibility
         // estimate (Link::visibility), independent of the one in K
         // (makeClusterLink), times the unoccluded point approximation.
@@ -298,7 +317,8 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
     e.senderSpread = senderSpread(h, r, s);
     e.receiverIsCluster = h.isCluster(r);
     e.senderIsCluster = h.isCluster(s);
-    if (e.receiverIsCluster && h.clusterModel() == cluster::ClusterModel::Oriented) {
+    if (e.receiverIsCluster && h.clusterModel() == cluster::ClusterModel::Oriented &&
+        !(l.flags & Link::kSampled)) {
         // The link stores K without the receiver's projected-area
         // fraction (applied per surface when pushing).
         Vec3 u = h.center(s) - h.center(r);
@@ -354,8 +374,8 @@ double HrSolver::estimateError(const Hierarchy& h) const {
     return reflected > 0 ? sum / reflected : 0.0;
 }
 
-uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
-                          IterationRecord& rec) {
+uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double eps,
+                          HrResult& res, IterationRecord& rec) {
     std::vector<uint32_t> recv = h.linkReceivers();
     std::vector<Link> pending = h.links();
     std::vector<uint32_t> finalRecv;
@@ -417,6 +437,14 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
                         e.linkDeviation * std::max<uint32_t>(1, e.receiverLinks) >=
                             e.receiverDeviation)
                         d = oracles::constrain(Decision::RefineReceiver, e);
+                    // A sampled near cluster link the oracle accepts must also
+                    // be known well enough: the power it may carry wrongly
+                    // (its error bound) within the oracle's eps share.
+                    if (d == Decision::Accept && (l.flags & Link::kSampled) && eps > 0 &&
+                        maxComponent(e.receiverRho * e.senderB) * e.F *
+                                (l.uncertainty / 100.0) * e.receiverArea >
+                            eps * e.emittedPower)
+                        d = forcedDecision(h, r, s);
                     decision[i] = uint8_t(d);
                 }
             });
@@ -571,7 +599,7 @@ HrResult HrSolver::solve(bool progress) {
             rec.stage = int(stage);
             rec.eps = stages[stage];
             Timer tr;
-            rec.refinedLinks = refine(h, *oracle, res, rec);
+            rec.refinedLinks = refine(h, *oracle, stages[stage], res, rec);
             rec.refineSeconds = tr.seconds();
             Timer tg;
             h.gather();

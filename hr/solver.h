@@ -213,7 +213,9 @@ class HrSolver {
                                                const std::vector<Link>& links) const;
     void initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vector<Link>& links,
                       HrResult& res, bool progress);
-    uint64_t refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
+    /// One refinement pass; `eps` is the stage's oracle eps (NaN: none),
+    /// against which sampled near cluster links' errors are checked.
+    uint64_t refine(Hierarchy& h, const oracles::Oracle& oracle, double eps, HrResult& res,
                     IterationRecord& rec);
     Link makeLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
     Link makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;

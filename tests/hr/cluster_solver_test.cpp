@@ -225,9 +225,12 @@ TEST(ClusterTransfer, OrientedKeepsTheLightOfTheUnclusteredSolve) {
 // radii apart carried 15-19 % too little unoccluded transfer (the point
 // approximation along the centroid direction), and cluster links'
 // visibility, a plain fraction of area-sampled rays, came out low (hr/solver.h).
-// With cluster.separation 1.5 and power-sampled, kernel-weighted visibility:
-// 404.57 (-0.30 %). The unclustered powers (bfa, eps 1e-3; a 4 s solve) are
-// stored here; 1.5 % fails the old loss with margin for sampling changes.
+// With cluster.separation 1.5 and power-sampled, kernel-weighted visibility
+// it was -0.3 %. The unclustered powers (bfa, eps 1e-3; a 4 s solve) are
+// stored here, re-measured after surface links' visibility became
+// kernel-weighted (transport/formfactor.cpp), which brightened the
+// unclustered solve by 1.4 %: against the old constants a clustered solve
+// 1 % dark passed. Oriented: 506.09 / 410.09 / 290.47 (-0.3 %).
 TEST(ClusterTransfer, OrientedKeepsTheLightOnOffice3) {
     scene::Scene s = scene::loadScene("office:3");
     transport::Visibility vis(s);
@@ -238,12 +241,12 @@ TEST(ClusterTransfer, OrientedKeepsTheLightOnOffice3) {
     HrResult r = solver.solve();
     EXPECT_TRUE(r.converged);
     RGB oriented = r.hierarchy->radiosityPower();
-    const double none[3] = {498.822, 405.788, 288.597};  // cluster.model = none
+    const double none[3] = {507.663, 411.551, 291.521};  // cluster.model = none
     for (int c = 0; c < 3; ++c) {
         double rel = (oriented[c] - none[c]) / none[c];
         std::cout << "channel " << c << ": none " << none[c] << ", oriented " << oriented[c]
                   << " (" << 100 * rel << " %)\n";
-        EXPECT_LT(std::fabs(rel), 0.015) << "channel " << c;
+        EXPECT_LT(std::fabs(rel), 0.01) << "channel " << c;
     }
 }
 

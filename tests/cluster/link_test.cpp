@@ -1,0 +1,118 @@
+// Cluster links (cluster/link.h): validity and the sampled transfer of near
+// cluster pairs against a closed form.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "cluster/link.h"
+#include "tests/scenes.h"
+#include "transport/formfactor.h"
+#include "transport/visibility.h"
+
+using namespace hrad;
+using namespace hrad::cluster;
+
+namespace {
+/// Two directly opposed unit squares at distance d, each made of two
+/// half-quads, so that each is a leaf cluster of two patches (leaf_size 2).
+scene::Scene opposedSquares(double d) {
+    scene::Scene s;
+    s.name = "opposed-squares";
+    uint32_t m = s.addMaterial({"grey", RGB(0.5), RGB(0.0)});
+    for (int half = 0; half < 2; ++half) {
+        double x0 = 0.5 * half, x1 = x0 + 0.5;
+        test::addQuadFacing(s, Vec3(x0, 0, 0), Vec3(x1, 0, 0), Vec3(x1, 1, 0), Vec3(x0, 1, 0), m,
+                            Vec3(0.5, 0.5, d));
+        test::addQuadFacing(s, Vec3(x0, 0, d), Vec3(x1, 0, d), Vec3(x1, 1, d), Vec3(x0, 1, d), m,
+                            Vec3(0.5, 0.5, 0));
+    }
+    return s;
+}
+
+LinkEnd clusterEnd(const ClusterTree& t, uint32_t c) {
+    LinkEnd e;
+    e.isCluster = true;
+    e.cluster = c;
+    e.center = t.node(c).centroid;
+    e.radius = t.node(c).radius;
+    e.area = t.node(c).area;
+    e.stableId = 1000 + c;
+    return e;
+}
+}  // namespace
+
+// Spheres apart (d 1.8 > 2 x 0.707) but closer than 1.5 x their sum: the
+// point approximation is not valid there, so the pair is opened by default,
+// and with cluster.near = sample its Monte Carlo transfer matches the closed
+// form of opposed rectangles within its own error bound.
+TEST(ClusterLink, NearPairSampledTransferMatchesClosedForm) {
+    const double d = 1.8;
+    scene::Scene s = opposedSquares(d);
+    transport::Visibility vis(s);
+    ClusterSettings cs;
+    cs.leafSize = 2;
+    ClusterTree tree(s, cs);
+    ASSERT_EQ(tree.node(0).childCount, 2u);
+    uint32_t a = tree.child(0, 0), b = tree.child(0, 1);
+    // Each child holds one square (both patches at the same height).
+    for (uint32_t c : {a, b}) {
+        const auto& n = tree.node(c);
+        ASSERT_EQ(n.patchEnd - n.patchBegin, 2u);
+        EXPECT_DOUBLE_EQ(s.patches[tree.patchAt(n.patchBegin)].v[0].z,
+                         s.patches[tree.patchAt(n.patchBegin + 1)].v[0].z);
+    }
+    LinkEnd r = clusterEnd(tree, a), snd = clusterEnd(tree, b);
+    const double exact = transport::parallelRectangles(1.0, 1.0, d);
+    const std::vector<RGB> rootB(s.patches.size(), RGB(1.0));
+
+    ClusterLinkSettings open;
+    ClusterLinker byDefault(s, &tree, ClusterModel::Oriented, &vis, open);
+    EXPECT_NE(byDefault.link(r, snd, rootB).open, Opening::None);
+
+    // The point approximation along the centroid direction, had the pair
+    // been accepted (separation 1), for comparison.
+    ClusterLinkSettings loose;
+    loose.separation = 1.0;
+    ClusterLinker point(s, &tree, ClusterModel::Oriented, &vis, loose);
+    double pointK = point.kernel(r, snd);
+
+    for (ClusterModel model : {ClusterModel::Oriented, ClusterModel::Isotropic}) {
+        ClusterLinkSettings near;
+        near.sampleNear = true;
+        near.nearRays = 4096;
+        ClusterLinker linker(s, &tree, model, &vis, near);
+        ClusterLink l = linker.link(r, snd, rootB);
+        ASSERT_EQ(l.open, Opening::None);
+        ASSERT_TRUE(l.sampled);
+        EXPECT_FALSE(l.partial);
+        EXPECT_EQ(l.rays, 2u * 4096u);  // every pair faces: all rays cast
+        // K is F_rs (both squares face each other squarely: E[cos+] = 1).
+        double bound = 0.5 * l.relativeError * exact;  // one standard error
+        std::cout << clusterModelName(model) << ": sampled K " << l.K << ", judged " << l.judgedF
+                  << ", exact " << exact << " (+-" << bound << "), point approximation "
+                  << pointK << "\n";
+        EXPECT_GT(l.relativeError, 0.0);
+        EXPECT_LT(l.relativeError, 0.1);
+        EXPECT_NEAR(l.K, exact, 4 * bound);
+        EXPECT_NEAR(l.judgedF, exact, 4 * bound);
+    }
+    // What the sampling removes: the point approximation is 20 % high here.
+    EXPECT_GT(std::fabs(pointK - exact), 0.05 * exact);
+}
+
+// A cluster holding a single surface is that surface: opened at once.
+TEST(ClusterLink, SingleSurfaceClusterIsOpened) {
+    scene::Scene s = opposedSquares(5.0);
+    transport::Visibility vis(s);
+    ClusterSettings cs;
+    cs.leafSize = 2;
+    ClusterTree tree(s, cs);
+    ClusterLinker linker(s, &tree, ClusterModel::Oriented, &vis, ClusterLinkSettings{});
+    LinkEnd r = clusterEnd(tree, tree.child(0, 0)), snd = clusterEnd(tree, tree.child(0, 1));
+    const std::vector<RGB> rootB(s.patches.size(), RGB(1.0));
+    EXPECT_EQ(linker.link(r, snd, rootB).open, Opening::None);  // far apart: valid
+    r.singleSurface = true;
+    EXPECT_EQ(linker.link(r, snd, rootB).open, Opening::Receiver);
+    snd.singleSurface = true;
+    EXPECT_EQ(linker.link(r, snd, rootB).open, Opening::Both);
+}
