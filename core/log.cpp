@@ -48,14 +48,18 @@ void ProgressBar::done() {
 void ProgressBar::draw(uint64_t current, bool final) {
     double frac = total_ ? std::min(1.0, double(current) / double(total_)) : 1.0;
     double t = timer_.seconds();
+    // Time left, extrapolated from the rate so far once 1 % is done.
+    char left[32] = "";
+    if (!final && frac >= 0.01 && frac < 1.0)
+        std::snprintf(left, sizeof left, ", %.0fs left", t * (1.0 - frac) / frac);
     if (tty_) {
         int width = 30, filled = int(frac * width);
         std::string bar(filled, '#');
         bar.resize(width, '.');
-        std::fprintf(stderr, "\r%-24s [%s] %5.1f%% %7.1fs%s", title_.c_str(), bar.c_str(),
-                     100.0 * frac, t, final ? "\n" : "");
+        std::fprintf(stderr, "\r%-24s [%s] %5.1f%% %7.1fs%-14s%s", title_.c_str(), bar.c_str(),
+                     100.0 * frac, t, left, final ? "\n" : "");
     } else {
-        std::fprintf(stderr, "%s: %.1f%% (%.1fs)\n", title_.c_str(), 100.0 * frac, t);
+        std::fprintf(stderr, "%s: %.1f%% (%.1fs%s)\n", title_.c_str(), 100.0 * frac, t, left);
     }
     std::fflush(stderr);
 }

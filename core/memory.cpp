@@ -1,5 +1,7 @@
 #include "core/memory.h"
 
+#include <unistd.h>
+
 #include <cstdio>
 #include <cstring>
 
@@ -28,6 +30,11 @@ uint64_t readStatusField(const char* field) {
 
 uint64_t peakRssBytes() { return readStatusField("VmHWM"); }
 uint64_t currentRssBytes() { return readStatusField("VmRSS"); }
+
+uint64_t physicalMemoryBytes() {
+    long pages = sysconf(_SC_PHYS_PAGES), size = sysconf(_SC_PAGESIZE);
+    return pages > 0 && size > 0 ? uint64_t(pages) * uint64_t(size) : 0;
+}
 
 std::string formatBytes(uint64_t bytes) {
     const char* units[] = {"B", "KiB", "MiB", "GiB", "TiB"};

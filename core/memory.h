@@ -35,6 +35,8 @@ class MemoryCounters {
 uint64_t peakRssBytes();
 /// Current resident set size in bytes (VmRSS), 0 if unknown.
 uint64_t currentRssBytes();
+/// Physical memory of the machine in bytes (sysconf), 0 if unknown.
+uint64_t physicalMemoryBytes();
 /// "12.3 MiB" style formatting.
 std::string formatBytes(uint64_t bytes);
 

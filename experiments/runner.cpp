@@ -297,6 +297,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         summary["converged"] = hrRes.converged;
         summary["residual"] = hrRes.history.empty() ? json(nullptr) : json(hrRes.history.back().residual);
         summary["link_cap_hit"] = hrRes.linkCapHit;
+        summary["memory_budget_hit"] = hrRes.memoryBudgetHit;
         summary["min_area"] = hrRes.minArea;
         summary["error_estimate"] = hrRes.errorEstimate;
         summary["counts"] = json{{"elements", h.numElements()},

@@ -73,6 +73,9 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.minIterations = int(p.getInt("hr.min_iterations", s.minIterations, 1, 1000000));
     s.tolerance = p.getDouble("hr.tolerance", s.tolerance, 0.0, 1.0, true);
     s.maxLinks = uint64_t(p.getInt("hr.max_links", int64_t(s.maxLinks), 1, int64_t(1) << 40));
+    int64_t budgetMb = p.getInt("memory.budget_mb", 0, 0, int64_t(1) << 30);
+    s.memoryBudget = budgetMb > 0 ? uint64_t(budgetMb) << 20
+                                  : uint64_t(0.8 * double(physicalMemoryBytes()));
     s.ff = transport::FormFactorSettings::fromParams(p, "ff");
     s.clusterModel = cluster::parseClusterModel(
         p.getEnum("cluster.model", "auto", cluster::clusterModelNames()));
@@ -383,6 +386,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
     finalRecv.reserve(pending.size());
     finalLinks.reserve(pending.size());
     uint64_t refined = 0;
+    int round = 0;
     std::vector<uint8_t> decision;
     std::vector<uint8_t> mark;
     const bool bounds = oracle.needsBounds();
@@ -475,6 +479,34 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         }
         newCount = offset[n];
         if (newCount == 0) break;
+        // Memory budget, checked before allocating the round: the hierarchy
+        // as it is, the links of this round and of the next one, and the
+        // elements the marked ones will add. Past it, the links still to be
+        // refined are kept as they are (a coarser solution, flagged).
+        if (s_.memoryBudget > 0) {
+            uint64_t marked = 0;
+            for (uint8_t m : mark) marked += m;
+            uint64_t perLink = sizeof(Link) + sizeof(uint32_t) + (aggregate ? sizeof(KernelSamples) : 0);
+            uint64_t perElement = h.numElements() ? h.elementBytes() / h.numElements() : 64;
+            uint64_t estimate = h.elementBytes() + h.linkBytes() +
+                                (finalLinks.size() + n + newCount) * perLink +
+                                4 * marked * perElement;
+            if (estimate > s_.memoryBudget) {
+                if (!res.memoryBudgetHit)
+                    spdlog::warn(
+                        "memory.budget_mb = {} reached (refinement would need about {}): "
+                        "refinement stops here; the solution is coarser than the oracle asks",
+                        s_.memoryBudget >> 20, formatBytes(estimate));
+                res.memoryBudgetHit = true;
+                for (size_t i = 0; i < n; ++i) {
+                    if (Decision(decision[i]) == Decision::Accept) continue;
+                    finalRecv.push_back(recv[i]);
+                    finalLinks.push_back(pending[i]);
+                    if (aggregate) finalS.push_back(pendingS[i]);
+                }
+                break;
+            }
+        }
         for (uint32_t e = 0; e < uint32_t(mark.size()); ++e)
             if (mark[e]) h.subdivide(e);
 
@@ -484,6 +516,11 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         std::vector<Link> nlinks(newCount);
         std::vector<KernelSamples> nS(aggregate ? newCount : 0);
         std::atomic<uint64_t> rays{0};
+        // Each round of a large first refinement can take minutes: its own
+        // progress bar (drawn only past a second) with the time left.
+        ++round;
+        ProgressBar bar(fmt::format("iter {} round {}: {} links", rec.iteration, round, newCount),
+                        n, progress_);
         tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 64), [&](const auto& range) {
             uint64_t localRays = 0;
             for (size_t i = range.begin(); i != range.end(); ++i) {
@@ -511,7 +548,9 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                 }
             }
             rays += localRays;
+            bar.add(range.size());
         });
+        bar.done();
         rec.rays += rays;
         rec.formFactors += newCount;
         // Drop links that carry nothing (back-facing or fully occluded pairs).
@@ -542,6 +581,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
 }
 
 HrResult HrSolver::solve(bool progress) {
+    progress_ = progress;
     HrResult res;
     res.minArea = minArea_;
     if (s_.clusterModel == cluster::ClusterModel::Auto) {

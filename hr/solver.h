@@ -31,6 +31,12 @@
 //   hr.min_iterations  int     2       iterations before convergence may be declared
 //   hr.tolerance       double  1e-4    relative change of reflected power to stop
 //   hr.max_links       int     2e8     refinement stops (with a warning) past this many links
+//   memory.budget_mb   int     0       refinement stops (with a warning, and
+//                                       summary memory_budget_hit) before a round whose
+//                                       links and elements would take more than this many
+//                                       MiB (estimated from their sizes before allocating);
+//                                       the solve then finishes on the coarser hierarchy.
+//                                       0: 80 % of the machine's physical memory
 //   ff.*                               form-factor settings (transport/formfactor.h)
 //   hr.receiver_eps    double  0       receiver check for oracles that do not read the
 //                                       receiver aggregate themselves (bfa, ff): a link the
@@ -105,6 +111,7 @@ struct HrSettings {
     int minIterations = 2;
     double tolerance = 1e-4;
     uint64_t maxLinks = 200'000'000;
+    uint64_t memoryBudget = 0;  ///< bytes (memory.budget_mb; 0 resolved to 80 % of RAM)
     transport::FormFactorSettings ff;
     cluster::ClusterModel clusterModel = cluster::ClusterModel::Auto;
     cluster::ClusterSettings cluster;
@@ -147,6 +154,7 @@ struct HrResult {
     std::string oracleDescription;
     bool converged = false;
     bool linkCapHit = false;
+    bool memoryBudgetHit = false;  ///< refinement stopped at memory.budget_mb
     uint64_t initialLinks = 0;
     uint64_t initialPairs = 0;  ///< node pairs evaluated by initial linking (k(k-1) without clusters)
     std::unique_ptr<cluster::ClusterTree> clusterTree;
@@ -239,6 +247,7 @@ class HrSolver {
     double emittedPower_ = 1.0;
     double emittedRadiosity_ = 1.0;  ///< largest max-channel emission of any patch
     IterationHook hook_;
+    bool progress_ = false;  ///< progress bars on stderr (solve's argument)
     std::unique_ptr<cluster::ClusterLinker> linker_;  ///< made by solve() with the tree
 };
 

@@ -6,6 +6,7 @@
 #include <tbb/global_control.h>
 
 #include "hr/solver.h"
+#include "scene/loader.h"
 #include "tests/hr/settings.h"
 #include "tests/scenes.h"
 
@@ -250,5 +251,35 @@ TEST(HrSolver, EpsScheduleRunsEachStage) {
             prevStage = rec.stage;
         }
         prev = rec.links;
+    }
+}
+
+// memory.budget_mb: refinement stops before a round that would pass the
+// budget, with the links it has, and the solve finishes on that coarser
+// hierarchy (flagged) instead of growing until the kernel kills it.
+TEST(HrSolver, MemoryBudgetStopsRefinementWithACoarserSolution) {
+    scene::Scene s = scene::loadScene("office:2");
+    transport::Visibility vis(s);
+    auto run = [&](int64_t budgetMb) {
+        Params p;
+        p.set("cluster.model", std::string("oriented"));
+        p.set("oracle.eps", 1e-4);
+        if (budgetMb > 0) p.set("memory.budget_mb", budgetMb);
+        HrSolver solver(s, vis, HrSettings::fromParams(p));
+        return solver.solve();
+    };
+    HrResult full = run(0), capped = run(1);
+    EXPECT_FALSE(full.memoryBudgetHit);
+    EXPECT_TRUE(capped.memoryBudgetHit);
+    uint64_t bytes = capped.hierarchy->elementBytes() + capped.hierarchy->linkBytes();
+    std::cout << "links: unlimited " << full.hierarchy->numLinks() << ", 1 MiB budget "
+              << capped.hierarchy->numLinks() << " (" << bytes << " bytes)\n";
+    EXPECT_LT(capped.hierarchy->numLinks(), full.hierarchy->numLinks());
+    EXPECT_LE(bytes, uint64_t(1) << 20);
+    // A solution, not nothing: finite, every patch at least its emission.
+    RGB power = capped.hierarchy->radiosityPower();
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_TRUE(std::isfinite(power[c]));
+        EXPECT_GE(power[c], s.emittedPower()[c]);
     }
 }
