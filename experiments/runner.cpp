@@ -298,6 +298,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         summary["residual"] = hrRes.history.empty() ? json(nullptr) : json(hrRes.history.back().residual);
         summary["link_cap_hit"] = hrRes.linkCapHit;
         summary["memory_budget_hit"] = hrRes.memoryBudgetHit;
+        summary["time_limit_hit"] = hrRes.timeLimitHit;
         summary["min_area"] = hrRes.minArea;
         summary["error_estimate"] = hrRes.errorEstimate;
         summary["counts"] = json{{"elements", h.numElements()},

@@ -19,7 +19,7 @@
 // Summary JSON (the fields of summary.json and of a results-store row):
 //   hrad_version, build_type, host, date, scene, scene_label, settings,
 //   reference_settings, scene_info{...}, solver, solver_settings, oracle,
-//   converged, link_cap_hit, memory_budget_hit, min_area,
+//   converged, link_cap_hit, memory_budget_hit, time_limit_hit, min_area,
 //   counts{elements, leaves, links, initial_links, initial_pairs, links_ss, links_sc,
 //          links_cs, links_cc (surface/cluster receiver-sender), rays, form_factors, iterations},
 //   timings{load, visibility_build, [cluster_build], linking, refine, gather,

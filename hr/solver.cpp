@@ -73,6 +73,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.minIterations = int(p.getInt("hr.min_iterations", s.minIterations, 1, 1000000));
     s.tolerance = p.getDouble("hr.tolerance", s.tolerance, 0.0, 1.0, true);
     s.maxLinks = uint64_t(p.getInt("hr.max_links", int64_t(s.maxLinks), 1, int64_t(1) << 40));
+    s.maxSeconds = p.getDouble("hr.max_seconds", s.maxSeconds, 0.0, 1e9);
     int64_t budgetMb = p.getInt("memory.budget_mb", 0, 0, int64_t(1) << 30);
     s.memoryBudget = budgetMb > 0 ? uint64_t(budgetMb) << 20
                                   : uint64_t(0.8 * double(physicalMemoryBytes()));
@@ -409,6 +410,20 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
     while (!pending.empty()) {
         size_t n = pending.size();
         decision.assign(n, 0);
+        if (outOfTime()) {
+            // hr.max_seconds: keep the pending links as they are.
+            if (!res.timeLimitHit)
+                spdlog::warn("hr.max_seconds = {} reached: refinement and iteration stop; the "
+                             "solution so far is the result",
+                             s_.maxSeconds);
+            res.timeLimitHit = true;
+            for (size_t i = 0; i < n; ++i) {
+                finalRecv.push_back(recv[i]);
+                finalLinks.push_back(pending[i]);
+                if (aggregate) finalS.push_back(pendingS[i]);
+            }
+            break;
+        }
         bool capHit = finalLinks.size() + n > s_.maxLinks;
         if (capHit && !res.linkCapHit) {
             res.linkCapHit = true;
@@ -582,6 +597,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
 
 HrResult HrSolver::solve(bool progress) {
     progress_ = progress;
+    solveTimer_.reset();
     HrResult res;
     res.minArea = minArea_;
     if (s_.clusterModel == cluster::ClusterModel::Auto) {
@@ -701,8 +717,17 @@ HrResult HrSolver::solve(bool progress) {
                 stageConverged = true;
                 break;
             }
+            if (outOfTime()) {
+                if (!res.timeLimitHit)
+                    spdlog::warn("hr.max_seconds = {} reached after iteration {}: the solution so "
+                                 "far is the result",
+                                 s_.maxSeconds, rec.iteration);
+                res.timeLimitHit = true;
+                break;
+            }
         }
-        res.converged = stageConverged;
+        res.converged = stageConverged && !res.timeLimitHit;
+        if (res.timeLimitHit) break;
     }
     res.field = std::make_unique<HierarchyField>(h);
     Timer te;

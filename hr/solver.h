@@ -31,6 +31,10 @@
 //   hr.min_iterations  int     2       iterations before convergence may be declared
 //   hr.tolerance       double  1e-4    relative change of reflected power to stop
 //   hr.max_links       int     2e8     refinement stops (with a warning) past this many links
+//   hr.max_seconds     double  0       wall-clock limit of the solve (0: none): refinement
+//                                       stops at the next round and iterating after the
+//                                       current iteration; the solution so far is the
+//                                       result (summary time_limit_hit, converged false)
 //   memory.budget_mb   int     0       refinement stops (with a warning, and
 //                                       summary memory_budget_hit) before a round whose
 //                                       links and elements would take more than this many
@@ -92,6 +96,7 @@
 #include "cluster/tree.h"
 #include "core/memory.h"
 #include "core/params.h"
+#include "core/timer.h"
 #include "hr/hierarchy.h"
 #include "oracles/oracle.h"
 #include "scene/scene.h"
@@ -111,6 +116,7 @@ struct HrSettings {
     int minIterations = 2;
     double tolerance = 1e-4;
     uint64_t maxLinks = 200'000'000;
+    double maxSeconds = 0.0;    ///< hr.max_seconds (0: none)
     uint64_t memoryBudget = 0;  ///< bytes (memory.budget_mb; 0 resolved to 80 % of RAM)
     transport::FormFactorSettings ff;
     cluster::ClusterModel clusterModel = cluster::ClusterModel::Auto;
@@ -155,6 +161,7 @@ struct HrResult {
     bool converged = false;
     bool linkCapHit = false;
     bool memoryBudgetHit = false;  ///< refinement stopped at memory.budget_mb
+    bool timeLimitHit = false;     ///< stopped at hr.max_seconds
     uint64_t initialLinks = 0;
     uint64_t initialPairs = 0;  ///< node pairs evaluated by initial linking (k(k-1) without clusters)
     std::unique_ptr<cluster::ClusterTree> clusterTree;
@@ -248,6 +255,8 @@ class HrSolver {
     double emittedRadiosity_ = 1.0;  ///< largest max-channel emission of any patch
     IterationHook hook_;
     bool progress_ = false;  ///< progress bars on stderr (solve's argument)
+    Timer solveTimer_;       ///< started by solve() (hr.max_seconds)
+    bool outOfTime() const { return s_.maxSeconds > 0 && solveTimer_.seconds() > s_.maxSeconds; }
     std::unique_ptr<cluster::ClusterLinker> linker_;  ///< made by solve() with the tree
 };
 

@@ -283,3 +283,26 @@ TEST(HrSolver, MemoryBudgetStopsRefinementWithACoarserSolution) {
         EXPECT_GE(power[c], s.emittedPower()[c]);
     }
 }
+
+// hr.max_seconds: past the limit, refinement and iteration stop and the
+// solution so far is the result, flagged (a limit of a microsecond is hit by
+// any solve, so the test does not depend on the machine's speed).
+TEST(HrSolver, TimeLimitKeepsTheSolutionSoFar) {
+    scene::Scene s = test::closedRoom();
+    transport::Visibility vis(s);
+    Params p;
+    p.set("oracle.eps", 1e-4);
+    p.set("hr.max_seconds", 1e-6);
+    HrSolver solver(s, vis, HrSettings::fromParams(p));
+    HrResult r = solver.solve();
+    EXPECT_TRUE(r.timeLimitHit);
+    EXPECT_FALSE(r.converged);
+    EXPECT_EQ(r.history.size(), 1u);
+    ASSERT_NE(r.field, nullptr);
+    // The unrefined initial links were gathered once: light, finite.
+    RGB power = r.hierarchy->radiosityPower();
+    for (int c = 0; c < 3; ++c) {
+        EXPECT_TRUE(std::isfinite(power[c]));
+        EXPECT_GT(power[c], s.emittedPower()[c]);
+    }
+}
