@@ -294,6 +294,24 @@ void Hierarchy::pushPull() {
             clusterDown[c] = gathered_[np + c] + (parent == kNone ? RGB(0.0) : clusterDown[parent - np]);
         }
     }
+    // What each link into a cluster sends, K times the sender's radiosity
+    // towards that cluster, once per link rather than once per patch below
+    // it (directionalB evaluates the sender's radiant moments).
+    std::vector<glm::vec3> sent;
+    if (nc && model_ == cluster::ClusterModel::Oriented) {
+        sent.resize(clusterLinkDir_.size());
+        tbb::parallel_for(tbb::blocked_range<uint32_t>(np, np + nc, 16), [&](const auto& range) {
+            for (uint32_t c = range.begin(); c != range.end(); ++c)
+                for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i)
+                    // The sender sends what its surfaces facing this cluster
+                    // carry (directionalB), as in gather(): with the mean B a
+                    // sender cluster holding an emitter and surfaces facing
+                    // elsewhere would send its average.
+                    sent[i - clusterLinkBase_] = glm::vec3(
+                        double(links_[i].K) *
+                        directionalB(links_[i].sender, -Vec3(clusterLinkDir_[i - clusterLinkBase_])));
+        });
+    }
     auto fromClusters = [&](uint32_t root) {
         if (!nc) return RGB(0.0);
         const scene::Patch& P = scene_->patches[root];
@@ -305,14 +323,7 @@ void Hierarchy::pushPull() {
             for (uint32_t c = parent_[root]; c != kNone; c = parent_[c]) {
                 for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i) {
                     double cosine = glm::dot(n, clusterLinkDir_[i - clusterLinkBase_]);
-                    // The sender sends what its surfaces facing this
-                    // cluster carry (directionalB), as in gather(): with
-                    // the mean B a sender cluster holding an emitter and
-                    // surfaces facing elsewhere would send its average.
-                    if (cosine > 0)
-                        h += double(links_[i].K) * cosine *
-                             directionalB(links_[i].sender,
-                                          -Vec3(clusterLinkDir_[i - clusterLinkBase_]));
+                    if (cosine > 0) h += cosine * RGB(sent[i - clusterLinkBase_]);
                 }
             }
         }
