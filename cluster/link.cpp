@@ -13,15 +13,18 @@ ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
     ClusterLinkSettings s;
     s.visRays = int(p.getInt("cluster.vis_rays", s.visRays, 0, 1024));
     s.separation = p.getDouble("cluster.separation", s.separation, 1.0, 100.0);
+    s.surfaceSeparation =
+        p.getDouble("cluster.surface_separation", s.surfaceSeparation, 1.0, 100.0);
     s.sampleNear = p.getEnum("cluster.near", "open", {"open", "sample"}) == "sample";
     s.nearRays = int(p.getInt("cluster.near_rays", s.nearRays, 2, 4096));
     return s;
 }
 
 std::string ClusterLinkSettings::describe() const {
-    return fmt::format("cluster_vis_rays={}, cluster_separation={}, cluster_near={}, "
-                       "cluster_near_rays={}",
-                       visRays, separation, sampleNear ? "sample" : "open", nearRays);
+    return fmt::format("cluster_vis_rays={}, cluster_separation={}, "
+                       "cluster_surface_separation={}, cluster_near={}, cluster_near_rays={}",
+                       visRays, separation, surfaceSeparation, sampleNear ? "sample" : "open",
+                       nearRays);
 }
 
 ClusterLinker::ClusterLinker(const scene::Scene& scene, const ClusterTree* tree,
@@ -54,13 +57,13 @@ Opening ClusterLinker::opening(const LinkEnd& r, const LinkEnd& s) const {
     // rather than approximate the surface by a cluster model.
     bool r1 = rc && r.singleSurface, s1 = sc && s.singleSurface;
     if (r1 || s1) return r1 && s1 ? Opening::Both : r1 ? Opening::Receiver : Opening::Sender;
-    // Spheres apart (surface-cluster links, whose surface side is exact), or
-    // `separation` times further apart than touching (cluster-cluster links;
-    // measured per link against a Monte Carlo integral of the unoccluded
-    // kernel, accepted cluster pairs closer than 2 (rr + rs) carried 15-19 %
-    // too little on office:3).
+    // `separation` times further apart than touching for cluster-cluster
+    // links (measured per link against a Monte Carlo integral of the
+    // unoccluded kernel, accepted cluster pairs closer than 2 (rr + rs)
+    // carried 15-19 % too little on office:3), `surface_separation` times
+    // (default 1: spheres apart) for surface-cluster links.
     double dist = glm::length(r.center - s.center);
-    double sep = rc && sc ? s_.separation : 1.0;
+    double sep = rc && sc ? s_.separation : s_.surfaceSeparation;
     if (dist > sep * (r.radius + s.radius)) return Opening::None;
     if (rc && sc) return r.radius >= 2 * s.radius   ? Opening::Receiver
                          : s.radius >= 2 * r.radius ? Opening::Sender

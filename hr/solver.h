@@ -60,7 +60,8 @@
 //                                       clustering the solve starts from the root cluster's
 //                                       self-link instead of linking all pairs of patches
 //   cluster.builder, cluster.leaf_size, cluster.max_depth   (cluster/tree.h)
-//   cluster.vis_rays, cluster.separation   links that touch a cluster (cluster/link.h)
+//   cluster.vis_rays, cluster.separation, cluster.surface_separation, cluster.near,
+//   cluster.near_rays                  links that touch a cluster (cluster/link.h)
 //
 // Links touching a cluster are built by cluster::ClusterLinker (cluster/link.h:
 // point approximation, visibility rays, validity); surface links by
