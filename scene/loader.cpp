@@ -27,6 +27,7 @@ Scene loadScene(const std::string& spec, const Params& params) {
     MgfOptions mgf;
     mgf.resolution = int(params.getInt("mgf.resolution", mgf.resolution, 3, 4096));
     mgf.whitePoint = params.getEnum("mgf.white_point", mgf.whitePoint, {"E", "D65"});
+    mgf.maxFaces = size_t(params.getInt("mgf.max_faces", int64_t(mgf.maxFaces), 1, int64_t(1) << 40));
     ObjOptions obj;
     obj.defaultRho = params.getDouble("obj.default_rho", obj.defaultRho, 0.0, 1.0);
     if (!(obj.defaultRho < 1.0))

@@ -113,6 +113,9 @@ struct FileText {
 };
 
 std::unique_ptr<FileText> readFile(const std::string& path, const SourceLocation& from) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec))
+        throwInputError(from, "'{}' is a folder, not an MGF file", path);
     std::ifstream in(path, std::ios::binary);
     if (!in) throwInputError(from, "cannot open MGF file '{}'", path);
     auto ft = std::make_unique<FileText>();
@@ -192,7 +195,11 @@ class MgfLoader {
         scene_.source = "mgf";
         scene_.upAxis = 2;
         const FileText& ft = file(path, SourceLocation{path, 0, 0});
-        exec(ft, 0, ft.stmts.size(), Xf{}, 0);
+        exec(ft, 0, ft.stmts.size(), Xf{}, 0, 1.0);
+        if (scene_.patches.size() > opt_.maxFaces)
+            throwInputError(SourceLocation{path, 0, 0},
+                            "the scene has {} faces, more than mgf.max_faces = {}; raise the "
+                            "setting to load it", scene_.patches.size(), opt_.maxFaces);
         for (auto& [kind, where] : warned_)
             if (where.second > 1)
                 scene_.stats.warnings[where.first] += fmt::format(" ({} times in all)", where.second);
@@ -222,6 +229,7 @@ class MgfLoader {
     std::string materialName_ = "mgf_default";
     std::unordered_map<std::string, MgfVertex> vertices_;
     MgfVertex* vertex_ = nullptr;
+    size_t executed_ = 0;  ///< statements executed so far, after expansion
     std::map<std::string, std::pair<size_t, int>> warned_;  ///< kind -> (warning index, count)
 
     const FileText& file(const std::string& path, const SourceLocation& from) {
@@ -306,9 +314,14 @@ class MgfLoader {
         size_t i = first;
         int repeat = 1;           // current -i count
         std::vector<Xf> pending;  // ops since the last -i
+        // `-i N` repeats the transforms since the previous -i/-a N times: one
+        // composed transform P^N, not N copies of the list.
         auto flushRepeat = [&]() {
-            for (int r = 0; r < repeat; ++r)
-                for (const auto& o : pending) segs.back().ops.push_back(o);
+            Xf once;
+            for (const auto& o : pending) once = compose(o, once);
+            Xf all;
+            for (int r = 0; r < repeat; ++r) all = compose(once, all);
+            segs.back().ops.push_back(all);
             pending.clear();
             repeat = 1;
         };
@@ -353,6 +366,14 @@ class MgfLoader {
             pending.push_back(x);
         }
         flushRepeat();
+        // The number of array elements is the product of the -a counts: check
+        // it against mgf.max_faces before building the list.
+        double copies = 1.0;
+        for (const auto& sg : segs) copies *= sg.count;
+        if (copies > double(opt_.maxFaces))
+            fail(f, s, fmt::format("xf: the -a arrays make {:.0f} copies, more than mgf.max_faces = {} "
+                                   "(raise the setting to load it)",
+                                   copies, opt_.maxFaces));
         // Element transform = A_k^{i_k} o ... o A_1^{i_1} o B (left to right):
         // the prefix B applies once, each array segment i times for element i.
         std::vector<Xf> result(1);
@@ -376,17 +397,45 @@ class MgfLoader {
         return result;
     }
 
-    void exec(const FileText& f, size_t begin, size_t end, const Xf& xf, int depth) {
+    /// A body of `statements` statements run `copies` times executes at least
+    /// copies * statements statements: refused up front when that exceeds
+    /// mgf.max_faces (the executed-statement counter would stop it later, after
+    /// allocating up to mgf.max_faces faces).
+    void checkExpansion(const FileText& f, const Stmt& s, double copies, size_t statements) const {
+        double total = copies * double(statements);
+        if (total > double(opt_.maxFaces))
+            fail(f, s, fmt::format("'{}' expands to {} copies of {} statements ({:.3g} in all), more "
+                                   "than mgf.max_faces = {}; raise the setting to load it",
+                                   s.tok[0], copies, statements, total, opt_.maxFaces));
+    }
+
+    /// `copies`: how many times this range runs (the product of the enclosing
+    /// array counts), for the expansion bound.
+    void exec(const FileText& f, size_t begin, size_t end, const Xf& xf, int depth, double copies) {
         if (depth > 64) throwInputError(SourceLocation{f.path, 0, 0}, "include/xf nesting deeper than 64 (a cycle?)");
         for (size_t i = begin; i < end; ++i) {
             const Stmt& s = f.stmts[i];
             const std::string& k = s.tok[0];
+            // Bounded expansion: statements executed after xf/include expansion
+            // and faces made are both held to mgf.max_faces, so that nested
+            // arrays (xf -a 999999 twice: 10^12 copies) stop with an error
+            // early instead of running for hours.
+            if (++executed_ > opt_.maxFaces)
+                fail(f, s, fmt::format("xf/include expansion executes more than mgf.max_faces = {} "
+                                       "statements (nested -a/-i arrays?); raise the setting to load it",
+                                       opt_.maxFaces));
+            if (scene_.patches.size() > opt_.maxFaces)
+                fail(f, s, fmt::format("the scene has more than mgf.max_faces = {} faces; raise the "
+                                       "setting to load it", opt_.maxFaces));
             if (k == "xf") {
                 if (s.tok.size() == 1) fail(f, s, "unmatched 'xf'");  // cannot happen: matched in readFile
                 size_t close = f.xfEnd[i];
                 if (close >= f.stmts.size())
                     warnOnce("xf-eof", fmt::format("{}:{}: 'xf' context not closed before end of file", f.path, s.line));
-                for (const Xf& x : parseXf(f, s, 1)) exec(f, i + 1, std::min(close, f.stmts.size()), compose(xf, x), depth + 1);
+                size_t bodyEnd = std::min(close, f.stmts.size());
+                std::vector<Xf> list = parseXf(f, s, 1);
+                checkExpansion(f, s, copies * double(list.size()), bodyEnd - i - 1);
+                for (const Xf& x : list) exec(f, i + 1, bodyEnd, compose(xf, x), depth + 1, copies * double(list.size()));
                 i = std::min(close, f.stmts.size());
             } else if (k == "i") {
                 if (s.tok.size() < 2) fail(f, s, "'i' needs a file name");
@@ -394,9 +443,12 @@ class MgfLoader {
                 if (p.is_relative()) p = std::filesystem::path(f.path).parent_path() / p;
                 const FileText& inc = file(p.string(), SourceLocation{f.path, s.line, 0});
                 if (s.tok.size() > 2) {
-                    for (const Xf& x : parseXf(f, s, 2)) exec(inc, 0, inc.stmts.size(), compose(xf, x), depth + 1);
+                    std::vector<Xf> list = parseXf(f, s, 2);
+                    checkExpansion(f, s, copies * double(list.size()), inc.stmts.size());
+                    for (const Xf& x : list) exec(inc, 0, inc.stmts.size(), compose(xf, x), depth + 1, copies * double(list.size()));
                 } else {
-                    exec(inc, 0, inc.stmts.size(), xf, depth + 1);
+                    checkExpansion(f, s, copies, inc.stmts.size());
+                    exec(inc, 0, inc.stmts.size(), xf, depth + 1, copies);
                 }
             } else if (k == "c") {
                 colourContext(f, s);
