@@ -92,6 +92,82 @@ uint64_t fnv1a(const std::string& s, uint64_t h = 1469598103934665603ull) {
     return h;
 }
 
+/// Deepest key a study may use (dotted parts of a key or table header) and
+/// deepest nesting of arrays and inline tables. toml++ parses table headers
+/// and dotted keys recursively without a bound (a `[solver.a.a...]` header of
+/// 100,000 parts overflowed its stack), and flatten() above recurses once per
+/// level: both are safe below these bounds, which no real study approaches.
+constexpr int kMaxTomlDepth = 64;
+
+/// Refuses, with the line, TOML text whose keys or nesting are deeper than
+/// kMaxTomlDepth, before toml++ sees it. A lexical scan (TOML 1.0): strings
+/// (basic, literal, multi-line) are skipped; dots count where a key is being
+/// read (line start, after `[`, `{` or `,` in an inline table, up to `=`/`]`).
+void checkTomlDepth(const std::string& text, const std::string& file) {
+    int line = 1, nesting = 0, dots = 0;
+    bool inKey = true;       // reading a key (or a header)
+    std::vector<char> open;  // '[' (array or header) or '{'
+    auto fail = [&](const char* what) {
+        throwInputError(SourceLocation{file, line, 0}, "{} deeper than {} levels", what, kMaxTomlDepth);
+    };
+    for (size_t i = 0; i < text.size(); ++i) {
+        char c = text[i];
+        if (c == '\n') {
+            ++line;
+            // A new line starts a key unless an array value continues.
+            inKey = open.empty() || open.back() == '{';
+            dots = 0;
+            continue;
+        }
+        if (c == '#') {
+            while (i + 1 < text.size() && text[i + 1] != '\n') ++i;
+            continue;
+        }
+        if (c == '"' || c == '\'') {
+            bool multi = text.compare(i, 3, std::string(3, c)) == 0;
+            size_t j = i + (multi ? 3 : 1);
+            for (; j < text.size(); ++j) {
+                if (text[j] == '\n') {
+                    if (!multi) break;  // toml++ reports the unterminated string
+                    ++line;
+                }
+                if (c == '"' && text[j] == '\\') {
+                    if (j + 1 < text.size() && text[j + 1] == '\n') ++line;
+                    ++j;
+                    continue;
+                }
+                if (text[j] == c && (!multi || text.compare(j, 3, std::string(3, c)) == 0)) {
+                    if (multi) j += 2;
+                    break;
+                }
+            }
+            i = std::min(j, text.size() - 1);
+            if (j < text.size() && text[j] == '\n') --i;  // let the newline be counted
+            continue;
+        }
+        if (inKey && c == '.' && ++dots >= kMaxTomlDepth) fail("key or table header");
+        if (c == '=') {
+            inKey = false;
+            dots = 0;
+        } else if (c == '[' || c == '{') {
+            bool header = inKey && c == '[' && open.empty();
+            if (!header && ++nesting > kMaxTomlDepth) fail("arrays and inline tables nest");
+            open.push_back(header ? 'h' : c);
+            inKey = header || c == '{';
+            dots = 0;
+        } else if (c == ']' || c == '}') {
+            if (!open.empty()) {
+                if (open.back() != 'h') --nesting;
+                open.pop_back();
+            }
+            inKey = false;
+        } else if (c == ',' && !open.empty() && open.back() == '{') {
+            inKey = true;
+            dots = 0;
+        }
+    }
+}
+
 }  // namespace
 
 Study loadStudy(const fs::path& path) {
@@ -105,6 +181,7 @@ Study loadStudy(const fs::path& path) {
 }
 
 Study parseStudy(const std::string& text, const std::string& file, const fs::path& baseDir) {
+    checkTomlDepth(text, file);
     toml::table root;
     try {
         root = toml::parse(text, file);

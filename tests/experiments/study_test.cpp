@@ -180,6 +180,33 @@ TEST(StudyValidation, ZipOfUnequalLengthsAndKeysSetTwice) {
     EXPECT_NE(msg.find("twice"), std::string::npos) << msg;
 }
 
+// Issue 16: a table header of 100,000 parts crashed toml++ (stack overflow,
+// exit 139); at 20,000 parts flatten() overflowed under ASan. Both are now
+// refused with the line before parsing; so is deep nesting of values.
+TEST(StudyValidation, DeepKeysAndNestingAreRefusedWithTheLine) {
+    for (int parts : {100000, 20000, 65}) {
+        std::string header = "[solver";
+        for (int i = 0; i < parts; ++i) header += ".a";
+        std::string msg = errorOf("scenes = [\"furnace\"]\n# deep\n" + header + "]\nx = 1\n");
+        EXPECT_NE(msg.find("study.toml:3: error: key or table header deeper than 64"), std::string::npos)
+            << parts << ": " << msg.substr(0, 200);
+    }
+    std::string dotted = "scenes = [\"furnace\"]\n[solver]\n";
+    for (int i = 0; i < 100; ++i) dotted += "a.";
+    EXPECT_NE(errorOf(dotted + "b = 1\n").find("study.toml:3: error: key"), std::string::npos);
+    std::string nested = "scenes = [\"furnace\"]\n[sweep]\n\"hr.eps\" = " + std::string(100, '[') +
+                         std::string(100, ']') + "\n";
+    EXPECT_NE(errorOf(nested).find("study.toml:3: error: arrays and inline tables nest"), std::string::npos)
+        << errorOf(nested);
+    // Dots inside strings and numbers do not count; 60 levels is still fine.
+    std::string fine = "scenes = [\"furnace\"]  # a.b.c\n[solver]\n\"hr.eps\" = 0.01\n"
+                       "# " + std::string(200, '.') + "\n[limits]\n";
+    EXPECT_EQ(errorOf(fine + "x = '" + std::string(200, '.') + "'\n").find("deeper"), std::string::npos);
+    std::string sixty = "[solver";
+    for (int i = 0; i < 60; ++i) sixty += ".a";
+    EXPECT_EQ(errorOf("scenes = [\"furnace\"]\n" + sixty + "]\nx = 1\n").find("deeper"), std::string::npos);
+}
+
 TEST(StudyValidation, TomlSyntaxErrorHasLine) {
     std::string msg = errorOf("scenes = [\"furnace\"]\n[solver\n");
     EXPECT_NE(msg.find("study.toml:2"), std::string::npos) << msg;
