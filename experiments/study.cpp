@@ -1,6 +1,8 @@
 #include "experiments/study.h"
 
 #include <algorithm>
+#include <cctype>
+#include <tuple>
 #include <fstream>
 #include <map>
 #include <set>
@@ -57,12 +59,32 @@ void flatten(const toml::table& t, const std::string& prefix,
     }
 }
 
+}  // namespace
+
 struct Axis {
     /// Keys varied together (one for a [sweep] axis, several for a zip group).
     std::vector<std::string> keys;
     /// values[i][k]: value of keys[k] at step i, with its location.
     std::vector<std::vector<std::pair<Params::Value, SourceLocation>>> values;
 };
+
+/// A study's points, one at a time: scenes x axis_1 x ... x axis_n (the last
+/// axis varying fastest), never materialised as a whole.
+struct StudyExpansion {
+    struct Scene {
+        std::string spec, label;
+        /// Per-scene overrides, already converted to values.
+        std::vector<std::tuple<std::string, Params::Value, SourceLocation>> solver, reference;
+    };
+    std::vector<Scene> scenes;
+    Params base, baseRef;
+    OutputOptions outputs;
+    std::vector<Axis> axes;
+    uint64_t combos = 1;  ///< product of the axis lengths, saturated at UINT64_MAX
+    uint64_t count = 0;   ///< scenes x combos, saturated
+};
+
+namespace {
 
 Axis axisFromList(const std::string& key, const toml::node& n, const std::string& file,
                   const char* where) {
@@ -210,6 +232,19 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
     if (auto* n = root.get("name")) study.name = stringOf(*n, "name");
     if (auto* n = root.get("description")) study.description = stringOf(*n, "description");
     if (study.name.empty()) throwInputError(SourceLocation{file, 1, 1}, "study name is empty");
+    // The name becomes a folder (runs/<name>) and a file (results/<name>.sqlite):
+    // one plain path component, so nothing is written outside the folders the
+    // user named ("../../escaped" was).
+    {
+        SourceLocation w = root.get("name") ? loc(file, root.get("name")->source()) : SourceLocation{file, 1, 1};
+        bool plain = study.name != "." && study.name != ".." && study.name.size() <= 200;
+        for (unsigned char c : study.name) plain &= std::isalnum(c) || c == '_' || c == '-' || c == '.';
+        if (!plain)
+            throwInputError(w, "study name '{}' must be a plain file name (letters, digits, '_', '-', "
+                               "'.'; not '.' or '..'; at most 200 characters): it names the study's "
+                               "artefact folder and results store",
+                            study.name);
+    }
 
     // ---- scenes ------------------------------------------------------------------
     struct SceneEntry {
@@ -310,8 +345,17 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
             else if (k == "error_map") {
                 outputs.errorMap = getBoolNode(*n, k, file);
                 outputs.errorMapWhere = loc(file, n->source());
-            } else if (k == "dir")
+            } else if (k == "dir") {
                 outputs.dir = stringOf(*n, k);
+                // Relative to the results store's folder, and inside it.
+                fs::path d = fs::path(outputs.dir).lexically_normal();
+                bool inside = !outputs.dir.empty() && d.is_relative() && !d.has_root_name() && *d.begin() != "..";
+                if (!inside)
+                    throwInputError(loc(file, n->source()),
+                                    "'outputs.dir' = '{}' must be a relative folder inside the results "
+                                    "store's folder (no absolute path, no '..' leading out)",
+                                    outputs.dir);
+            }
             else
                 throwInputError(loc(file, n->source()),
                                 "unknown key 'outputs.{}' (expected exr, ply, solution, "
@@ -330,10 +374,18 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
                 auto v = n->value<int64_t>();
                 if (!v || *v < 0)
                     throwInputError(loc(file, n->source()), "'limits.max_memory_mb' must be an integer >= 0");
+                if (*v > (int64_t(1) << 43))
+                    throwInputError(loc(file, n->source()), "'limits.max_memory_mb' is out of range");
                 study.limits.maxMemoryBytes = uint64_t(*v) << 20;
+            } else if (k == "max_points") {
+                auto v = n->value<int64_t>();
+                if (!v || *v < 1)
+                    throwInputError(loc(file, n->source()), "'limits.max_points' must be an integer >= 1");
+                study.limits.maxPoints = uint64_t(*v);
+                study.limits.maxPointsWhere = loc(file, n->source());
             } else {
                 throwInputError(loc(file, n->source()),
-                                "unknown key 'limits.{}' (expected max_seconds, max_memory_mb)", k);
+                                "unknown key 'limits.{}' (expected max_seconds, max_memory_mb, max_points)", k);
             }
         }
     }
@@ -404,54 +456,107 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
             if (k == "scene" || k == "scenes")
                 throwInputError(a.values[0][0].second, "vary scenes with the top-level 'scenes' list");
 
-    // ---- expansion: scenes x axis_1 x ... x axis_n (last fastest) --------------------
-    size_t combos = 1;
-    for (const Axis& a : axes) combos *= a.values.size();
+    // ---- expansion: recorded, not performed (Study::point builds one point) -------
+    auto ex = std::make_shared<StudyExpansion>();
     for (const SceneEntry& se : scenes) {
-        for (size_t c = 0; c < combos; ++c) {
-            PointSpec p;
-            p.index = study.points.size();
-            p.scene = se.spec;
-            p.sceneLabel = se.label;
-            p.settings = base;
-            p.reference = baseRef;
-            for (const auto& [k, n] : se.solver) p.settings.set(k, toValue(*n, k, file), loc(file, n->source()));
-            for (const auto& [k, n] : se.reference) p.reference.set(k, toValue(*n, k, file), loc(file, n->source()));
-            p.outputs = outputs;
-            // Mixed-radix digits of c, last axis least significant.
-            size_t rest = c;
-            std::vector<size_t> digit(axes.size());
-            for (size_t a = axes.size(); a-- > 0;) {
-                digit[a] = rest % axes[a].values.size();
-                rest /= axes[a].values.size();
-            }
-            for (size_t a = 0; a < axes.size(); ++a) {
-                const Axis& ax = axes[a];
-                for (size_t k = 0; k < ax.keys.size(); ++k) {
-                    const auto& [value, where] = ax.values[digit[a]][k];
-                    const std::string& key = ax.keys[k];
-                    if (key.rfind("reference.", 0) == 0)
-                        p.reference.set(key.substr(10), value, where);
-                    else
-                        p.settings.set(key, value, where);
-                    p.varying.emplace_back(key, Params::valueToString(value));
-                }
-            }
-            study.points.push_back(std::move(p));
-        }
+        StudyExpansion::Scene sc{se.spec, se.label, {}, {}};
+        for (const auto& [k, n] : se.solver) sc.solver.emplace_back(k, toValue(*n, k, file), loc(file, n->source()));
+        for (const auto& [k, n] : se.reference) sc.reference.emplace_back(k, toValue(*n, k, file), loc(file, n->source()));
+        ex->scenes.push_back(std::move(sc));
     }
+    ex->base = base;
+    ex->baseRef = baseRef;
+    ex->outputs = outputs;
+    ex->axes = std::move(axes);
+    auto mulSat = [](uint64_t a, uint64_t b) {
+        uint64_t r;
+        return __builtin_mul_overflow(a, b, &r) ? UINT64_MAX : r;
+    };
+    for (const Axis& a : ex->axes) ex->combos = mulSat(ex->combos, a.values.size());
+    ex->count = mulSat(ex->scenes.size(), ex->combos);
+    study.where = loc(file, scenesNode->source());
+    study.expansion = std::move(ex);
     return study;
 }
 
-void validateStudy(const Study& study) {
-    for (const PointSpec& p : study.points) {
-        try {
-            validatePoint(p);
-        } catch (const InputError& e) {
-            throw InputError(e.where(), fmt::format("{} (point {} of study '{}', scene {})",
-                                                    e.message(), p.index, study.name, p.sceneLabel));
+uint64_t Study::pointCount() const { return expansion ? expansion->count : 0; }
+
+PointSpec Study::point(uint64_t index) const {
+    HRAD_CHECK(expansion && index < expansion->count && expansion->count < UINT64_MAX);
+    const StudyExpansion& ex = *expansion;
+    const StudyExpansion::Scene& se = ex.scenes[size_t(index / ex.combos)];
+    PointSpec p;
+    p.index = size_t(index);
+    p.scene = se.spec;
+    p.sceneLabel = se.label;
+    p.settings = ex.base;
+    p.reference = ex.baseRef;
+    for (const auto& [k, v, w] : se.solver) p.settings.set(k, v, w);
+    for (const auto& [k, v, w] : se.reference) p.reference.set(k, v, w);
+    p.outputs = ex.outputs;
+    // Mixed-radix digits of the combination, last axis least significant.
+    uint64_t rest = index % ex.combos;
+    std::vector<size_t> digit(ex.axes.size());
+    for (size_t a = ex.axes.size(); a-- > 0;) {
+        digit[a] = size_t(rest % ex.axes[a].values.size());
+        rest /= ex.axes[a].values.size();
+    }
+    for (size_t a = 0; a < ex.axes.size(); ++a) {
+        const Axis& ax = ex.axes[a];
+        for (size_t k = 0; k < ax.keys.size(); ++k) {
+            const auto& [value, where] = ax.values[digit[a]][k];
+            const std::string& key = ax.keys[k];
+            if (key.rfind("reference.", 0) == 0)
+                p.reference.set(key.substr(10), value, where);
+            else
+                p.settings.set(key, value, where);
+            p.varying.emplace_back(key, Params::valueToString(value));
         }
     }
+    return p;
+}
+
+std::vector<PointSpec> Study::points() const {
+    checkPointCount(*this);
+    std::vector<PointSpec> out;
+    out.reserve(size_t(pointCount()));
+    for (uint64_t i = 0; i < pointCount(); ++i) out.push_back(point(i));
+    return out;
+}
+
+std::string Study::countDescription() const {
+    if (!expansion) return "0";
+    std::string out = fmt::format("{} scene(s)", expansion->scenes.size());
+    for (const Axis& a : expansion->axes) out += fmt::format(" x {}", a.values.size());
+    return out;
+}
+
+void checkPointCount(const Study& study) {
+    uint64_t n = study.pointCount();
+    if (n <= study.limits.maxPoints) return;
+    std::string count = n == UINT64_MAX ? std::string("more than 1.8e19") : fmt::format("{}", n);
+    std::string set = study.limits.maxPointsWhere.known()
+                          ? fmt::format(" (set at {})", study.limits.maxPointsWhere.str())
+                          : std::string(" (the default)");
+    throwInputError(study.where,
+                    "study '{}' expands to {} points ({}), more than sweep.max_points = {}{}; raise "
+                    "it with [limits] max_points in the study or hrad sweep --max-points, or "
+                    "shorten the sweep",
+                    study.name, count, study.countDescription(), study.limits.maxPoints, set);
+}
+
+void validateStudyPoint(const Study& study, const PointSpec& p) {
+    try {
+        validatePoint(p);
+    } catch (const InputError& e) {
+        throw InputError(e.where(), fmt::format("{} (point {} of study '{}', scene {})", e.message(),
+                                                p.index, study.name, p.sceneLabel));
+    }
+}
+
+void validateStudy(const Study& study) {
+    checkPointCount(study);
+    for (uint64_t i = 0; i < study.pointCount(); ++i) validateStudyPoint(study, study.point(i));
 }
 
 std::string paramsToJsonText(const Params& params) {
@@ -476,14 +581,16 @@ std::string pointKey(const PointSpec& point) {
     return fmt::format("{:016x}{:016x}", fnv1a(content), fnv1a(content, 0x84222325cbf29ce4ull));
 }
 
+std::string describePoint(const PointSpec& p) {
+    std::string vary;
+    for (const auto& [k, v] : p.varying) vary += fmt::format(" {}={}", k, v);
+    return fmt::format("  #{:<4} {}  scene={}{}\n", p.index, pointKey(p).substr(0, 12), p.sceneLabel, vary);
+}
+
 std::string describePoints(const Study& study) {
-    std::string out = fmt::format("study '{}': {} point(s)\n", study.name, study.points.size());
-    for (const PointSpec& p : study.points) {
-        std::string vary;
-        for (const auto& [k, v] : p.varying) vary += fmt::format(" {}={}", k, v);
-        out += fmt::format("  #{:<4} {}  scene={}{}\n", p.index, pointKey(p).substr(0, 12),
-                           p.sceneLabel, vary);
-    }
+    checkPointCount(study);
+    std::string out = fmt::format("study '{}': {} point(s)\n", study.name, study.pointCount());
+    for (uint64_t i = 0; i < study.pointCount(); ++i) out += describePoint(study.point(i));
     return out;
 }
 

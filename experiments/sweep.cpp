@@ -131,7 +131,7 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
     validateStudy(study);
 
     SweepReport report;
-    report.points = study.points.size();
+    report.points = study.pointCount();
     ResultStore store(opt.store);
     int64_t existing = store.count("runs") + store.count("failures");
     if (existing > 0 && !opt.resume)
@@ -148,7 +148,7 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
     fs::create_directories(work);
     fs::path artefactRoot =
         (opt.store.has_parent_path() ? opt.store.parent_path() : fs::path(".")) /
-        (study.points.empty() ? fs::path("runs") : fs::path(study.points[0].outputs.dir)) / study.name;
+        (study.pointCount() == 0 ? fs::path("runs") : fs::path(study.point(0).outputs.dir)) / study.name;
 
     double maxSeconds = opt.maxSeconds > 0 ? opt.maxSeconds : study.limits.maxSeconds;
     uint64_t maxMemory = opt.maxMemoryBytes > 0 ? opt.maxMemoryBytes : study.limits.maxMemoryBytes;
@@ -157,10 +157,14 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
     int threads = opt.threads > 0 ? opt.threads : std::max(1, cores / jobs);
 
     // ---- select this shard's unfinished points ----------------------------------------
+    // This shard's points, built once (validateStudy bounded their number by
+    // sweep.max_points); tasks point into this list.
+    std::vector<PointSpec> shardPoints;
+    for (uint64_t i = uint64_t(opt.shardIndex); i < study.pointCount(); i += uint64_t(opt.shardCount))
+        shardPoints.push_back(study.point(i));
     std::vector<Task> todo;
     std::map<std::string, std::vector<const PointSpec*>> byReference;
-    for (const PointSpec& p : study.points) {
-        if (int(p.index % size_t(opt.shardCount)) != opt.shardIndex) continue;
+    for (const PointSpec& p : shardPoints) {
         ++report.selected;
         std::string key = pointKey(p);
         if (done.count(key) || (!opt.retryFailed && failed.count(key))) {

@@ -171,3 +171,31 @@ TEST(Cli, MalformedArgumentsExitTwo) {
     }
     EXPECT_EQ(run("--help").code, 0);
 }
+
+// Issue 16: a study of 10^9 points is refused with the count (sweep.max_points)
+// at once, --dry-run included; within the bound --dry-run streams the points.
+TEST(Cli, SweepPointLimitAndStreamingDryRun) {
+    auto dir = hrad::test::tempDir("cli_sweep_limit");
+    std::string big = "scenes = [\"furnace\"]\n[sweep]\n";
+    for (int a = 0; a < 9; ++a) big += "\"hr.k" + std::to_string(a) + "\" = [1,2,3,4,5,6,7,8,9,10]\n";
+    auto study = hrad::test::writeFile(dir / "big.toml", big);
+    Result r = run("sweep " + study.string() + " --dry-run");
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("expands to 1000000000 points"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("sweep.max_points"), std::string::npos) << r.output;
+    auto small = hrad::test::writeFile(dir / "small.toml",
+                                       "scenes = [\"furnace\"]\n[sweep]\n\"oracle.eps\" = [0.1, 0.2, 0.3]\n");
+    r = run("sweep " + small.string() + " --dry-run");
+    EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("3 point(s)"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("#2"), std::string::npos) << r.output;
+    r = run("sweep " + small.string() + " --dry-run --max-points 2");
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("sweep.max_points = 2 (set at command line (--max-points))"), std::string::npos)
+        << r.output;
+    auto escaped = hrad::test::writeFile(dir / "esc.toml", "name = \"../../escaped\"\nscenes = [\"furnace\"]\n");
+    r = run("sweep " + escaped.string() + " --store " + (dir / "s.sqlite").string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("esc.toml:1"), std::string::npos) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(dir / "s.sqlite"));
+}

@@ -226,7 +226,7 @@ TEST(Sweep, ResumeAfterKillLosesAndDuplicatesNothing) {
     ResultStore s(o.store, true);
     EXPECT_EQ(s.count("runs"), 6);
     std::set<std::string> expected;
-    for (const auto& p : study.points) expected.insert(pointKey(p));
+    for (const auto& p : study.points()) expected.insert(pointKey(p));
     EXPECT_EQ(keysOf(o.store), expected);
     // Iteration rows only for committed runs, none orphaned or duplicated.
     EXPECT_EQ(keysOf(o.store, "SELECT DISTINCT run_key FROM iterations"), expected);
