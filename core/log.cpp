@@ -45,6 +45,14 @@ void ProgressBar::done() {
     if (enabled_ && timer_.seconds() > 1.0) draw(total_, true);
 }
 
+namespace {
+/// ", about 42s left": a linear extrapolation of the elapsed time.
+std::string eta(double frac, double elapsed, bool final) {
+    if (final || !(frac > 0.0) || frac >= 1.0) return "";
+    return fmt::format(", about {:.0f}s left", elapsed * (1.0 - frac) / frac);
+}
+}  // namespace
+
 void ProgressBar::draw(uint64_t current, bool final) {
     double frac = total_ ? std::min(1.0, double(current) / double(total_)) : 1.0;
     double t = timer_.seconds();
@@ -52,10 +60,11 @@ void ProgressBar::draw(uint64_t current, bool final) {
         int width = 30, filled = int(frac * width);
         std::string bar(filled, '#');
         bar.resize(width, '.');
-        std::fprintf(stderr, "\r%-24s [%s] %5.1f%% %7.1fs%s", title_.c_str(), bar.c_str(),
-                     100.0 * frac, t, final ? "\n" : "");
+        std::fprintf(stderr, "\r%-24s [%s] %5.1f%% %7.1fs%s%s", title_.c_str(), bar.c_str(),
+                     100.0 * frac, t, eta(frac, t, final).c_str(), final ? "\n" : "");
     } else {
-        std::fprintf(stderr, "%s: %.1f%% (%.1fs)\n", title_.c_str(), 100.0 * frac, t);
+        std::fprintf(stderr, "%s: %.1f%% (%.1fs%s)\n", title_.c_str(), 100.0 * frac, t,
+                     eta(frac, t, final).c_str());
     }
     std::fflush(stderr);
 }

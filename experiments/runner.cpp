@@ -121,6 +121,20 @@ void probeLoaderKeys(const Params& params) {
     }
 }
 
+/// A solve or reference needs a sound scene whatever `validate` says: with
+/// validate = false a scene without faces, with NaN reflectance or without an
+/// emitter loaded, and the solve then exited 0 with an empty, NaN or all-zero
+/// solution. `validate = false` skips the checks at loading only (hrad info).
+void requireSolvable(const scene::Scene& sc, const Params& settings) {
+    if (settings.getBool("validate", true)) return;  // loadScene has checked
+    try {
+        sc.validate();
+    } catch (const InputError& e) {
+        throw InputError(e.where(), e.message() + " (validate = false skips this check when loading, "
+                                                  "but a solve or reference needs it)");
+    }
+}
+
 std::string referenceDescription(const Resolved& r) {
     if (r.refFm) return "full-matrix " + r.refFm->describe();
     if (r.refMc) return "montecarlo " + r.refMc->describe();
@@ -209,6 +223,7 @@ json prepareReference(const PointSpec& p, const RunContext& ctx) {
     if (r.refKind == "none") return out;
     Timer t;
     scene::Scene sc = scene::loadScene(p.scene, p.settings);
+    requireSolvable(sc, p.settings);
     transport::Visibility vis(sc);
     Reference ref = computeReference(sc, vis, r, ctx);
     out["reference"] = referenceDescription(r);
@@ -240,6 +255,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     Resolved r = resolve(p);
     Timer tLoad;
     scene::Scene sc = scene::loadScene(p.scene, p.settings);
+    requireSolvable(sc, p.settings);
     double loadSeconds = tLoad.seconds();
     p.settings.reportUnused();
     summary["settings"] = paramsJson(p.settings);
