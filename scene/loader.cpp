@@ -55,6 +55,8 @@ Scene loadScene(const std::string& spec, const Params& params) {
                             ext);
         if (!std::filesystem::exists(path))
             throwInputError(SourceLocation{spec, 0, 0}, "scene file not found");
+        if (!std::filesystem::is_regular_file(path))
+            throwInputError(SourceLocation{spec, 0, 0}, "scene path is not a regular file (a folder or device)");
         if (ext == ".obj")
             scene = loadObj(spec, obj);
         else if (ext == ".mgf")

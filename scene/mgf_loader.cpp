@@ -116,6 +116,9 @@ std::unique_ptr<FileText> readFile(const std::string& path, const SourceLocation
     std::error_code ec;
     if (std::filesystem::is_directory(path, ec))
         throwInputError(from, "'{}' is a folder, not an MGF file", path);
+    // Devices and pipes (`i /dev/zero`) would be read without end.
+    if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+        throwInputError(from, "'{}' is not a regular file", path);
     std::ifstream in(path, std::ios::binary);
     if (!in) throwInputError(from, "cannot open MGF file '{}'", path);
     auto ft = std::make_unique<FileText>();

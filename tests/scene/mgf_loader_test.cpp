@@ -249,6 +249,14 @@ TEST(MgfLoader, IncludeOfAFolderIsAnError) {
         EXPECT_NE(m.find("top.mgf:10"), std::string::npos) << m;
         EXPECT_NE(m.find("folder"), std::string::npos) << m;
     }
+    // A device would be read without end.
+    auto dev = test::writeFile(dir / "dev.mgf", std::string("m l =\n\ted 1\n") + kTriangle + "f a b c\ni /dev/zero\n");
+    try {
+        loadScene(dev.string());
+        ADD_FAILURE() << "/dev/zero was included";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("dev.mgf:10"), std::string::npos) << e.what();
+    }
 }
 
 TEST(MgfLoader, UnknownEntitiesWarnOnceAndDegenerateFacesAreCounted) {
