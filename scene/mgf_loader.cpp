@@ -306,6 +306,17 @@ class MgfLoader {
         return uint32_t(m.sceneIndex);
     }
 
+    /// Adds a face made by statement s. Transforms can overflow finite input
+    /// (nested `xf -s 1e200`): such a face is an error at the statement, not
+    /// a "non-finite vertex" for the scene check to find without a line.
+    void emit(const FileText& f, const Stmt& s, const std::vector<Vec3>& poly, uint32_t material) {
+        for (const Vec3& v : poly)
+            if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z)))
+                fail(f, s, fmt::format("'{}' makes a vertex with non-finite coordinates (transform "
+                                       "overflow?)", s.tok[0]));
+        addPolygon(scene_, poly, material);
+    }
+
     // Parses xf arguments into the list of transforms (one per array element).
     std::vector<Xf> parseXf(const FileText& f, const Stmt& s, size_t first) const {
         struct Segment {
@@ -534,7 +545,7 @@ class MgfLoader {
                 poly.reserve(s.tok.size() - 1);
                 for (size_t a = 1; a < s.tok.size(); ++a) poly.push_back(xf.point(vert(f, s, s.tok[a]).p));
                 if (xf.mirror) std::reverse(poly.begin(), poly.end());
-                addPolygon(scene_, poly, currentMaterial());
+                emit(f, s, poly, currentMaterial());
             } else if (k == "sph" || k == "cyl" || k == "cone" || k == "ring" || k == "torus" || k == "prism") {
                 primitive(f, s, xf);
             } else if (k == "o") {
@@ -635,9 +646,9 @@ class MgfLoader {
     }
 
     // Adds `poly`, reversed when its normal points away from `facing`.
-    void emitFacing(std::vector<Vec3> poly, const Vec3& facing, uint32_t m) {
+    void emitFacing(const FileText& f, const Stmt& s, std::vector<Vec3> poly, const Vec3& facing, uint32_t m) {
         if (glm::dot(newellNormal(poly), facing) < 0) std::reverse(poly.begin(), poly.end());
-        addPolygon(scene_, poly, m);
+        emit(f, s, poly, m);
     }
 
     static void basis(const Vec3& axis, Vec3& u, Vec3& w) {
@@ -674,7 +685,7 @@ class MgfLoader {
                         poly = {P(j, i), P(j + 1, i), P(j + 1, i + 1), P(j, i + 1)};
                     Vec3 cen(0.0);
                     for (auto& p : poly) cen += p;
-                    emitFacing(poly, sign * (cen / double(poly.size()) - c), m);
+                    emitFacing(f, s, poly, sign * (cen / double(poly.size()) - c), m);
                 }
         } else if (k == "cyl" || k == "cone") {
             bool cyl = k == "cyl";
@@ -704,7 +715,7 @@ class MgfLoader {
                 if (r2 > 0) poly.push_back(b + r2 * d0);
                 else poly.push_back(b);
                 // Outward normal of the slanted side in the (radial, axial) plane.
-                emitFacing(poly, sign * (h * dm + (r1 - r2) * ax), m);
+                emitFacing(f, s, poly, sign * (h * dm + (r1 - r2) * ax), m);
             }
         } else if (k == "ring" || k == "torus") {
             needArgs(f, s, 3, 3);
@@ -720,9 +731,9 @@ class MgfLoader {
                     double p0 = 2 * kPi * i / R, p1 = 2 * kPi * (i + 1) / R;
                     Vec3 d0 = std::cos(p0) * u + std::sin(p0) * w, d1 = std::cos(p1) * u + std::sin(p1) * w;
                     if (r0 == 0)
-                        emitFacing({c, c + r1 * d0, c + r1 * d1}, ax, m);
+                        emitFacing(f, s, {c, c + r1 * d0, c + r1 * d1}, ax, m);
                     else
-                        emitFacing({c + r0 * d0, c + r1 * d0, c + r1 * d1, c + r0 * d1}, ax, m);
+                        emitFacing(f, s, {c + r0 * d0, c + r1 * d0, c + r1 * d1, c + r0 * d1}, ax, m);
                 }
             } else {
                 if ((r0 > 0 && r1 < 0) || (r0 < 0 && r1 > 0)) fail(f, s, "torus: radii must have the same sign");
@@ -743,7 +754,7 @@ class MgfLoader {
                         double pm = 2 * kPi * (i + 0.5) / R;
                         Vec3 ring = c + major * (std::cos(pm) * u + std::sin(pm) * w);
                         Vec3 cen = 0.25 * (poly[0] + poly[1] + poly[2] + poly[3]);
-                        emitFacing(poly, sign * (cen - ring), m);
+                        emitFacing(f, s, poly, sign * (cen - ring), m);
                     }
             }
         } else {  // prism v1 ... vn length
@@ -757,14 +768,14 @@ class MgfLoader {
             // mgflib extrudes away from the base's front: the base faces out.
             Vec3 d = -len * glm::normalize(nn);
             size_t nv = base.size();
-            addPolygon(scene_, base, m);
+            emit(f, s, base, m);
             std::vector<Vec3> top;
             for (size_t a = nv; a-- > 0;) top.push_back(base[a] + d);
-            addPolygon(scene_, top, m);
+            emit(f, s, top, m);
             for (size_t a = 0; a < nv; ++a) {
                 const Vec3& p = base[a];
                 const Vec3& q = base[(a + 1) % nv];
-                addPolygon(scene_, {q, p, p + d, q + d}, m);
+                emit(f, s, {q, p, p + d, q + d}, m);
             }
         }
     }

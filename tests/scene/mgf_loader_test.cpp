@@ -236,6 +236,14 @@ TEST(MgfLoader, NestedArraysStopAtMaxFaces) {
     }
 }
 
+TEST(MgfLoader, TransformOverflowIsAnErrorAtTheFace) {
+    std::string e = errorOf(std::string("m l =\n\ted 1\n") + kTriangle +
+                                "xf -s 1e200\nxf -s 1e200\nf a b c\nxf\nxf\n",
+                            "overflow");
+    EXPECT_NE(e.find("overflow.mgf:11"), std::string::npos) << e;
+    EXPECT_NE(e.find("non-finite"), std::string::npos) << e;
+}
+
 TEST(MgfLoader, IncludeOfAFolderIsAnError) {
     auto dir = test::tempDir("mgf_incdir");
     std::filesystem::create_directories(dir / "sub");
