@@ -56,7 +56,8 @@ json rgbJson(const RGB& c) { return json::array({c.r, c.g, c.b}); }
 
 json paramsJson(const Params& p) {
     json j = json::object();
-    for (const auto& [k, e] : p.entries()) std::visit([&](const auto& v) { j[k] = v; }, e.value);
+    for (const auto& entry : p.entries())  // no structured binding: clang 14 cannot capture one
+        std::visit([&](const auto& v) { j[entry.first] = v; }, entry.second.value);
     return j;
 }
 

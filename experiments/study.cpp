@@ -561,7 +561,8 @@ void validateStudy(const Study& study) {
 
 std::string paramsToJsonText(const Params& params) {
     nlohmann::json j = nlohmann::json::object();
-    for (const auto& [k, e] : params.entries()) std::visit([&](const auto& v) { j[k] = v; }, e.value);
+    for (const auto& entry : params.entries())  // no structured binding: clang 14 cannot capture one
+        std::visit([&](const auto& v) { j[entry.first] = v; }, entry.second.value);
     return j.dump();
 }
 

@@ -1,6 +1,7 @@
 #include "experiments/sweep.h"
 
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/time.h>
 #include <sys/wait.h>
@@ -146,6 +147,10 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
     fs::path work = opt.store;
     work += ".work";
     fs::create_directories(work);
+    // Result files left by a sweep that was killed: their points were not
+    // committed (the store is the record), so they are rerun; remove them.
+    for (const auto& e : fs::directory_iterator(work))
+        if (e.path().extension() == ".json") fs::remove(e.path());
     fs::path artefactRoot =
         (opt.store.has_parent_path() ? opt.store.parent_path() : fs::path(".")) /
         (study.pointCount() == 0 ? fs::path("runs") : fs::path(study.point(0).outputs.dir)) / study.name;
@@ -198,8 +203,16 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
                 RunContext ctx = base;
                 if (!t.isReference) ctx.artefactDir = artefactRoot / t.key;
                 std::fflush(nullptr);
+                pid_t parent = getpid();
                 pid_t pid = fork();
                 if (pid < 0) throw Error(fmt::format("fork failed: {}", std::strerror(errno)));
+                if (pid == 0) {
+                    // A child dies with its parent (a sweep killed with SIGKILL
+                    // cannot stop its children itself); the check after prctl
+                    // covers a parent that died before the call.
+                    prctl(PR_SET_PDEATHSIG, SIGKILL);
+                    if (getppid() != parent) _exit(1);
+                }
                 if (pid == 0)
                     childMain(t, ctx, threads, limited ? maxSeconds : 0.0, limited ? maxMemory : 0,
                               opt.progress);
