@@ -262,20 +262,22 @@ TEST(Sweep, ChildrenDieWithAKilledParent) {
     // Kill the parent once both children run (/proc lists a process's children).
     auto children = [&] {
         std::ifstream in(fmt::format("/proc/{}/task/{}/children", pid, pid));
-        int n = 0;
+        std::vector<pid_t> out;
         long c;
-        while (in >> c) ++n;
-        return n;
+        while (in >> c) out.push_back(pid_t(c));
+        return out;
     };
-    for (int i = 0; i < 3000 && children() < 2; ++i) usleep(10000);
-    ASSERT_EQ(children(), 2);
+    for (int i = 0; i < 3000 && children().size() < 2; ++i) usleep(10000);
+    std::vector<pid_t> kids = children();
+    ASSERT_EQ(kids.size(), 2u);
     kill(pid, SIGKILL);
     int status = 0;
     ASSERT_EQ(waitpid(pid, &status, 0), pid);
-    // The orphans are reaped here: each must have been killed, not have
-    // finished its point.
+    // The orphans are now this process's children: each must have been
+    // killed, not have finished its point.
     int orphans = 0, finished = 0;
-    while (waitpid(-1, &status, 0) > 0) {
+    for (pid_t k : kids) {
+        if (waitpid(k, &status, 0) != k) continue;
         ++orphans;
         if (!(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL)) ++finished;
     }
