@@ -24,7 +24,11 @@
 //               the quantities the L1/L2 errors sum) or "pixels" (the two
 //               reconstructed renders compared pixel by pixel).
 //   [limits]    max_seconds (number), max_memory_mb (integer): per point,
-//               overridden by --max-seconds / --max-memory
+//               overridden by --max-seconds / --max-memory; max_points
+//               (integer, default 1,000,000; sweep.max_points, overridden by
+//               --max-points): a study of more points is refused with the count
+//   name must be a plain file name (it names runs/<name> and the store), and
+//   [outputs] dir a relative folder inside the store's folder.
 //   [sweep]     key = [v1, v2, ...]: every list is an axis of a Cartesian
 //               product. Keys starting with "reference." vary the reference.
 //   [[zip]]     a group of keys whose lists (equal lengths) vary together; the

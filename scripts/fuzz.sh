@@ -24,8 +24,13 @@ mkdir -p "$corpus" "$findings"
 seeds=(tests/fuzz/seeds/"$TARGET")
 if [ "$TARGET" = study ]; then seeds+=(experiments/studies); fi
 log="$ASAN_DIR/fuzz/$TARGET.log"
+# Run a copy, so that rebuilding the tree during a long run leaves it alone.
+mkdir -p "$ASAN_DIR/fuzz/bin"
+bin="$ASAN_DIR/fuzz/bin/hrad_fuzz_$TARGET.$$"
+cp "$ASAN_DIR/tests/fuzz/hrad_fuzz_$TARGET" "$bin"
+trap 'rm -f "$bin"' EXIT
 set +e
-"$ASAN_DIR/tests/fuzz/hrad_fuzz_$TARGET" "$corpus" "${seeds[@]}" \
+"$bin" "$corpus" "${seeds[@]}" \
   -max_total_time="$SECONDS_PER" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=2048 \
   -artifact_prefix="$findings/$TARGET-" -print_final_stats=1 >"$log" 2>&1
 rc=$?
