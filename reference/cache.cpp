@@ -433,13 +433,13 @@ std::unique_ptr<scene::LeafField> loadSolution(const std::string& path,
     Reader r{buf};
     char magic[8];
     if (!r.take(magic, sizeof(magic)) || std::memcmp(magic, kSolutionMagic, sizeof(magic)) != 0)
-        return fail("no HRADSOL header");
+        return fail("no HRADSOL header (at byte offset 0)");
     auto version = r.pod<uint32_t>();
     auto hash = r.pod<uint64_t>();
     auto patches = r.pod<uint64_t>();
-    if (r.bad) return fail("truncated header");
+    if (r.bad) return fail(fmt::format("truncated header ({} bytes, the header has 28)", buf.size()));
     if (version != kSolutionVersion)
-        return fail(fmt::format("format version {} != {}", version, kSolutionVersion));
+        return fail(fmt::format("format version {} != {} (at byte offset 8)", version, kSolutionVersion));
     if (hash != sceneContentHash(scene) || patches != scene.patches.size())
         throw InputError(SourceLocation{path, 0, 0},
                          fmt::format("the solution was computed for another scene (content hash "
@@ -460,9 +460,11 @@ std::unique_ptr<scene::LeafField> loadSolution(const std::string& path,
     double bound = 1000.0 * eMax / std::max(1e-12, 1.0 - rhoMax) + 1e-300;
     std::vector<std::vector<scene::LeafField::Leaf>> leaves(patches);
     for (uint64_t p = 0; p < patches; ++p) {
+        size_t countAt = r.pos;
         auto n = r.pod<uint32_t>();
         if (r.bad || (buf.size() - r.pos) / (4 * sizeof(uint64_t)) < n)
-            return fail(fmt::format("truncated at patch {}", p));
+            return fail(fmt::format("truncated at patch {} (its leaf count {} at byte offset {} exceeds "
+                                    "the bytes left)", p, n, countAt));
         leaves[p].resize(n);
         for (auto& l : leaves[p]) {
             size_t at = r.pos;
@@ -483,10 +485,12 @@ std::unique_ptr<scene::LeafField> loadSolution(const std::string& path,
     }
     size_t checked = r.pos;
     auto stored = r.pod<uint64_t>();
-    if (r.bad || r.pos != buf.size()) return fail("truncated data or trailing bytes");
+    if (r.bad || r.pos != buf.size())
+        return fail(fmt::format("the leaves end at byte offset {}, then {} bytes follow where the 8-byte "
+                                "checksum belongs", checked, buf.size() - checked));
     Fnv f;
     f.bytes(buf.data(), checked);
-    if (f.h != stored) return fail("checksum mismatch");
+    if (f.h != stored) return fail(fmt::format("checksum mismatch (checksum at byte offset {})", checked));
     try {
         return std::make_unique<scene::LeafField>(scene, std::move(leaves));
     } catch (const Error& e) {

@@ -249,6 +249,18 @@ TEST(Cli, RenderRefusesImplausibleSolutions) {
     auto same = hrad::test::writeFile(dir / "same.hrsol", patchedSolution(good, 0, &key));
     r = run("render furnace " + same.string() + " --width 8 --height 8 -o " + (dir / "r0").string());
     EXPECT_EQ(r.code, 0) << r.output;
+    // A flipped byte fails the checksum; a cut file says where it ends.
+    std::string flipped = good;
+    flipped[40] ^= 1;
+    auto flip = hrad::test::writeFile(dir / "flip.hrsol", flipped);
+    r = run("render furnace " + flip.string() + " -o " + (dir / "flip").string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("checksum mismatch (checksum at byte offset " + std::to_string(good.size() - 8)),
+              std::string::npos) << r.output;
+    auto cut = hrad::test::writeFile(dir / "cut.hrsol", good.substr(0, 20));
+    r = run("render furnace " + cut.string() + " -o " + (dir / "cut").string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("truncated header (20 bytes"), std::string::npos) << r.output;
     double nan = std::numeric_limits<double>::quiet_NaN(), huge = 1e308;
     uint64_t outside = 2, tooDeep = uint64_t(1) << 62;
     struct Case { const char* name; size_t field; const void* value; const char* says; };
