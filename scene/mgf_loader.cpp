@@ -15,6 +15,7 @@
 #include <glm/mat3x3.hpp>
 
 #include "core/error.h"
+#include "core/parse.h"
 #include "scene/triangulate.h"
 
 namespace hrad::scene {
@@ -259,12 +260,9 @@ class MgfLoader {
     double num(const FileText& f, const Stmt& s, size_t i) const {
         if (i >= s.tok.size()) fail(f, s, fmt::format("'{}' is missing argument {}", s.tok[0], i));
         const std::string& t = s.tok[i];
-        char* end = nullptr;
-        double v = std::strtod(t.c_str(), &end);
-        if (t.empty() || !end || *end != '\0')
-            fail(f, s, fmt::format("'{}': malformed number '{}'", s.tok[0], t));
-        if (!std::isfinite(v)) fail(f, s, fmt::format("'{}': non-finite number '{}'", s.tok[0], t));
-        return v;
+        auto v = parseFiniteDouble(t);  // strict: whole token, finite (core/parse.h)
+        if (!v) fail(f, s, fmt::format("'{}': malformed or non-finite number '{}'", s.tok[0], t));
+        return *v;
     }
 
     void needArgs(const FileText& f, const Stmt& s, size_t lo, size_t hi) const {
