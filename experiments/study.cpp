@@ -289,7 +289,8 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
             fs::path p(label);
             if (p.is_relative()) p = baseDir / p;
             p = p.lexically_normal();
-            if (!fs::is_regular_file(p))
+            std::error_code ec;  // (a name the system refuses is "not found", not an exception)
+            if (!fs::is_regular_file(p, ec))
                 throwInputError(loc(file, e->source()),
                                 "scene file '{}' not found (resolved to '{}'; paths are relative to "
                                 "the study file's folder)",

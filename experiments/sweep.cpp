@@ -209,9 +209,9 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
                 if (pid == 0) {
                     // A child dies with its parent (a sweep killed with SIGKILL
                     // cannot stop its children itself); the check after prctl
-                    // covers a parent that died before the call.
+                    // covers a parent that died before the call, the same way.
                     prctl(PR_SET_PDEATHSIG, SIGKILL);
-                    if (getppid() != parent) _exit(1);
+                    if (getppid() != parent) raise(SIGKILL);
                 }
                 if (pid == 0)
                     childMain(t, ctx, threads, limited ? maxSeconds : 0.0, limited ? maxMemory : 0,

@@ -53,9 +53,13 @@ Scene loadScene(const std::string& spec, const Params& params) {
                             "unknown scene file extension '{}' (expected .obj, .mgf or .ply, or a "
                             "built-in name: cornell, furnace, plates:..., office:N)",
                             ext);
-        if (!std::filesystem::exists(path))
-            throwInputError(SourceLocation{spec, 0, 0}, "scene file not found");
-        if (!std::filesystem::is_regular_file(path))
+        // error_code forms: a name the system refuses (too long, ...) is an
+        // input error, not a std::filesystem exception.
+        std::error_code ec;
+        if (!std::filesystem::exists(path, ec))
+            throwInputError(SourceLocation{spec, 0, 0}, "scene file not found{}",
+                            ec ? " (" + ec.message() + ")" : std::string());
+        if (!std::filesystem::is_regular_file(path, ec))
             throwInputError(SourceLocation{spec, 0, 0}, "scene path is not a regular file (a folder or device)");
         if (ext == ".obj")
             scene = loadObj(spec, obj);

@@ -237,7 +237,9 @@ class MgfLoader {
     std::map<std::string, std::pair<size_t, int>> warned_;  ///< kind -> (warning index, count)
 
     const FileText& file(const std::string& path, const SourceLocation& from) {
-        std::string key = std::filesystem::weakly_canonical(path).string();
+        std::error_code ec;
+        std::filesystem::path canon = std::filesystem::weakly_canonical(path, ec);
+        std::string key = ec ? std::filesystem::path(path).lexically_normal().string() : canon.string();
         auto it = files_.find(key);
         if (it != files_.end()) return *it->second;
         auto ft = readFile(path, from);

@@ -294,6 +294,11 @@ TEST(StudyPaths, NamesAndOutputFoldersStayInside) {
         EXPECT_NE(msg.find("study.toml:3"), std::string::npos) << dir << ": " << msg;
     }
     EXPECT_EQ(errorOf("scenes = [\"furnace\"]\n[outputs]\ndir = \"runs/a/../b\"\n"), "");
+    // Found by the study fuzzer: a scene name too long for the system threw
+    // std::filesystem_error instead of an input error.
+    std::string msg = errorOf("scenes = [\"" + std::string(5000, 'a') + ".obj\"]\n");
+    EXPECT_NE(msg.find("study.toml:1"), std::string::npos) << msg.substr(0, 100);
+    EXPECT_NE(msg.find("not found"), std::string::npos) << msg.substr(0, 100);
 }
 
 }  // namespace
