@@ -28,7 +28,10 @@ log="$ASAN_DIR/fuzz/$TARGET.log"
 mkdir -p "$ASAN_DIR/fuzz/bin"
 bin="$ASAN_DIR/fuzz/bin/hrad_fuzz_$TARGET.$$"
 cp "$ASAN_DIR/tests/fuzz/hrad_fuzz_$TARGET" "$bin"
-trap 'rm -f "$bin"' EXIT
+# libFuzzer ends with _Exit, past the harness's own cleanup: its temporary
+# files go to a folder removed here.
+export TMPDIR="$(mktemp -d)"
+trap 'rm -f "$bin"; rm -rf "$TMPDIR"' EXIT
 set +e
 "$bin" "$corpus" "${seeds[@]}" \
   -max_total_time="$SECONDS_PER" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=2048 \
