@@ -12,11 +12,23 @@ namespace fs = std::filesystem;
 
 int runSweepCommand(const SweepCliOptions& o) {
     experiments::Study study = experiments::loadStudy(o.study);
-    experiments::validateStudy(study);
+    if (o.maxPoints > 0) {
+        study.limits.maxPoints = uint64_t(o.maxPoints);
+        study.limits.maxPointsWhere = SourceLocation{"command line (--max-points)", 0, 0};
+    }
     if (o.dryRun) {
-        fmt::print("{}", experiments::describePoints(study));
+        // Streams: each point is built, validated and printed in turn, so a
+        // large study (within sweep.max_points) never sits in memory whole.
+        experiments::checkPointCount(study);
+        fmt::print("study '{}': {} point(s)\n", study.name, study.pointCount());
+        for (uint64_t i = 0; i < study.pointCount(); ++i) {
+            experiments::PointSpec p = study.point(i);
+            experiments::validateStudyPoint(study, p);
+            fmt::print("{}", experiments::describePoint(p));
+        }
         return 0;
     }
+    experiments::validateStudy(study);
     experiments::SweepOptions so;
     so.store = o.store.empty()
                    ? fs::path(o.study).parent_path() / "results" / (study.name + ".sqlite")

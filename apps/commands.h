@@ -41,6 +41,7 @@ struct SweepCliOptions {
     bool progress = false;
     std::string cacheDir;
     bool noCache = false;
+    int64_t maxPoints = 0;  ///< sweep.max_points override (0: the study's or the default)
 };
 
 struct ReferenceCliOptions {

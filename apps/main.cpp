@@ -108,6 +108,10 @@ int main(int argc, char** argv) {
     sweep->add_flag("--resume", sw.resume, "continue into an existing store, skipping finished points");
     sweep->add_flag("--retry-failed", sw.retryFailed, "with --resume: rerun points recorded as failed");
     sweep->add_flag("--dry-run", sw.dryRun, "validate and print the expanded points, run nothing");
+    sweep->add_option("--max-points", sw.maxPoints,
+                      "refuse a study of more points (sweep.max_points; default: the study's "
+                      "[limits] max_points, else 1000000)")
+        ->check(CLI::PositiveNumber);
     sweep->add_option("--max-seconds", sw.maxSeconds, "wall-time limit per point (0: none)");
     sweep->add_option("--max-memory", sw.maxMemory, "address-space limit per point, e.g. 4G");
     sweep->add_option("--cache", sw.cacheDir, "reference cache folder (default $HRAD_CACHE or ~/.cache/hrad)");

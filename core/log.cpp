@@ -45,21 +45,27 @@ void ProgressBar::done() {
     if (enabled_ && timer_.seconds() > 1.0) draw(total_, true);
 }
 
+namespace {
+/// ", about 42s left": a linear extrapolation of the elapsed time, once 1 %
+/// is done.
+std::string eta(double frac, double elapsed, bool final) {
+    if (final || !(frac >= 0.01) || frac >= 1.0) return "";
+    return fmt::format(", about {:.0f}s left", elapsed * (1.0 - frac) / frac);
+}
+}  // namespace
+
 void ProgressBar::draw(uint64_t current, bool final) {
     double frac = total_ ? std::min(1.0, double(current) / double(total_)) : 1.0;
     double t = timer_.seconds();
-    // Time left, extrapolated from the rate so far once 1 % is done.
-    char left[32] = "";
-    if (!final && frac >= 0.01 && frac < 1.0)
-        std::snprintf(left, sizeof left, ", %.0fs left", t * (1.0 - frac) / frac);
     if (tty_) {
         int width = 30, filled = int(frac * width);
         std::string bar(filled, '#');
         bar.resize(width, '.');
-        std::fprintf(stderr, "\r%-24s [%s] %5.1f%% %7.1fs%-14s%s", title_.c_str(), bar.c_str(),
-                     100.0 * frac, t, left, final ? "\n" : "");
+        std::fprintf(stderr, "\r%-24s [%s] %5.1f%% %7.1fs%s%s", title_.c_str(), bar.c_str(),
+                     100.0 * frac, t, eta(frac, t, final).c_str(), final ? "\n" : "");
     } else {
-        std::fprintf(stderr, "%s: %.1f%% (%.1fs%s)\n", title_.c_str(), 100.0 * frac, t, left);
+        std::fprintf(stderr, "%s: %.1f%% (%.1fs%s)\n", title_.c_str(), 100.0 * frac, t,
+                     eta(frac, t, final).c_str());
     }
     std::fflush(stderr);
 }

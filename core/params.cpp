@@ -1,5 +1,7 @@
 #include "core/params.h"
 
+#include "core/parse.h"
+
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -26,20 +28,15 @@ void Params::setFromText(const std::string& key, const std::string& text, Source
         set(key, text == "true", std::move(where));
         return;
     }
-    if (!text.empty()) {
-        char* end = nullptr;
-        errno = 0;
-        long long i = std::strtoll(text.c_str(), &end, 10);
-        if (end && *end == '\0' && errno == 0) {
-            set(key, static_cast<int64_t>(i), std::move(where));
-            return;
-        }
-        errno = 0;
-        double d = std::strtod(text.c_str(), &end);
-        if (end && *end == '\0' && errno == 0) {
-            set(key, d, std::move(where));
-            return;
-        }
+    // Strict (core/parse.h): "nan", "inf", "1e400" or "0x10" stay text, which
+    // a numeric setting then refuses by name.
+    if (auto i = parseInt64(text)) {
+        set(key, *i, std::move(where));
+        return;
+    }
+    if (auto d = parseFiniteDouble(text)) {
+        set(key, *d, std::move(where));
+        return;
     }
     set(key, text, std::move(where));
 }

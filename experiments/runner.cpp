@@ -56,7 +56,8 @@ json rgbJson(const RGB& c) { return json::array({c.r, c.g, c.b}); }
 
 json paramsJson(const Params& p) {
     json j = json::object();
-    for (const auto& [k, e] : p.entries()) std::visit([&](const auto& v) { j[k] = v; }, e.value);
+    for (const auto& entry : p.entries())  // no structured binding: clang 14 cannot capture one
+        std::visit([&](const auto& v) { j[entry.first] = v; }, entry.second.value);
     return j;
 }
 
@@ -118,6 +119,20 @@ void probeLoaderKeys(const Params& params) {
         scene::loadScene(kProbe, params);
     } catch (const InputError& e) {
         if (e.where().file != kProbe) throw;
+    }
+}
+
+/// A solve or reference needs a sound scene whatever `validate` says: with
+/// validate = false a scene without faces, with NaN reflectance or without an
+/// emitter loaded, and the solve then exited 0 with an empty, NaN or all-zero
+/// solution. `validate = false` skips the checks at loading only (hrad info).
+void requireSolvable(const scene::Scene& sc, const Params& settings) {
+    if (settings.getBool("validate", true)) return;  // loadScene has checked
+    try {
+        sc.validate();
+    } catch (const InputError& e) {
+        throw InputError(e.where(), e.message() + " (validate = false skips this check when loading, "
+                                                  "but a solve or reference needs it)");
     }
 }
 
@@ -209,6 +224,7 @@ json prepareReference(const PointSpec& p, const RunContext& ctx) {
     if (r.refKind == "none") return out;
     Timer t;
     scene::Scene sc = scene::loadScene(p.scene, p.settings);
+    requireSolvable(sc, p.settings);
     transport::Visibility vis(sc);
     Reference ref = computeReference(sc, vis, r, ctx);
     out["reference"] = referenceDescription(r);
@@ -240,6 +256,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     Resolved r = resolve(p);
     Timer tLoad;
     scene::Scene sc = scene::loadScene(p.scene, p.settings);
+    requireSolvable(sc, p.settings);
     double loadSeconds = tLoad.seconds();
     p.settings.reportUnused();
     summary["settings"] = paramsJson(p.settings);

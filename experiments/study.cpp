@@ -1,6 +1,8 @@
 #include "experiments/study.h"
 
 #include <algorithm>
+#include <cctype>
+#include <tuple>
 #include <fstream>
 #include <map>
 #include <set>
@@ -57,12 +59,32 @@ void flatten(const toml::table& t, const std::string& prefix,
     }
 }
 
+}  // namespace
+
 struct Axis {
     /// Keys varied together (one for a [sweep] axis, several for a zip group).
     std::vector<std::string> keys;
     /// values[i][k]: value of keys[k] at step i, with its location.
     std::vector<std::vector<std::pair<Params::Value, SourceLocation>>> values;
 };
+
+/// A study's points, one at a time: scenes x axis_1 x ... x axis_n (the last
+/// axis varying fastest), never materialised as a whole.
+struct StudyExpansion {
+    struct Scene {
+        std::string spec, label;
+        /// Per-scene overrides, already converted to values.
+        std::vector<std::tuple<std::string, Params::Value, SourceLocation>> solver, reference;
+    };
+    std::vector<Scene> scenes;
+    Params base, baseRef;
+    OutputOptions outputs;
+    std::vector<Axis> axes;
+    uint64_t combos = 1;  ///< product of the axis lengths, saturated at UINT64_MAX
+    uint64_t count = 0;   ///< scenes x combos, saturated
+};
+
+namespace {
 
 Axis axisFromList(const std::string& key, const toml::node& n, const std::string& file,
                   const char* where) {
@@ -92,6 +114,82 @@ uint64_t fnv1a(const std::string& s, uint64_t h = 1469598103934665603ull) {
     return h;
 }
 
+/// Deepest key a study may use (dotted parts of a key or table header) and
+/// deepest nesting of arrays and inline tables. toml++ parses table headers
+/// and dotted keys recursively without a bound (a `[solver.a.a...]` header of
+/// 100,000 parts overflowed its stack), and flatten() above recurses once per
+/// level: both are safe below these bounds, which no real study approaches.
+constexpr int kMaxTomlDepth = 64;
+
+/// Refuses, with the line, TOML text whose keys or nesting are deeper than
+/// kMaxTomlDepth, before toml++ sees it. A lexical scan (TOML 1.0): strings
+/// (basic, literal, multi-line) are skipped; dots count where a key is being
+/// read (line start, after `[`, `{` or `,` in an inline table, up to `=`/`]`).
+void checkTomlDepth(const std::string& text, const std::string& file) {
+    int line = 1, nesting = 0, dots = 0;
+    bool inKey = true;       // reading a key (or a header)
+    std::vector<char> open;  // '[' (array or header) or '{'
+    auto fail = [&](const char* what) {
+        throwInputError(SourceLocation{file, line, 0}, "{} deeper than {} levels", what, kMaxTomlDepth);
+    };
+    for (size_t i = 0; i < text.size(); ++i) {
+        char c = text[i];
+        if (c == '\n') {
+            ++line;
+            // A new line starts a key unless an array value continues.
+            inKey = open.empty() || open.back() == '{';
+            dots = 0;
+            continue;
+        }
+        if (c == '#') {
+            while (i + 1 < text.size() && text[i + 1] != '\n') ++i;
+            continue;
+        }
+        if (c == '"' || c == '\'') {
+            bool multi = text.compare(i, 3, std::string(3, c)) == 0;
+            size_t j = i + (multi ? 3 : 1);
+            for (; j < text.size(); ++j) {
+                if (text[j] == '\n') {
+                    if (!multi) break;  // toml++ reports the unterminated string
+                    ++line;
+                }
+                if (c == '"' && text[j] == '\\') {
+                    if (j + 1 < text.size() && text[j + 1] == '\n') ++line;
+                    ++j;
+                    continue;
+                }
+                if (text[j] == c && (!multi || text.compare(j, 3, std::string(3, c)) == 0)) {
+                    if (multi) j += 2;
+                    break;
+                }
+            }
+            i = std::min(j, text.size() - 1);
+            if (j < text.size() && text[j] == '\n') --i;  // let the newline be counted
+            continue;
+        }
+        if (inKey && c == '.' && ++dots >= kMaxTomlDepth) fail("key or table header");
+        if (c == '=') {
+            inKey = false;
+            dots = 0;
+        } else if (c == '[' || c == '{') {
+            bool header = inKey && c == '[' && open.empty();
+            if (!header && ++nesting > kMaxTomlDepth) fail("arrays and inline tables nest");
+            open.push_back(header ? 'h' : c);
+            inKey = header || c == '{';
+            dots = 0;
+        } else if (c == ']' || c == '}') {
+            if (!open.empty()) {
+                if (open.back() != 'h') --nesting;
+                open.pop_back();
+            }
+            inKey = false;
+        } else if (c == ',' && !open.empty() && open.back() == '{') {
+            inKey = true;
+            dots = 0;
+        }
+    }
+}
+
 }  // namespace
 
 Study loadStudy(const fs::path& path) {
@@ -105,6 +203,7 @@ Study loadStudy(const fs::path& path) {
 }
 
 Study parseStudy(const std::string& text, const std::string& file, const fs::path& baseDir) {
+    checkTomlDepth(text, file);
     toml::table root;
     try {
         root = toml::parse(text, file);
@@ -133,6 +232,19 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
     if (auto* n = root.get("name")) study.name = stringOf(*n, "name");
     if (auto* n = root.get("description")) study.description = stringOf(*n, "description");
     if (study.name.empty()) throwInputError(SourceLocation{file, 1, 1}, "study name is empty");
+    // The name becomes a folder (runs/<name>) and a file (results/<name>.sqlite):
+    // one plain path component, so nothing is written outside the folders the
+    // user named ("../../escaped" was).
+    {
+        SourceLocation w = root.get("name") ? loc(file, root.get("name")->source()) : SourceLocation{file, 1, 1};
+        bool plain = study.name != "." && study.name != ".." && study.name.size() <= 200;
+        for (unsigned char c : study.name) plain &= std::isalnum(c) || c == '_' || c == '-' || c == '.';
+        if (!plain)
+            throwInputError(w, "study name '{}' must be a plain file name (letters, digits, '_', '-', "
+                               "'.'; not '.' or '..'; at most 200 characters): it names the study's "
+                               "artefact folder and results store",
+                            study.name);
+    }
 
     // ---- scenes ------------------------------------------------------------------
     struct SceneEntry {
@@ -177,7 +289,8 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
             fs::path p(label);
             if (p.is_relative()) p = baseDir / p;
             p = p.lexically_normal();
-            if (!fs::is_regular_file(p))
+            std::error_code ec;  // (a name the system refuses is "not found", not an exception)
+            if (!fs::is_regular_file(p, ec))
                 throwInputError(loc(file, e->source()),
                                 "scene file '{}' not found (resolved to '{}'; paths are relative to "
                                 "the study file's folder)",
@@ -233,8 +346,17 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
             else if (k == "error_map") {
                 outputs.errorMap = getBoolNode(*n, k, file);
                 outputs.errorMapWhere = loc(file, n->source());
-            } else if (k == "dir")
+            } else if (k == "dir") {
                 outputs.dir = stringOf(*n, k);
+                // Relative to the results store's folder, and inside it.
+                fs::path d = fs::path(outputs.dir).lexically_normal();
+                bool inside = !outputs.dir.empty() && d.is_relative() && !d.has_root_name() && *d.begin() != "..";
+                if (!inside)
+                    throwInputError(loc(file, n->source()),
+                                    "'outputs.dir' = '{}' must be a relative folder inside the results "
+                                    "store's folder (no absolute path, no '..' leading out)",
+                                    outputs.dir);
+            }
             else
                 throwInputError(loc(file, n->source()),
                                 "unknown key 'outputs.{}' (expected exr, ply, solution, "
@@ -253,10 +375,18 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
                 auto v = n->value<int64_t>();
                 if (!v || *v < 0)
                     throwInputError(loc(file, n->source()), "'limits.max_memory_mb' must be an integer >= 0");
+                if (*v > (int64_t(1) << 43))
+                    throwInputError(loc(file, n->source()), "'limits.max_memory_mb' is out of range");
                 study.limits.maxMemoryBytes = uint64_t(*v) << 20;
+            } else if (k == "max_points") {
+                auto v = n->value<int64_t>();
+                if (!v || *v < 1)
+                    throwInputError(loc(file, n->source()), "'limits.max_points' must be an integer >= 1");
+                study.limits.maxPoints = uint64_t(*v);
+                study.limits.maxPointsWhere = loc(file, n->source());
             } else {
                 throwInputError(loc(file, n->source()),
-                                "unknown key 'limits.{}' (expected max_seconds, max_memory_mb)", k);
+                                "unknown key 'limits.{}' (expected max_seconds, max_memory_mb, max_points)", k);
             }
         }
     }
@@ -327,59 +457,113 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
             if (k == "scene" || k == "scenes")
                 throwInputError(a.values[0][0].second, "vary scenes with the top-level 'scenes' list");
 
-    // ---- expansion: scenes x axis_1 x ... x axis_n (last fastest) --------------------
-    size_t combos = 1;
-    for (const Axis& a : axes) combos *= a.values.size();
+    // ---- expansion: recorded, not performed (Study::point builds one point) -------
+    auto ex = std::make_shared<StudyExpansion>();
     for (const SceneEntry& se : scenes) {
-        for (size_t c = 0; c < combos; ++c) {
-            PointSpec p;
-            p.index = study.points.size();
-            p.scene = se.spec;
-            p.sceneLabel = se.label;
-            p.settings = base;
-            p.reference = baseRef;
-            for (const auto& [k, n] : se.solver) p.settings.set(k, toValue(*n, k, file), loc(file, n->source()));
-            for (const auto& [k, n] : se.reference) p.reference.set(k, toValue(*n, k, file), loc(file, n->source()));
-            p.outputs = outputs;
-            // Mixed-radix digits of c, last axis least significant.
-            size_t rest = c;
-            std::vector<size_t> digit(axes.size());
-            for (size_t a = axes.size(); a-- > 0;) {
-                digit[a] = rest % axes[a].values.size();
-                rest /= axes[a].values.size();
-            }
-            for (size_t a = 0; a < axes.size(); ++a) {
-                const Axis& ax = axes[a];
-                for (size_t k = 0; k < ax.keys.size(); ++k) {
-                    const auto& [value, where] = ax.values[digit[a]][k];
-                    const std::string& key = ax.keys[k];
-                    if (key.rfind("reference.", 0) == 0)
-                        p.reference.set(key.substr(10), value, where);
-                    else
-                        p.settings.set(key, value, where);
-                    p.varying.emplace_back(key, Params::valueToString(value));
-                }
-            }
-            study.points.push_back(std::move(p));
-        }
+        StudyExpansion::Scene sc{se.spec, se.label, {}, {}};
+        for (const auto& [k, n] : se.solver) sc.solver.emplace_back(k, toValue(*n, k, file), loc(file, n->source()));
+        for (const auto& [k, n] : se.reference) sc.reference.emplace_back(k, toValue(*n, k, file), loc(file, n->source()));
+        ex->scenes.push_back(std::move(sc));
     }
+    ex->base = base;
+    ex->baseRef = baseRef;
+    ex->outputs = outputs;
+    ex->axes = std::move(axes);
+    auto mulSat = [](uint64_t a, uint64_t b) {
+        uint64_t r;
+        return __builtin_mul_overflow(a, b, &r) ? UINT64_MAX : r;
+    };
+    for (const Axis& a : ex->axes) ex->combos = mulSat(ex->combos, a.values.size());
+    ex->count = mulSat(ex->scenes.size(), ex->combos);
+    study.where = loc(file, scenesNode->source());
+    study.expansion = std::move(ex);
     return study;
 }
 
-void validateStudy(const Study& study) {
-    for (const PointSpec& p : study.points) {
-        try {
-            validatePoint(p);
-        } catch (const InputError& e) {
-            throw InputError(e.where(), fmt::format("{} (point {} of study '{}', scene {})",
-                                                    e.message(), p.index, study.name, p.sceneLabel));
+uint64_t Study::pointCount() const { return expansion ? expansion->count : 0; }
+
+PointSpec Study::point(uint64_t index) const {
+    HRAD_CHECK(expansion && index < expansion->count && expansion->count < UINT64_MAX);
+    const StudyExpansion& ex = *expansion;
+    const StudyExpansion::Scene& se = ex.scenes[size_t(index / ex.combos)];
+    PointSpec p;
+    p.index = size_t(index);
+    p.scene = se.spec;
+    p.sceneLabel = se.label;
+    p.settings = ex.base;
+    p.reference = ex.baseRef;
+    for (const auto& [k, v, w] : se.solver) p.settings.set(k, v, w);
+    for (const auto& [k, v, w] : se.reference) p.reference.set(k, v, w);
+    p.outputs = ex.outputs;
+    // Mixed-radix digits of the combination, last axis least significant.
+    uint64_t rest = index % ex.combos;
+    std::vector<size_t> digit(ex.axes.size());
+    for (size_t a = ex.axes.size(); a-- > 0;) {
+        digit[a] = size_t(rest % ex.axes[a].values.size());
+        rest /= ex.axes[a].values.size();
+    }
+    for (size_t a = 0; a < ex.axes.size(); ++a) {
+        const Axis& ax = ex.axes[a];
+        for (size_t k = 0; k < ax.keys.size(); ++k) {
+            const auto& [value, where] = ax.values[digit[a]][k];
+            const std::string& key = ax.keys[k];
+            if (key.rfind("reference.", 0) == 0)
+                p.reference.set(key.substr(10), value, where);
+            else
+                p.settings.set(key, value, where);
+            p.varying.emplace_back(key, Params::valueToString(value));
         }
     }
+    return p;
+}
+
+std::vector<PointSpec> Study::points() const {
+    checkPointCount(*this);
+    std::vector<PointSpec> out;
+    out.reserve(size_t(pointCount()));
+    for (uint64_t i = 0; i < pointCount(); ++i) out.push_back(point(i));
+    return out;
+}
+
+std::string Study::countDescription() const {
+    if (!expansion) return "0";
+    std::string out = fmt::format("{} scene(s)", expansion->scenes.size());
+    for (const Axis& a : expansion->axes) out += fmt::format(" x {}", a.values.size());
+    return out;
+}
+
+void checkPointCount(const Study& study) {
+    uint64_t n = study.pointCount();
+    if (n <= study.limits.maxPoints) return;
+    std::string count = n == UINT64_MAX ? std::string("more than 1.8e19") : fmt::format("{}", n);
+    std::string set = study.limits.maxPointsWhere.known()
+                          ? fmt::format(" (set at {})", study.limits.maxPointsWhere.str())
+                          : std::string(" (the default)");
+    throwInputError(study.where,
+                    "study '{}' expands to {} points ({}), more than sweep.max_points = {}{}; raise "
+                    "it with [limits] max_points in the study or hrad sweep --max-points, or "
+                    "shorten the sweep",
+                    study.name, count, study.countDescription(), study.limits.maxPoints, set);
+}
+
+void validateStudyPoint(const Study& study, const PointSpec& p) {
+    try {
+        validatePoint(p);
+    } catch (const InputError& e) {
+        throw InputError(e.where(), fmt::format("{} (point {} of study '{}', scene {})", e.message(),
+                                                p.index, study.name, p.sceneLabel));
+    }
+}
+
+void validateStudy(const Study& study) {
+    checkPointCount(study);
+    for (uint64_t i = 0; i < study.pointCount(); ++i) validateStudyPoint(study, study.point(i));
 }
 
 std::string paramsToJsonText(const Params& params) {
     nlohmann::json j = nlohmann::json::object();
-    for (const auto& [k, e] : params.entries()) std::visit([&](const auto& v) { j[k] = v; }, e.value);
+    for (const auto& entry : params.entries())  // no structured binding: clang 14 cannot capture one
+        std::visit([&](const auto& v) { j[entry.first] = v; }, entry.second.value);
     return j.dump();
 }
 
@@ -399,14 +583,16 @@ std::string pointKey(const PointSpec& point) {
     return fmt::format("{:016x}{:016x}", fnv1a(content), fnv1a(content, 0x84222325cbf29ce4ull));
 }
 
+std::string describePoint(const PointSpec& p) {
+    std::string vary;
+    for (const auto& [k, v] : p.varying) vary += fmt::format(" {}={}", k, v);
+    return fmt::format("  #{:<4} {}  scene={}{}\n", p.index, pointKey(p).substr(0, 12), p.sceneLabel, vary);
+}
+
 std::string describePoints(const Study& study) {
-    std::string out = fmt::format("study '{}': {} point(s)\n", study.name, study.points.size());
-    for (const PointSpec& p : study.points) {
-        std::string vary;
-        for (const auto& [k, v] : p.varying) vary += fmt::format(" {}={}", k, v);
-        out += fmt::format("  #{:<4} {}  scene={}{}\n", p.index, pointKey(p).substr(0, 12),
-                           p.sceneLabel, vary);
-    }
+    checkPointCount(study);
+    std::string out = fmt::format("study '{}': {} point(s)\n", study.name, study.pointCount());
+    for (uint64_t i = 0; i < study.pointCount(); ++i) out += describePoint(study.point(i));
     return out;
 }
 

@@ -24,7 +24,11 @@
 //               the quantities the L1/L2 errors sum) or "pixels" (the two
 //               reconstructed renders compared pixel by pixel).
 //   [limits]    max_seconds (number), max_memory_mb (integer): per point,
-//               overridden by --max-seconds / --max-memory
+//               overridden by --max-seconds / --max-memory; max_points
+//               (integer, default 1,000,000; sweep.max_points, overridden by
+//               --max-points): a study of more points is refused with the count
+//   name must be a plain file name (it names runs/<name> and the store), and
+//   [outputs] dir a relative folder inside the store's folder.
 //   [sweep]     key = [v1, v2, ...]: every list is an axis of a Cartesian
 //               product. Keys starting with "reference." vary the reference.
 //   [[zip]]     a group of keys whose lists (equal lengths) vary together; the
@@ -42,6 +46,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -75,16 +80,40 @@ struct PointSpec {
 struct Limits {
     double maxSeconds = 0.0;  ///< 0: none
     uint64_t maxMemoryBytes = 0;
+    /// sweep.max_points: a study that expands to more points is refused with
+    /// the count before anything is expanded ([limits] max_points in the
+    /// study, or hrad sweep --max-points).
+    uint64_t maxPoints = 1'000'000;
+    SourceLocation maxPointsWhere;  ///< where max_points was set ("" = default)
 };
+
+struct StudyExpansion;  // scenes x axes, expanded one point at a time (study.cpp)
 
 struct Study {
     std::string name;
     std::string description;
     std::filesystem::path path;  ///< the study file ("" for a study parsed from text)
     std::string text;            ///< the study file's contents (stored with the results)
-    std::vector<PointSpec> points;
     Limits limits;
+    SourceLocation where;        ///< the study file (line of its `scenes` list)
+
+    /// Number of points (scenes x the product of the axis lengths), saturated
+    /// at UINT64_MAX instead of wrapping (64 axes of 2 values is 2^64).
+    uint64_t pointCount() const;
+    /// The point at `index` (< pointCount()), built on demand: a study is never
+    /// expanded into memory as a whole.
+    PointSpec point(uint64_t index) const;
+    /// All points, for studies within limits.maxPoints (checkPointCount first).
+    std::vector<PointSpec> points() const;
+    /// "3 scene(s) x 10 x 4" (the factors of pointCount()).
+    std::string countDescription() const;
+
+    std::shared_ptr<const StudyExpansion> expansion;
 };
+
+/// Throws InputError (at the study file) when the study expands to more than
+/// limits.maxPoints points, naming the count and the setting.
+void checkPointCount(const Study& study);
 
 /// Parses and expands a study. Throws InputError with file:line for syntax
 /// errors, unknown top-level keys, bad types, zip groups of unequal lengths,
@@ -96,11 +125,14 @@ Study loadStudy(const std::filesystem::path& path);
 Study parseStudy(const std::string& text, const std::string& displayName,
                  const std::filesystem::path& baseDir);
 
-/// Dry validation of every point without solving: builds each component's
-/// settings from the point's Params exactly as a run does and reports unused
-/// keys (experiments::validatePoint). Throws the first InputError, prefixed
-/// with the point index.
+/// Dry validation of every point without solving: checks the point count
+/// (checkPointCount), then builds each component's settings from the point's
+/// Params exactly as a run does and reports unused keys
+/// (experiments::validatePoint). Throws the first InputError, prefixed with
+/// the point index.
 void validateStudy(const Study& study);
+/// Same for one point (the prefix names the point and the study).
+void validateStudyPoint(const Study& study, const PointSpec& point);
 
 /// Stable key of a point: a hash of its scene (label and, for files, the file
 /// contents) and its resolved settings and reference settings. Finished
@@ -111,6 +143,9 @@ std::string pointKey(const PointSpec& point);
 std::string paramsToJsonText(const Params& params);
 
 /// One line per point for --dry-run.
+std::string describePoint(const PointSpec& point);
+/// The header and one line per point (small studies and tests; --dry-run
+/// streams with describePoint instead).
 std::string describePoints(const Study& study);
 
 }  // namespace hrad::experiments

@@ -1,6 +1,7 @@
 #include "experiments/sweep.h"
 
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/time.h>
 #include <sys/wait.h>
@@ -131,7 +132,7 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
     validateStudy(study);
 
     SweepReport report;
-    report.points = study.points.size();
+    report.points = study.pointCount();
     ResultStore store(opt.store);
     int64_t existing = store.count("runs") + store.count("failures");
     if (existing > 0 && !opt.resume)
@@ -146,9 +147,13 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
     fs::path work = opt.store;
     work += ".work";
     fs::create_directories(work);
+    // Result files left by a sweep that was killed: their points were not
+    // committed (the store is the record), so they are rerun; remove them.
+    for (const auto& e : fs::directory_iterator(work))
+        if (e.path().extension() == ".json") fs::remove(e.path());
     fs::path artefactRoot =
         (opt.store.has_parent_path() ? opt.store.parent_path() : fs::path(".")) /
-        (study.points.empty() ? fs::path("runs") : fs::path(study.points[0].outputs.dir)) / study.name;
+        (study.pointCount() == 0 ? fs::path("runs") : fs::path(study.point(0).outputs.dir)) / study.name;
 
     double maxSeconds = opt.maxSeconds > 0 ? opt.maxSeconds : study.limits.maxSeconds;
     uint64_t maxMemory = opt.maxMemoryBytes > 0 ? opt.maxMemoryBytes : study.limits.maxMemoryBytes;
@@ -157,10 +162,14 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
     int threads = opt.threads > 0 ? opt.threads : std::max(1, cores / jobs);
 
     // ---- select this shard's unfinished points ----------------------------------------
+    // This shard's points, built once (validateStudy bounded their number by
+    // sweep.max_points); tasks point into this list.
+    std::vector<PointSpec> shardPoints;
+    for (uint64_t i = uint64_t(opt.shardIndex); i < study.pointCount(); i += uint64_t(opt.shardCount))
+        shardPoints.push_back(study.point(i));
     std::vector<Task> todo;
     std::map<std::string, std::vector<const PointSpec*>> byReference;
-    for (const PointSpec& p : study.points) {
-        if (int(p.index % size_t(opt.shardCount)) != opt.shardIndex) continue;
+    for (const PointSpec& p : shardPoints) {
         ++report.selected;
         std::string key = pointKey(p);
         if (done.count(key) || (!opt.retryFailed && failed.count(key))) {
@@ -194,8 +203,16 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
                 RunContext ctx = base;
                 if (!t.isReference) ctx.artefactDir = artefactRoot / t.key;
                 std::fflush(nullptr);
+                pid_t parent = getpid();
                 pid_t pid = fork();
                 if (pid < 0) throw Error(fmt::format("fork failed: {}", std::strerror(errno)));
+                if (pid == 0) {
+                    // A child dies with its parent (a sweep killed with SIGKILL
+                    // cannot stop its children itself); the check after prctl
+                    // covers a parent that died before the call, the same way.
+                    prctl(PR_SET_PDEATHSIG, SIGKILL);
+                    if (getppid() != parent) raise(SIGKILL);
+                }
                 if (pid == 0)
                     childMain(t, ctx, threads, limited ? maxSeconds : 0.0, limited ? maxMemory : 0,
                               opt.progress);

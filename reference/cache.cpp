@@ -3,7 +3,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -431,38 +433,64 @@ std::unique_ptr<scene::LeafField> loadSolution(const std::string& path,
     Reader r{buf};
     char magic[8];
     if (!r.take(magic, sizeof(magic)) || std::memcmp(magic, kSolutionMagic, sizeof(magic)) != 0)
-        return fail("no HRADSOL header");
+        return fail("no HRADSOL header (at byte offset 0)");
     auto version = r.pod<uint32_t>();
     auto hash = r.pod<uint64_t>();
     auto patches = r.pod<uint64_t>();
-    if (r.bad) return fail("truncated header");
+    if (r.bad) return fail(fmt::format("truncated header ({} bytes, the header has 28)", buf.size()));
     if (version != kSolutionVersion)
-        return fail(fmt::format("format version {} != {}", version, kSolutionVersion));
+        return fail(fmt::format("format version {} != {} (at byte offset 8)", version, kSolutionVersion));
     if (hash != sceneContentHash(scene) || patches != scene.patches.size())
         throw InputError(SourceLocation{path, 0, 0},
                          fmt::format("the solution was computed for another scene (content hash "
                                      "{}, {} patches; this scene: {}, {} patches)",
                                      hex64(hash), patches, hex64(sceneContentHash(scene)),
                                      scene.patches.size()));
+    // Radiosities are checked against what the scene can produce: with
+    // reflectances below rho_max and emissions below E_max, every radiosity
+    // lies in [0, E_max / (1 - rho_max)] (the Neumann series of B = E + rho F B
+    // with row sums of F <= 1). The bound is widened 1000x for quadrature
+    // error in F and Aitken extrapolation; it refuses 1e308 or NaN, which the
+    // checksum cannot (a checksum only says the bytes are as written).
+    double eMax = 0.0, rhoMax = 0.0;
+    for (const auto& m : scene.materials) {
+        eMax = std::max(eMax, maxComponent(m.emission));
+        rhoMax = std::max(rhoMax, maxComponent(m.rho));
+    }
+    double bound = 1000.0 * eMax / std::max(1e-12, 1.0 - rhoMax) + 1e-300;
     std::vector<std::vector<scene::LeafField::Leaf>> leaves(patches);
     for (uint64_t p = 0; p < patches; ++p) {
+        size_t countAt = r.pos;
         auto n = r.pod<uint32_t>();
         if (r.bad || (buf.size() - r.pos) / (4 * sizeof(uint64_t)) < n)
-            return fail(fmt::format("truncated at patch {}", p));
+            return fail(fmt::format("truncated at patch {} (its leaf count {} at byte offset {} exceeds "
+                                    "the bytes left)", p, n, countAt));
         leaves[p].resize(n);
         for (auto& l : leaves[p]) {
+            size_t at = r.pos;
             l.key = r.pod<uint64_t>();
             l.value.r = r.pod<double>();
             l.value.g = r.pod<double>();
             l.value.b = r.pod<double>();
+            if (!scene::isValidKey(l.key))
+                return fail(fmt::format("patch {}: key {} (at byte offset {}) is not an element of the "
+                                        "patch's quadtree", p, l.key, at));
+            for (int c = 0; c < 3; ++c)
+                if (!(std::isfinite(l.value[c]) && l.value[c] >= -bound && l.value[c] <= bound))
+                    return fail(fmt::format("patch {}: radiosity ({:.6g}, {:.6g}, {:.6g}) of the leaf {} at "
+                                            "byte offset {} is not finite or outside what the scene "
+                                            "can produce (|B| <= {:.6g})",
+                                            p, l.value.r, l.value.g, l.value.b, l.key, at, bound));
         }
     }
     size_t checked = r.pos;
     auto stored = r.pod<uint64_t>();
-    if (r.bad || r.pos != buf.size()) return fail("truncated data or trailing bytes");
+    if (r.bad || r.pos != buf.size())
+        return fail(fmt::format("the leaves end at byte offset {}, then {} bytes follow where the 8-byte "
+                                "checksum belongs", checked, buf.size() - checked));
     Fnv f;
     f.bytes(buf.data(), checked);
-    if (f.h != stored) return fail("checksum mismatch");
+    if (f.h != stored) return fail(fmt::format("checksum mismatch (checksum at byte offset {})", checked));
     try {
         return std::make_unique<scene::LeafField>(scene, std::move(leaves));
     } catch (const Error& e) {

@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/rng.h"
+#include "core/log.h"
 #include "render/camera.h"
 #include "scene/element.h"
 
@@ -27,6 +28,17 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
     s.width = int(params.getInt(key("width"), s.width, 1, 32768));
     s.height = int(params.getInt(key("height"), s.height, 1, 32768));
     s.spp = int(params.getInt(key("spp"), s.spp, 1, 65536));
+    s.maxSamples = params.getInt(key("max_samples"), s.maxSamples, 1, int64_t(1) << 40);
+    // Checked before any image is allocated or ray cast: the cost of a render
+    // is width x height x spp primary rays.
+    int64_t samples = int64_t(s.width) * s.height * s.spp;
+    if (samples > s.maxSamples) {
+        std::string at = params.has(key("spp")) ? key("spp") : params.has(key("width")) ? key("width") : key("height");
+        throwInputError(params.where(at),
+                        "{}x{} pixels x {} spp = {} samples, more than {} = {}; lower the size or spp, "
+                        "or raise the setting",
+                        s.width, s.height, s.spp, samples, key("max_samples"), s.maxSamples);
+    }
     s.interpolate = params.getBool(key("interpolate"), s.interpolate);
     s.backFacesBlack = params.getEnum(key("back_faces"), "black", {"black", "front"}) == "black";
     // "x, y, z" -> Vec3; errors at the setting's file:line.
@@ -235,10 +247,14 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
     const int strata = int(std::lround(std::sqrt(double(spp))));
     const bool stratified = strata * strata == spp;
 
+    // Progress with an estimate of the time left (core/log.h), per image row;
+    // silent under --log quiet and for renders under a second.
+    ProgressBar progress("render", uint64_t(settings.height),
+                         spdlog::should_log(spdlog::level::info));
     tbb::parallel_for(
         tbb::blocked_range<int>(0, settings.height), [&](const tbb::blocked_range<int>& r) {
             std::vector<RGB> sum(nf);
-            for (int y = r.begin(); y != r.end(); ++y) {
+            for (int y = r.begin(); y != r.end(); ++y, progress.add(1)) {
                 for (int x = 0; x < settings.width; ++x) {
                     Pcg32 rng(hashIds(uint64_t(x), uint64_t(y)));
                     std::fill(sum.begin(), sum.end(), RGB(0.0));

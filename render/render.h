@@ -24,6 +24,8 @@
 //   spp          int     1       samples per pixel: 1 = pixel centre; a square
 //                                k*k = stratified jitter; otherwise uniform
 //                                jitter; seeded by the pixel (deterministic)
+//   max_samples  int     2^26    refuse a render of more than width x height x
+//                                spp samples (checked before allocating)
 //   interpolate  bool    false   vertex interpolation (see above)
 //   back_faces   string  "black" what a ray hitting a patch from behind shows:
 //                                "black" (patches are one-sided: no radiosity
@@ -54,6 +56,7 @@ struct RenderSettings {
     int width = 512, height = 512;
     bool interpolate = false;
     int spp = 1;
+    int64_t maxSamples = int64_t(1) << 26;  ///< render.max_samples: width x height x spp bound
     bool backFacesBlack = true;
     std::optional<scene::Camera> camera;  ///< render.eye/target/up/fov when set
 

@@ -33,6 +33,11 @@ inline constexpr ElementKey kRootKey = 1;
 inline constexpr int kMaxLevel = 30;
 
 inline int keyLevel(ElementKey k) { return (63 - __builtin_clzll(k)) / 2; }
+/// True for the key of an element of a quadtree (for keys read from files):
+/// non-zero, its leading 1 bit at an even position, at most kMaxLevel levels.
+inline bool isValidKey(ElementKey k) {
+    return k != 0 && ((63 - __builtin_clzll(k)) & 1) == 0 && keyLevel(k) <= kMaxLevel;
+}
 inline ElementKey childKey(ElementKey k, int child) { return (k << 2) | uint64_t(child); }
 inline ElementKey parentKey(ElementKey k) { return k >> 2; }
 inline int childIndexOf(ElementKey k) { return int(k & 3u); }

@@ -108,7 +108,7 @@ LeafField::LeafField(const Scene& scene, std::vector<std::vector<Leaf>> leaves)
         double area = 0.0;
         for (uint32_t i = 0; i < leaves_[p].size(); ++i) {
             ElementKey k = leaves_[p][i].key;
-            if (k == 0 || keyLevel(k) > kMaxLevel || !index_[p].emplace(k, i).second)
+            if (!isValidKey(k) || !index_[p].emplace(k, i).second)
                 throw Error(fmt::format("leaf field: patch {}: invalid or repeated key {}", p, k));
             area += elementArea(patch, keyDomain(patch.kind, k));
         }

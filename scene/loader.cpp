@@ -27,6 +27,7 @@ Scene loadScene(const std::string& spec, const Params& params) {
     MgfOptions mgf;
     mgf.resolution = int(params.getInt("mgf.resolution", mgf.resolution, 3, 4096));
     mgf.whitePoint = params.getEnum("mgf.white_point", mgf.whitePoint, {"E", "D65"});
+    mgf.maxFaces = size_t(params.getInt("mgf.max_faces", int64_t(mgf.maxFaces), 1, int64_t(1) << 40));
     ObjOptions obj;
     obj.defaultRho = params.getDouble("obj.default_rho", obj.defaultRho, 0.0, 1.0);
     if (!(obj.defaultRho < 1.0))
@@ -52,8 +53,14 @@ Scene loadScene(const std::string& spec, const Params& params) {
                             "unknown scene file extension '{}' (expected .obj, .mgf or .ply, or a "
                             "built-in name: cornell, furnace, plates:..., office:N)",
                             ext);
-        if (!std::filesystem::exists(path))
-            throwInputError(SourceLocation{spec, 0, 0}, "scene file not found");
+        // error_code forms: a name the system refuses (too long, ...) is an
+        // input error, not a std::filesystem exception.
+        std::error_code ec;
+        if (!std::filesystem::exists(path, ec))
+            throwInputError(SourceLocation{spec, 0, 0}, "scene file not found{}",
+                            ec ? " (" + ec.message() + ")" : std::string());
+        if (!std::filesystem::is_regular_file(path, ec))
+            throwInputError(SourceLocation{spec, 0, 0}, "scene path is not a regular file (a folder or device)");
         if (ext == ".obj")
             scene = loadObj(spec, obj);
         else if (ext == ".mgf")

@@ -15,6 +15,7 @@
 #include <glm/mat3x3.hpp>
 
 #include "core/error.h"
+#include "core/parse.h"
 #include "scene/triangulate.h"
 
 namespace hrad::scene {
@@ -113,6 +114,12 @@ struct FileText {
 };
 
 std::unique_ptr<FileText> readFile(const std::string& path, const SourceLocation& from) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec))
+        throwInputError(from, "'{}' is a folder, not an MGF file", path);
+    // Devices and pipes (`i /dev/zero`) would be read without end.
+    if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+        throwInputError(from, "'{}' is not a regular file", path);
     std::ifstream in(path, std::ios::binary);
     if (!in) throwInputError(from, "cannot open MGF file '{}'", path);
     auto ft = std::make_unique<FileText>();
@@ -192,7 +199,11 @@ class MgfLoader {
         scene_.source = "mgf";
         scene_.upAxis = 2;
         const FileText& ft = file(path, SourceLocation{path, 0, 0});
-        exec(ft, 0, ft.stmts.size(), Xf{}, 0);
+        exec(ft, 0, ft.stmts.size(), Xf{}, 0, 1.0);
+        if (scene_.patches.size() > opt_.maxFaces)
+            throwInputError(SourceLocation{path, 0, 0},
+                            "the scene has {} faces, more than mgf.max_faces = {}; raise the "
+                            "setting to load it", scene_.patches.size(), opt_.maxFaces);
         for (auto& [kind, where] : warned_)
             if (where.second > 1)
                 scene_.stats.warnings[where.first] += fmt::format(" ({} times in all)", where.second);
@@ -222,10 +233,13 @@ class MgfLoader {
     std::string materialName_ = "mgf_default";
     std::unordered_map<std::string, MgfVertex> vertices_;
     MgfVertex* vertex_ = nullptr;
+    size_t executed_ = 0;  ///< statements executed so far, after expansion
     std::map<std::string, std::pair<size_t, int>> warned_;  ///< kind -> (warning index, count)
 
     const FileText& file(const std::string& path, const SourceLocation& from) {
-        std::string key = std::filesystem::weakly_canonical(path).string();
+        std::error_code ec;
+        std::filesystem::path canon = std::filesystem::weakly_canonical(path, ec);
+        std::string key = ec ? std::filesystem::path(path).lexically_normal().string() : canon.string();
         auto it = files_.find(key);
         if (it != files_.end()) return *it->second;
         auto ft = readFile(path, from);
@@ -248,12 +262,9 @@ class MgfLoader {
     double num(const FileText& f, const Stmt& s, size_t i) const {
         if (i >= s.tok.size()) fail(f, s, fmt::format("'{}' is missing argument {}", s.tok[0], i));
         const std::string& t = s.tok[i];
-        char* end = nullptr;
-        double v = std::strtod(t.c_str(), &end);
-        if (t.empty() || !end || *end != '\0')
-            fail(f, s, fmt::format("'{}': malformed number '{}'", s.tok[0], t));
-        if (!std::isfinite(v)) fail(f, s, fmt::format("'{}': non-finite number '{}'", s.tok[0], t));
-        return v;
+        auto v = parseFiniteDouble(t);  // strict: whole token, finite (core/parse.h)
+        if (!v) fail(f, s, fmt::format("'{}': malformed or non-finite number '{}'", s.tok[0], t));
+        return *v;
     }
 
     void needArgs(const FileText& f, const Stmt& s, size_t lo, size_t hi) const {
@@ -295,6 +306,17 @@ class MgfLoader {
         return uint32_t(m.sceneIndex);
     }
 
+    /// Adds a face made by statement s. Transforms can overflow finite input
+    /// (nested `xf -s 1e200`): such a face is an error at the statement, not
+    /// a "non-finite vertex" for the scene check to find without a line.
+    void emit(const FileText& f, const Stmt& s, const std::vector<Vec3>& poly, uint32_t material) {
+        for (const Vec3& v : poly)
+            if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z)))
+                fail(f, s, fmt::format("'{}' makes a vertex with non-finite coordinates (transform "
+                                       "overflow?)", s.tok[0]));
+        addPolygon(scene_, poly, material);
+    }
+
     // Parses xf arguments into the list of transforms (one per array element).
     std::vector<Xf> parseXf(const FileText& f, const Stmt& s, size_t first) const {
         struct Segment {
@@ -306,9 +328,14 @@ class MgfLoader {
         size_t i = first;
         int repeat = 1;           // current -i count
         std::vector<Xf> pending;  // ops since the last -i
+        // `-i N` repeats the transforms since the previous -i/-a N times: one
+        // composed transform P^N, not N copies of the list.
         auto flushRepeat = [&]() {
-            for (int r = 0; r < repeat; ++r)
-                for (const auto& o : pending) segs.back().ops.push_back(o);
+            Xf once;
+            for (const auto& o : pending) once = compose(o, once);
+            Xf all;
+            for (int r = 0; r < repeat; ++r) all = compose(once, all);
+            segs.back().ops.push_back(all);
             pending.clear();
             repeat = 1;
         };
@@ -353,6 +380,14 @@ class MgfLoader {
             pending.push_back(x);
         }
         flushRepeat();
+        // The number of array elements is the product of the -a counts: check
+        // it against mgf.max_faces before building the list.
+        double copies = 1.0;
+        for (const auto& sg : segs) copies *= sg.count;
+        if (copies > double(opt_.maxFaces))
+            fail(f, s, fmt::format("xf: the -a arrays make {:.0f} copies, more than mgf.max_faces = {} "
+                                   "(raise the setting to load it)",
+                                   copies, opt_.maxFaces));
         // Element transform = A_k^{i_k} o ... o A_1^{i_1} o B (left to right):
         // the prefix B applies once, each array segment i times for element i.
         std::vector<Xf> result(1);
@@ -376,17 +411,45 @@ class MgfLoader {
         return result;
     }
 
-    void exec(const FileText& f, size_t begin, size_t end, const Xf& xf, int depth) {
+    /// A body of `statements` statements run `copies` times executes at least
+    /// copies * statements statements: refused up front when that exceeds
+    /// mgf.max_faces (the executed-statement counter would stop it later, after
+    /// allocating up to mgf.max_faces faces).
+    void checkExpansion(const FileText& f, const Stmt& s, double copies, size_t statements) const {
+        double total = copies * double(statements);
+        if (total > double(opt_.maxFaces))
+            fail(f, s, fmt::format("'{}' expands to {} copies of {} statements ({:.3g} in all), more "
+                                   "than mgf.max_faces = {}; raise the setting to load it",
+                                   s.tok[0], copies, statements, total, opt_.maxFaces));
+    }
+
+    /// `copies`: how many times this range runs (the product of the enclosing
+    /// array counts), for the expansion bound.
+    void exec(const FileText& f, size_t begin, size_t end, const Xf& xf, int depth, double copies) {
         if (depth > 64) throwInputError(SourceLocation{f.path, 0, 0}, "include/xf nesting deeper than 64 (a cycle?)");
         for (size_t i = begin; i < end; ++i) {
             const Stmt& s = f.stmts[i];
             const std::string& k = s.tok[0];
+            // Bounded expansion: statements executed after xf/include expansion
+            // and faces made are both held to mgf.max_faces, so that nested
+            // arrays (xf -a 999999 twice: 10^12 copies) stop with an error
+            // early instead of running for hours.
+            if (++executed_ > opt_.maxFaces)
+                fail(f, s, fmt::format("xf/include expansion executes more than mgf.max_faces = {} "
+                                       "statements (nested -a/-i arrays?); raise the setting to load it",
+                                       opt_.maxFaces));
+            if (scene_.patches.size() > opt_.maxFaces)
+                fail(f, s, fmt::format("the scene has more than mgf.max_faces = {} faces; raise the "
+                                       "setting to load it", opt_.maxFaces));
             if (k == "xf") {
                 if (s.tok.size() == 1) fail(f, s, "unmatched 'xf'");  // cannot happen: matched in readFile
                 size_t close = f.xfEnd[i];
                 if (close >= f.stmts.size())
                     warnOnce("xf-eof", fmt::format("{}:{}: 'xf' context not closed before end of file", f.path, s.line));
-                for (const Xf& x : parseXf(f, s, 1)) exec(f, i + 1, std::min(close, f.stmts.size()), compose(xf, x), depth + 1);
+                size_t bodyEnd = std::min(close, f.stmts.size());
+                std::vector<Xf> list = parseXf(f, s, 1);
+                checkExpansion(f, s, copies * double(list.size()), bodyEnd - i - 1);
+                for (const Xf& x : list) exec(f, i + 1, bodyEnd, compose(xf, x), depth + 1, copies * double(list.size()));
                 i = std::min(close, f.stmts.size());
             } else if (k == "i") {
                 if (s.tok.size() < 2) fail(f, s, "'i' needs a file name");
@@ -394,9 +457,12 @@ class MgfLoader {
                 if (p.is_relative()) p = std::filesystem::path(f.path).parent_path() / p;
                 const FileText& inc = file(p.string(), SourceLocation{f.path, s.line, 0});
                 if (s.tok.size() > 2) {
-                    for (const Xf& x : parseXf(f, s, 2)) exec(inc, 0, inc.stmts.size(), compose(xf, x), depth + 1);
+                    std::vector<Xf> list = parseXf(f, s, 2);
+                    checkExpansion(f, s, copies * double(list.size()), inc.stmts.size());
+                    for (const Xf& x : list) exec(inc, 0, inc.stmts.size(), compose(xf, x), depth + 1, copies * double(list.size()));
                 } else {
-                    exec(inc, 0, inc.stmts.size(), xf, depth + 1);
+                    checkExpansion(f, s, copies, inc.stmts.size());
+                    exec(inc, 0, inc.stmts.size(), xf, depth + 1, copies);
                 }
             } else if (k == "c") {
                 colourContext(f, s);
@@ -479,7 +545,7 @@ class MgfLoader {
                 poly.reserve(s.tok.size() - 1);
                 for (size_t a = 1; a < s.tok.size(); ++a) poly.push_back(xf.point(vert(f, s, s.tok[a]).p));
                 if (xf.mirror) std::reverse(poly.begin(), poly.end());
-                addPolygon(scene_, poly, currentMaterial());
+                emit(f, s, poly, currentMaterial());
             } else if (k == "sph" || k == "cyl" || k == "cone" || k == "ring" || k == "torus" || k == "prism") {
                 primitive(f, s, xf);
             } else if (k == "o") {
@@ -580,9 +646,9 @@ class MgfLoader {
     }
 
     // Adds `poly`, reversed when its normal points away from `facing`.
-    void emitFacing(std::vector<Vec3> poly, const Vec3& facing, uint32_t m) {
+    void emitFacing(const FileText& f, const Stmt& s, std::vector<Vec3> poly, const Vec3& facing, uint32_t m) {
         if (glm::dot(newellNormal(poly), facing) < 0) std::reverse(poly.begin(), poly.end());
-        addPolygon(scene_, poly, m);
+        emit(f, s, poly, m);
     }
 
     static void basis(const Vec3& axis, Vec3& u, Vec3& w) {
@@ -619,7 +685,7 @@ class MgfLoader {
                         poly = {P(j, i), P(j + 1, i), P(j + 1, i + 1), P(j, i + 1)};
                     Vec3 cen(0.0);
                     for (auto& p : poly) cen += p;
-                    emitFacing(poly, sign * (cen / double(poly.size()) - c), m);
+                    emitFacing(f, s, poly, sign * (cen / double(poly.size()) - c), m);
                 }
         } else if (k == "cyl" || k == "cone") {
             bool cyl = k == "cyl";
@@ -649,7 +715,7 @@ class MgfLoader {
                 if (r2 > 0) poly.push_back(b + r2 * d0);
                 else poly.push_back(b);
                 // Outward normal of the slanted side in the (radial, axial) plane.
-                emitFacing(poly, sign * (h * dm + (r1 - r2) * ax), m);
+                emitFacing(f, s, poly, sign * (h * dm + (r1 - r2) * ax), m);
             }
         } else if (k == "ring" || k == "torus") {
             needArgs(f, s, 3, 3);
@@ -665,9 +731,9 @@ class MgfLoader {
                     double p0 = 2 * kPi * i / R, p1 = 2 * kPi * (i + 1) / R;
                     Vec3 d0 = std::cos(p0) * u + std::sin(p0) * w, d1 = std::cos(p1) * u + std::sin(p1) * w;
                     if (r0 == 0)
-                        emitFacing({c, c + r1 * d0, c + r1 * d1}, ax, m);
+                        emitFacing(f, s, {c, c + r1 * d0, c + r1 * d1}, ax, m);
                     else
-                        emitFacing({c + r0 * d0, c + r1 * d0, c + r1 * d1, c + r0 * d1}, ax, m);
+                        emitFacing(f, s, {c + r0 * d0, c + r1 * d0, c + r1 * d1, c + r0 * d1}, ax, m);
                 }
             } else {
                 if ((r0 > 0 && r1 < 0) || (r0 < 0 && r1 > 0)) fail(f, s, "torus: radii must have the same sign");
@@ -688,7 +754,7 @@ class MgfLoader {
                         double pm = 2 * kPi * (i + 0.5) / R;
                         Vec3 ring = c + major * (std::cos(pm) * u + std::sin(pm) * w);
                         Vec3 cen = 0.25 * (poly[0] + poly[1] + poly[2] + poly[3]);
-                        emitFacing(poly, sign * (cen - ring), m);
+                        emitFacing(f, s, poly, sign * (cen - ring), m);
                     }
             }
         } else {  // prism v1 ... vn length
@@ -702,14 +768,14 @@ class MgfLoader {
             // mgflib extrudes away from the base's front: the base faces out.
             Vec3 d = -len * glm::normalize(nn);
             size_t nv = base.size();
-            addPolygon(scene_, base, m);
+            emit(f, s, base, m);
             std::vector<Vec3> top;
             for (size_t a = nv; a-- > 0;) top.push_back(base[a] + d);
-            addPolygon(scene_, top, m);
+            emit(f, s, top, m);
             for (size_t a = 0; a < nv; ++a) {
                 const Vec3& p = base[a];
                 const Vec3& q = base[(a + 1) % nv];
-                addPolygon(scene_, {q, p, p + d, q + d}, m);
+                emit(f, s, {q, p, p + d, q + d}, m);
             }
         }
     }

@@ -42,6 +42,10 @@ namespace hrad::scene {
 struct MgfOptions {
     int resolution = 16;            ///< segments around curved primitives
     std::string whitePoint = "E";   ///< "E" or "D65"
+    /// Bound on the faces made and on the statements executed after xf/include
+    /// expansion (hostile or mistaken nested -a arrays); exceeding it is an
+    /// InputError naming the setting.
+    size_t maxFaces = 20'000'000;
 };
 
 Scene loadMgf(const std::string& path, const MgfOptions& options = {});

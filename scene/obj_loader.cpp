@@ -6,12 +6,15 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
+#include <set>
 #include <regex>
 #include <sstream>
 
 #include <tiny_obj_loader.h>
 
 #include "core/error.h"
+#include "core/parse.h"
 #include "scene/triangulate.h"
 
 namespace hrad::scene {
@@ -23,22 +26,112 @@ struct MtlLocation {
     int line = 0;
 };
 
+/// What hrad reads of one MTL material, parsed by hrad itself: tinyobjloader
+/// reads `Kd abc 0.5 0.5` as (0, 0.5, 0.5), `Kd 0.7` as (0.7, 0, 0) and
+/// `Ke 10x 10 10` as (10, 10, 10) without a word.
+struct MtlMaterial {
+    MtlLocation where;  ///< the newmtl line
+    std::optional<RGB> kd, ke;
+    MtlLocation kdWhere, keWhere;
+};
+
 bool parseDouble(const std::string& tok, double& out) {
-    if (tok.empty()) return false;
-    char* end = nullptr;
-    out = std::strtod(tok.c_str(), &end);
-    return end && *end == '\0';
+    auto v = parseFiniteDouble(tok);
+    if (v) out = *v;
+    return v.has_value();
 }
 
-// Checks the OBJ text for what tinyobjloader accepts silently and records
-// where each material is defined.
-void preScan(const std::string& path, std::map<std::string, MtlLocation>& mtlLines) {
+std::vector<std::string> tokens(const std::string& line) {
+    std::istringstream ss(line);
+    std::vector<std::string> t;
+    std::string w;
+    while (ss >> w) t.push_back(w);
+    return t;
+}
+
+// MTL colour statements (Wavefront MTL spec): `Kd r [g b]`, where a lone r
+// stands for grey (g = b = r); `Kd spectral file` and `Kd xyz x y z` are
+// refused (hrad works in RGB). Numbers strictly parsed (core/parse.h).
+RGB mtlColour(const std::vector<std::string>& t, const SourceLocation& where) {
+    if (t.size() > 1 && (t[1] == "spectral" || t[1] == "xyz"))
+        throwInputError(where, "'{} {}' is not supported (hrad reads RGB: '{} r g b')", t[0], t[1], t[0]);
+    if (t.size() != 2 && t.size() != 4)
+        throwInputError(where, "'{}' needs 1 or 3 numbers ('{} r g b', or '{} v' for grey), got {}", t[0],
+                        t[0], t[0], t.size() - 1);
+    RGB c(0.0);
+    for (size_t k = 1; k < t.size(); ++k) {
+        auto v = parseFiniteDouble(t[k]);
+        if (!v) throwInputError(where, "'{}': malformed or non-finite number '{}'", t[0], t[k]);
+        c[int(k - 1)] = *v;
+    }
+    if (t.size() == 2) c = RGB(c.r);
+    return c;
+}
+
+// Checks every numeric MTL statement strictly; records Kd and Ke per material.
+void scanMtl(const std::string& mpath, std::map<std::string, MtlMaterial>& mtl) {
+    std::ifstream in(mpath, std::ios::binary);
+    if (!in) throwInputError(SourceLocation{mpath, 0, 0}, "cannot open material library");
+    static const std::set<std::string> colourKeys = {"Ka", "Kd", "Ks", "Ke", "Kt", "Tf"};
+    static const std::set<std::string> scalarKeys = {"Ns", "Ni", "d", "Tr", "illum", "sharpness",
+                                                     "Pr", "Pm", "Ps", "Pc", "Pcr", "aniso", "anisor"};
+    std::string line;
+    int ln = 0;
+    MtlMaterial* cur = nullptr;
+    std::set<std::string> seenHere;
+    while (std::getline(in, line)) {
+        ++ln;
+        if (size_t hash = line.find('#'); hash != std::string::npos) line.resize(hash);  // `Ka 1 1 1 # red`
+        std::vector<std::string> t = tokens(line);
+        if (t.empty() || t[0][0] == '#') continue;
+        SourceLocation where{mpath, ln, 0};
+        if (t[0] == "newmtl") {
+            if (t.size() < 2) throwInputError(where, "'newmtl' needs a name");
+            // Later definitions of a name in other libraries are ignored, as
+            // tinyobjloader keeps the first one.
+            if (mtl.count(t[1])) {
+                cur = seenHere.count(t[1]) ? &mtl[t[1]] : nullptr;
+                if (seenHere.count(t[1]))
+                    throwInputError(where, "material '{}' defined twice in this file (first at line {})",
+                                    t[1], mtl[t[1]].where.line);
+                continue;
+            }
+            seenHere.insert(t[1]);
+            cur = &mtl[t[1]];
+            cur->where = {mpath, ln};
+        } else if (colourKeys.count(t[0]) || scalarKeys.count(t[0])) {
+            if (colourKeys.count(t[0])) {
+                RGB c = mtlColour(t, where);
+                if (cur && t[0] == "Kd") {
+                    cur->kd = c;
+                    cur->kdWhere = {mpath, ln};
+                } else if (cur && t[0] == "Ke") {
+                    cur->ke = c;
+                    cur->keWhere = {mpath, ln};
+                }
+            } else {
+                size_t first = (t[0] == "d" && t.size() > 1 && t[1] == "-halo") ? 2 : 1;
+                if (t.size() != first + 1)
+                    throwInputError(where, "'{}' needs one number, got {}", t[0], t.size() - first);
+                if (!parseFiniteDouble(t[first]))
+                    throwInputError(where, "'{}': malformed or non-finite number '{}'", t[0], t[first]);
+            }
+            if (!cur && seenHere.empty())
+                throwInputError(where, "'{}' before any 'newmtl'", t[0]);
+        }
+    }
+}
+
+// Checks the OBJ text for what tinyobjloader accepts silently, and the
+// material libraries it names (which must exist).
+void preScan(const std::string& path, std::map<std::string, MtlMaterial>& mtl) {
     std::ifstream in(path);
     if (!in) throwInputError(SourceLocation{path, 0, 0}, "cannot open file");
     std::string line;
     int lineNo = 0;
     long numVertices = 0;
-    std::vector<std::string> mtllibs;
+    std::vector<std::pair<std::string, int>> mtllibs;  // resolved path, OBJ line
+    std::filesystem::path dir = std::filesystem::path(path).parent_path();
     while (std::getline(in, line)) {
         ++lineNo;
         if (line.size() < 2) continue;
@@ -52,11 +145,8 @@ void preScan(const std::string& path, std::map<std::string, MtlLocation>& mtlLin
                 if (!(ss >> tok))
                     throwInputError(SourceLocation{path, lineNo, 0}, "vertex needs 3 coordinates");
                 if (!parseDouble(tok, d))
-                    throwInputError(SourceLocation{path, lineNo, 0}, "malformed vertex coordinate '{}'",
-                                    tok);
-                if (!std::isfinite(d))
-                    throwInputError(SourceLocation{path, lineNo, 0}, "non-finite vertex coordinate '{}'",
-                                    tok);
+                    throwInputError(SourceLocation{path, lineNo, 0},
+                                    "malformed or non-finite vertex coordinate '{}'", tok);
             }
             ++numVertices;
         } else if (key == "f") {
@@ -64,14 +154,13 @@ void preScan(const std::string& path, std::map<std::string, MtlLocation>& mtlLin
             int n = 0;
             while (ss >> tok) {
                 std::string first = tok.substr(0, tok.find('/'));
-                char* end = nullptr;
-                long idx = std::strtol(first.c_str(), &end, 10);
-                if (first.empty() || !end || *end != '\0')
+                auto idx = parseInt64(first);
+                if (!idx)
                     throwInputError(SourceLocation{path, lineNo, 0}, "malformed face index '{}'", tok);
-                long resolved = idx > 0 ? idx : numVertices + idx + 1;
-                if (idx == 0 || resolved < 1 || resolved > numVertices)
+                int64_t resolved = *idx > 0 ? *idx : numVertices + *idx + 1;
+                if (*idx == 0 || resolved < 1 || resolved > numVertices)
                     throwInputError(SourceLocation{path, lineNo, 0},
-                                    "face refers to vertex {} but only {} vertices are defined", idx,
+                                    "face refers to vertex {} but only {} vertices are defined", *idx,
                                     numVertices);
                 ++n;
             }
@@ -80,22 +169,26 @@ void preScan(const std::string& path, std::map<std::string, MtlLocation>& mtlLin
             std::string rest;
             std::getline(ss, rest);
             size_t b = rest.find_first_not_of(" \t"), e = rest.find_last_not_of(" \t\r");
-            if (b != std::string::npos) mtllibs.push_back(rest.substr(b, e - b + 1));
+            if (b == std::string::npos)
+                throwInputError(SourceLocation{path, lineNo, 0}, "'mtllib' needs a file name");
+            rest = rest.substr(b, e - b + 1);
+            // One name with spaces, or several names separated by spaces (as
+            // tinyobjloader splits them).
+            std::vector<std::string> names{rest};
+            std::error_code ec;
+            if (!std::filesystem::is_regular_file(dir / rest, ec)) names = tokens(rest);
+            for (const auto& n : names) {
+                std::filesystem::path mp = dir / n;
+                if (std::filesystem::is_directory(mp, ec))
+                    throwInputError(SourceLocation{path, lineNo, 0}, "material library '{}' is a folder", n);
+                if (!std::filesystem::is_regular_file(mp, ec))
+                    throwInputError(SourceLocation{path, lineNo, 0},
+                                    "material library '{}' not found (looked for {})", n, mp.string());
+                mtllibs.emplace_back(mp.string(), lineNo);
+            }
         }
     }
-    std::filesystem::path dir = std::filesystem::path(path).parent_path();
-    for (const auto& lib : mtllibs) {
-        std::string mpath = (dir / lib).string();
-        std::ifstream min(mpath);
-        int ln = 0;
-        while (std::getline(min, line)) {
-            ++ln;
-            std::istringstream ss(line);
-            std::string key, name;
-            ss >> key;
-            if (key == "newmtl" && (ss >> name) && !mtlLines.count(name)) mtlLines[name] = {mpath, ln};
-        }
-    }
+    for (const auto& lib : mtllibs) scanMtl(lib.first, mtl);
 }
 
 // tinyobjloader reports "... line 12 ..." in some messages: recover it.
@@ -114,8 +207,8 @@ std::string trimmed(std::string s) {
 }  // namespace
 
 Scene loadObj(const std::string& path, const ObjOptions& options) {
-    std::map<std::string, MtlLocation> mtlLines;
-    preScan(path, mtlLines);
+    std::map<std::string, MtlMaterial> mtl;
+    preScan(path, mtl);
 
     tinyobj::ObjReaderConfig config;
     config.triangulate = false;
@@ -141,8 +234,12 @@ Scene loadObj(const std::string& path, const ObjOptions& options) {
     for (const auto& m : mats) {
         Material mat;
         mat.name = m.name;
-        mat.rho = RGB(m.diffuse[0], m.diffuse[1], m.diffuse[2]);
-        mat.emission = RGB(m.emission[0], m.emission[1], m.emission[2]);
+        // Kd and Ke as hrad parsed them; absent, tinyobjloader's defaults
+        // (black, or grey 0.6 for a map_Kd without Kd).
+        auto own = mtl.find(m.name);
+        const MtlMaterial* mm = own != mtl.end() ? &own->second : nullptr;
+        mat.rho = mm && mm->kd ? *mm->kd : RGB(m.diffuse[0], m.diffuse[1], m.diffuse[2]);
+        mat.emission = mm && mm->ke ? *mm->ke : RGB(m.emission[0], m.emission[1], m.emission[2]);
         if (options.clampRho > 0) {
             bool clamped = false;
             for (int c = 0; c < 3; ++c)
@@ -159,9 +256,11 @@ Scene loadObj(const std::string& path, const ObjOptions& options) {
             bool rhoOk = mat.rho[c] >= 0.0 && mat.rho[c] < 1.0;
             bool eOk = mat.emission[c] >= 0.0 && std::isfinite(mat.emission[c]);
             if (!rhoOk || !eOk) {
-                auto it = mtlLines.find(m.name);
-                SourceLocation where = it != mtlLines.end() ? SourceLocation{it->second.file, it->second.line, 0}
-                                                            : SourceLocation{path, 0, 0};
+                MtlLocation at = !mm ? MtlLocation{path, 0}
+                                 : !rhoOk && mm->kd ? mm->kdWhere
+                                 : !eOk && mm->ke   ? mm->keWhere
+                                                    : mm->where;
+                SourceLocation where{at.file, at.line, 0};
                 if (!rhoOk)
                     throwInputError(where,
                                     "material '{}': reflectance Kd ({:.6g}, {:.6g}, {:.6g}) must be in "

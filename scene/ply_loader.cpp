@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/parse.h"
 #include "scene/triangulate.h"
 
 namespace hrad::scene {
@@ -119,11 +120,26 @@ class Reader {
     double asciiNum(std::istringstream& ss, Type t) {
         std::string tok;
         if (!(ss >> tok)) fail("too few values on the line");
-        char* end = nullptr;
-        double v = std::strtod(tok.c_str(), &end);
-        if (!end || *end != '\0') fail(fmt::format("malformed number '{}'", tok));
-        if (!isFloat(t) && std::isfinite(v) && std::floor(v) != v) fail(fmt::format("'{}' is not an integer", tok));
-        return v;
+        // Strict (core/parse.h): the whole token, finite; integer types take
+        // integers within the type's range.
+        if (isFloat(t)) {
+            auto v = parseFiniteDouble(tok);
+            if (!v) fail(fmt::format("malformed or non-finite number '{}'", tok));
+            return *v;
+        }
+        auto v = parseInt64(tok);
+        if (!v) fail(fmt::format("'{}' is not an integer", tok));
+        double lo = 0, hi = 0;
+        switch (t) {
+            case Type::I8: lo = -128; hi = 127; break;
+            case Type::U8: lo = 0; hi = 255; break;
+            case Type::I16: lo = -32768; hi = 32767; break;
+            case Type::U16: lo = 0; hi = 65535; break;
+            case Type::I32: lo = -2147483648.0; hi = 2147483647.0; break;
+            default: lo = 0; hi = 4294967295.0; break;
+        }
+        if (double(*v) < lo || double(*v) > hi) fail(fmt::format("'{}' is out of the property type's range", tok));
+        return double(*v);
     }
 
     double binNum(Type t) {
@@ -139,8 +155,18 @@ class Reader {
             case Type::U16: { uint16_t v; std::memcpy(&v, b, 2); return v; }
             case Type::I32: { int32_t v; std::memcpy(&v, b, 4); return v; }
             case Type::U32: { uint32_t v; std::memcpy(&v, b, 4); return v; }
-            case Type::F32: { float v; std::memcpy(&v, b, 4); return v; }
-            default: { double v; std::memcpy(&v, b, 8); return v; }
+            case Type::F32: {
+                float v;
+                std::memcpy(&v, b, 4);
+                if (!std::isfinite(v)) fail("non-finite float value");
+                return v;
+            }
+            default: {
+                double v;
+                std::memcpy(&v, b, 8);
+                if (!std::isfinite(v)) fail("non-finite double value");
+                return v;
+            }
         }
     }
 };

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cstring>
+#include <limits>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -38,7 +40,7 @@ TEST(Cli, MalformedSceneFilesNameFileAndLine) {
         {"nan.obj", "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n", "nan.obj:3"},
         {"badnum.mgf", "m light =\n  ed 10\nv a =\n  p 0 0 0\nv b =\n  p 1 x 0\n", "badnum.mgf:6"},
         {"missing.mgf", "m light =\n  ed 10\nf a b c\n", "missing.mgf:3"},
-        {"rho.obj", "mtllib rho.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl bright\nf 1 2 3\n", "rho.mtl:1"},
+        {"rho.obj", "mtllib rho.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl bright\nf 1 2 3\n", "rho.mtl:2"},  // the Kd line
         {"dark.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "no emitter"},
     };
     hrad::test::writeFile(dir / "rho.mtl", "newmtl bright\nKd 1.2 0.5 0.5\nKe 1 1 1\n");
@@ -170,4 +172,118 @@ TEST(Cli, MalformedArgumentsExitTwo) {
         EXPECT_EQ(r.code, 2) << args << ": " << r.output;
     }
     EXPECT_EQ(run("--help").code, 0);
+}
+
+// Issue 16: a study of 10^9 points is refused with the count (sweep.max_points)
+// at once, --dry-run included; within the bound --dry-run streams the points.
+TEST(Cli, SweepPointLimitAndStreamingDryRun) {
+    auto dir = hrad::test::tempDir("cli_sweep_limit");
+    std::string big = "scenes = [\"furnace\"]\n[sweep]\n";
+    for (int a = 0; a < 9; ++a) big += "\"hr.k" + std::to_string(a) + "\" = [1,2,3,4,5,6,7,8,9,10]\n";
+    auto study = hrad::test::writeFile(dir / "big.toml", big);
+    Result r = run("sweep " + study.string() + " --dry-run");
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("expands to 1000000000 points"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("sweep.max_points"), std::string::npos) << r.output;
+    auto small = hrad::test::writeFile(dir / "small.toml",
+                                       "scenes = [\"furnace\"]\n[sweep]\n\"oracle.eps\" = [0.1, 0.2, 0.3]\n");
+    r = run("sweep " + small.string() + " --dry-run");
+    EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("3 point(s)"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("#2"), std::string::npos) << r.output;
+    r = run("sweep " + small.string() + " --dry-run --max-points 2");
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("sweep.max_points = 2 (set at command line (--max-points))"), std::string::npos)
+        << r.output;
+    auto escaped = hrad::test::writeFile(dir / "esc.toml", "name = \"../../escaped\"\nscenes = [\"furnace\"]\n");
+    r = run("sweep " + escaped.string() + " --store " + (dir / "s.sqlite").string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("esc.toml:1"), std::string::npos) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(dir / "s.sqlite"));
+}
+
+// Issue 16: `validate = false` skips the scene checks when loading, but a
+// solve of a scene without an emitter, without faces or with reflectance out
+// of range used to exit 0 with an all-zero, empty or NaN solution.
+TEST(Cli, ValidateFalseStillRefusesUnsolvableScenes) {
+    auto dir = hrad::test::tempDir("cli_validate_false");
+    auto nofaces = hrad::test::writeFile(dir / "nofaces.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    for (const std::string& scene : {std::string("furnace:0.5:0"), nofaces.string(), std::string("furnace:1.5:1")}) {
+        Result r = run("--set validate=false solve " + scene + " --no-progress -o " + (dir / "out").string());
+        EXPECT_EQ(r.code, 2) << scene << ": " << r.output;
+        EXPECT_NE(r.output.find("validate = false"), std::string::npos) << scene << ": " << r.output;
+        EXPECT_FALSE(std::filesystem::exists(dir / "out" / "summary.json")) << scene;
+    }
+    // hrad info still shows such a scene.
+    EXPECT_EQ(run("info furnace:0.5:0 --set validate=false").code, 0);
+}
+
+namespace {
+/// A copy of a solution file with one leaf's key or value replaced and the
+/// checksum recomputed (reference/cache.h: header 28 bytes, per patch u32
+/// count, per leaf u64 key + 3 f64, then u64 FNV-1a of all bytes before).
+std::string patchedSolution(std::string bytes, size_t field, const void* value) {
+    const size_t firstLeaf = 28 + 4;
+    std::memcpy(&bytes[firstLeaf + 8 * field], value, 8);
+    uint64_t h = 0xcbf29ce484222325ull;
+    for (size_t i = 0; i < bytes.size() - 8; ++i) {
+        h ^= static_cast<unsigned char>(bytes[i]);
+        h *= 0x100000001b3ull;
+    }
+    std::memcpy(&bytes[bytes.size() - 8], &h, 8);
+    return bytes;
+}
+}  // namespace
+
+// Issue 16: a checksummed solution with NaN or 1e308 radiosity, or with a key
+// outside the patch's quadtree, rendered with exit 0.
+TEST(Cli, RenderRefusesImplausibleSolutions) {
+    auto dir = hrad::test::tempDir("cli_render_bad");
+    Result r = run("solve furnace --eps 0.1 --no-ply --no-images --no-progress -o " + (dir / "s").string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    std::string good = fileBytes(dir / "s" / "solution.hrsol");
+    ASSERT_GT(good.size(), 100u);
+    // The unchanged file with its checksum recomputed still renders.
+    uint64_t key;
+    std::memcpy(&key, &good[32], 8);
+    auto same = hrad::test::writeFile(dir / "same.hrsol", patchedSolution(good, 0, &key));
+    r = run("render furnace " + same.string() + " --width 8 --height 8 -o " + (dir / "r0").string());
+    EXPECT_EQ(r.code, 0) << r.output;
+    // A flipped byte fails the checksum; a cut file says where it ends.
+    std::string flipped = good;
+    flipped[40] ^= 1;
+    auto flip = hrad::test::writeFile(dir / "flip.hrsol", flipped);
+    r = run("render furnace " + flip.string() + " -o " + (dir / "flip").string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("checksum mismatch (checksum at byte offset " + std::to_string(good.size() - 8)),
+              std::string::npos) << r.output;
+    auto cut = hrad::test::writeFile(dir / "cut.hrsol", good.substr(0, 20));
+    r = run("render furnace " + cut.string() + " -o " + (dir / "cut").string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("truncated header (20 bytes"), std::string::npos) << r.output;
+    double nan = std::numeric_limits<double>::quiet_NaN(), huge = 1e308;
+    uint64_t outside = 2, tooDeep = uint64_t(1) << 62;
+    struct Case { const char* name; size_t field; const void* value; const char* says; };
+    for (const Case& c : {Case{"nan", 1, &nan, "not finite"}, Case{"huge", 3, &huge, "can produce"},
+                          Case{"key", 0, &outside, "quadtree"}, Case{"deep", 0, &tooDeep, "quadtree"}}) {
+        auto bad = hrad::test::writeFile(dir / (std::string(c.name) + ".hrsol"), patchedSolution(good, c.field, c.value));
+        r = run("render furnace " + bad.string() + " --width 8 --height 8 -o " + (dir / c.name).string());
+        EXPECT_EQ(r.code, 2) << c.name << ": " << r.output;
+        EXPECT_NE(r.output.find(bad.string() + ": error:"), std::string::npos) << c.name << ": " << r.output;
+        EXPECT_NE(r.output.find("byte offset 32"), std::string::npos) << c.name << ": " << r.output;
+        EXPECT_NE(r.output.find(c.says), std::string::npos) << c.name << ": " << r.output;
+        EXPECT_FALSE(std::filesystem::exists(dir / c.name / "image.exr")) << c.name;
+    }
+}
+
+// Issue 16: render.spp = 65536 at 64x64 ran for minutes with no word; the
+// samples are now bounded by render.max_samples before anything is allocated.
+TEST(Cli, RenderSampleBound) {
+    auto dir = hrad::test::tempDir("cli_render_limit");
+    Result r = run("--set render.spp=65536 solve furnace --eps 0.1 --width 64 --height 64 --no-progress -o " +
+                   (dir / "s").string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("render.max_samples"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("render.spp"), std::string::npos) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(dir / "s" / "summary.json"));
 }

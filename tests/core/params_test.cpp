@@ -44,6 +44,13 @@ TEST(Params, RangeAndTypeErrorsNameTheKey) {
     }
     p.setFromText("n", "abc", {});
     EXPECT_THROW(p.getInt("n", 1), InputError);
+    // Issue 16: text values are numbers only when the whole text is a finite number.
+    for (const char* bad : {"nan", "inf", "1e400", "0x10", "10x", "4e3x"}) {
+        p.setFromText("x", bad, {"cli", 0});
+        EXPECT_THROW(p.getDouble("x", 1.0), InputError) << bad;
+    }
+    p.setFromText("x", "4e3", {"cli", 0});
+    EXPECT_EQ(p.getDouble("x", 1.0), 4000.0);
 }
 
 TEST(Params, SubsetStripsPrefix) {

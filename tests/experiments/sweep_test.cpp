@@ -1,6 +1,8 @@
 // Sweeps into a results store: every point runs in a child process, so these
 // tests exercise the real fork / wait / commit path on tiny scenes (the
 // furnace and two plates; full-matrix references at level 1).
+#include <sys/prctl.h>
+
 #include <gtest/gtest.h>
 
 #include <signal.h>
@@ -226,7 +228,7 @@ TEST(Sweep, ResumeAfterKillLosesAndDuplicatesNothing) {
     ResultStore s(o.store, true);
     EXPECT_EQ(s.count("runs"), 6);
     std::set<std::string> expected;
-    for (const auto& p : study.points) expected.insert(pointKey(p));
+    for (const auto& p : study.points()) expected.insert(pointKey(p));
     EXPECT_EQ(keysOf(o.store), expected);
     // Iteration rows only for committed runs, none orphaned or duplicated.
     EXPECT_EQ(keysOf(o.store, "SELECT DISTINCT run_key FROM iterations"), expected);
@@ -234,6 +236,55 @@ TEST(Sweep, ResumeAfterKillLosesAndDuplicatesNothing) {
     r = runSweep(study, o);
     EXPECT_EQ(r.skipped, 6u);
     EXPECT_EQ(r.finished, 0u);
+}
+
+// Issue 16: the children of a sweep killed with SIGKILL ran on to the end of
+// their points. They now die with it (PR_SET_PDEATHSIG); this test process
+// adopts them (child subreaper) to see how they end.
+TEST(Sweep, ChildrenDieWithAKilledParent) {
+    auto dir = test::tempDir("sweep_parent_killed");
+    // Points that take a while (a second or more each), so that the children
+    // are mid-solve when the parent is killed.
+    Study study = parseStudy("name = \"slow\"\nscenes = [\"cornell\"]\n[sweep]\n\"oracle.eps\" = [0.0005, 0.0006]\n",
+                             "slow.toml", dir);
+    SweepOptions o = options(dir, "killed.sqlite");
+    o.jobs = 2;
+    ASSERT_EQ(prctl(PR_SET_CHILD_SUBREAPER, 1), 0);
+    pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+        try {
+            runSweep(study, o);
+        } catch (...) {
+        }
+        _exit(0);
+    }
+    // Kill the parent once both children run (/proc lists a process's children).
+    auto children = [&] {
+        std::ifstream in(fmt::format("/proc/{}/task/{}/children", pid, pid));
+        std::vector<pid_t> out;
+        long c;
+        while (in >> c) out.push_back(pid_t(c));
+        return out;
+    };
+    for (int i = 0; i < 3000 && children().size() < 2; ++i) usleep(10000);
+    std::vector<pid_t> kids = children();
+    ASSERT_EQ(kids.size(), 2u);
+    kill(pid, SIGKILL);
+    int status = 0;
+    ASSERT_EQ(waitpid(pid, &status, 0), pid);
+    // The orphans are now this process's children: each must have been
+    // killed, not have finished its point.
+    int orphans = 0, finished = 0;
+    for (pid_t k : kids) {
+        if (waitpid(k, &status, 0) != k) continue;
+        ++orphans;
+        if (!(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL)) ++finished;
+    }
+    prctl(PR_SET_CHILD_SUBREAPER, 0);
+    EXPECT_EQ(orphans, 2);
+    EXPECT_EQ(finished, 0) << "children finished their points after the parent was killed";
+    EXPECT_EQ(keysOf(o.store).size(), 0u);
 }
 
 TEST(Sweep, FailingPointsAreRecordedAndOthersComplete) {

@@ -36,6 +36,14 @@ TEST(Loader, ReadsEveryKeyEvenWhenNotApplicable) {
     EXPECT_THROW(loadScene("furnace", bad), InputError);
 }
 
+TEST(Loader, OverlongPathIsAnInputError) {
+    std::string name = std::string(5000, 'a') + ".obj";
+    EXPECT_THROW(loadScene(name), InputError);
+    auto dir = test::tempDir("loader_mgf_long");
+    auto path = test::writeFile(dir / "l.mgf", "i " + std::string(5000, 'b') + ".mgf\n");
+    EXPECT_THROW(loadScene(path.string()), InputError);
+}
+
 TEST(Loader, ValidateFalseSkipsTheEmitterCheck) {
     Params p;
     p.set("validate", false);

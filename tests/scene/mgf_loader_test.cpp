@@ -207,6 +207,66 @@ TEST(MgfLoader, ErrorsNameFileAndLine) {
     EXPECT_NE(e.find("include.mgf:1"), std::string::npos) << e;
 }
 
+// Issue 16: `xf -a 999999` nested twice is 10^12 copies; it used to run
+// without end while memory grew. It now stops at mgf.max_faces with the line.
+TEST(MgfLoader, NestedArraysStopAtMaxFaces) {
+    std::string text = std::string("m l =\n\ted 1\n") + kTriangle +
+                       "xf -a 999999 -t 1 0 0\nxf -a 999999 -t 0 1 0\nf a b c\nxf\nxf\n";
+    std::string e = errorOf(text, "nested");
+    EXPECT_NE(e.find("nested.mgf:10"), std::string::npos) << e;
+    EXPECT_NE(e.find("mgf.max_faces"), std::string::npos) << e;
+    // Two arrays in one xf: the product is refused before the list is built.
+    e = errorOf(std::string("m l =\n\ted 1\n") + kTriangle +
+                    "xf -a 999999 -t 1 0 0 -a 999999 -t 0 1 0\nf a b c\nxf\n",
+                "product");
+    EXPECT_NE(e.find("product.mgf:9"), std::string::npos) << e;
+    EXPECT_NE(e.find("mgf.max_faces"), std::string::npos) << e;
+    // A smaller bound, as a setting: 5 x 5 faces against max_faces = 20.
+    auto dir = test::tempDir("mgf_maxfaces");
+    auto path = test::writeFile(dir / "grid.mgf", std::string("m l =\n\ted 1\n") + kTriangle +
+                                                      "xf -a 5 -t 2 0 0\nxf -a 5 -t 0 2 0\nf a b c\nxf\nxf\n");
+    Params p;
+    EXPECT_EQ(loadScene(path.string(), p).patches.size(), 25u);
+    p.set("mgf.max_faces", int64_t(20));
+    try {
+        loadScene(path.string(), p);
+        ADD_FAILURE() << "25 faces loaded with mgf.max_faces = 20";
+    } catch (const InputError& err) {
+        EXPECT_NE(std::string(err.what()).find("mgf.max_faces = 20"), std::string::npos) << err.what();
+    }
+}
+
+TEST(MgfLoader, TransformOverflowIsAnErrorAtTheFace) {
+    std::string e = errorOf(std::string("m l =\n\ted 1\n") + kTriangle +
+                                "xf -s 1e200\nxf -s 1e200\nf a b c\nxf\nxf\n",
+                            "overflow");
+    EXPECT_NE(e.find("overflow.mgf:11"), std::string::npos) << e;
+    EXPECT_NE(e.find("non-finite"), std::string::npos) << e;
+}
+
+TEST(MgfLoader, IncludeOfAFolderIsAnError) {
+    auto dir = test::tempDir("mgf_incdir");
+    std::filesystem::create_directories(dir / "sub");
+    auto path = test::writeFile(dir / "top.mgf", std::string("m l =\n\ted 1\n") + kTriangle +
+                                                     "f a b c\ni sub\n");
+    try {
+        loadScene(path.string());
+        ADD_FAILURE() << "a folder was included as an empty file";
+    } catch (const InputError& e) {
+        std::string m = e.what();
+        EXPECT_NE(m.find("top.mgf:10"), std::string::npos) << m;
+        EXPECT_NE(m.find("folder"), std::string::npos) << m;
+    }
+    // A device would be read without end.
+    auto dev = test::writeFile(dir / "dev.mgf", std::string("m l =\n\ted 1\n") + kTriangle + "f a b c\ni /dev/zero\n");
+    try {
+        loadScene(dev.string());
+        ADD_FAILURE() << "/dev/zero was included";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("dev.mgf:10"), std::string::npos) << e.what();
+    }
+}
+
 TEST(MgfLoader, UnknownEntitiesWarnOnceAndDegenerateFacesAreCounted) {
     auto dir = test::tempDir("mgf_warn");
     auto path = test::writeFile(dir / "w.mgf", std::string("m l =\n\ted 1\n") + kTriangle +

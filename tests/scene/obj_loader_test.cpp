@@ -115,12 +115,41 @@ TEST(ObjLoader, ErrorsNameFileAndLine) {
     test::writeFile(dir / "bright.mtl", "# lib\n\nnewmtl glow\nKd 0.5 1.2 0.5\nKe 1 1 1\n");
     auto bright = test::writeFile(dir / "bright.obj", "mtllib bright.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl glow\nf 1 2 3\n");
     std::string e = errorOf(bright.string());
-    EXPECT_NE(e.find((dir / "bright.mtl").string() + ":3"), std::string::npos) << e;
+    EXPECT_NE(e.find((dir / "bright.mtl").string() + ":4"), std::string::npos) << e;  // the Kd line
     EXPECT_NE(e.find("glow"), std::string::npos);
     auto dark = test::writeFile(dir / "dark.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
     e = errorOf(dark.string());
     EXPECT_NE(e.find(dark.string()), std::string::npos);
     EXPECT_NE(e.find("no emitter"), std::string::npos);
+}
+
+// Issue 16: MTL numbers are parsed by hrad, strictly; tinyobjloader read these
+// as 0 or (r, 0, 0) without a word.
+TEST(ObjLoader, MtlNumbersAreStrict) {
+    auto dir = test::tempDir("obj_mtl_strict");
+    const std::string obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n";
+    auto path = test::writeFile(dir / "s.obj", obj);
+    for (const char* line : {"Kd abc 0.5 0.5", "Ke 10x 10 10", "Ke inf 10 10", "Kd", "Kd 0.5 0.5",
+                             "Kd nan 0 0", "Ns 1e400", "d", "Kd spectral a.spd"}) {
+        test::writeFile(dir / "m.mtl", std::string("# lib\nnewmtl a\n") + line + "\nKe 1 1 1\n");
+        std::string e = errorOf(path.string());
+        EXPECT_NE(e.find((dir / "m.mtl").string() + ":3"), std::string::npos) << line << ": " << e;
+    }
+    // `Kd 0.7` is grey (MTL spec: g = b = r when only r is given), not (0.7, 0, 0).
+    test::writeFile(dir / "m.mtl", "newmtl a\nKd 0.7\nKe 1\n");
+    Scene s = loadScene(path.string());
+    ASSERT_EQ(s.patches.size(), 1u);
+    EXPECT_EQ(s.patches[0].rho, RGB(0.7));
+    EXPECT_EQ(s.materials[s.patches[0].material].emission, RGB(1.0));
+}
+
+TEST(ObjLoader, MissingMaterialLibraryIsAnErrorAtItsLine) {
+    auto dir = test::tempDir("obj_no_mtllib");
+    auto path = test::writeFile(dir / "a.obj", "# c\nmtllib nosuch.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl l\nf 1 2 3\n");
+    std::string e = errorOf(path.string());
+    EXPECT_NE(e.find(path.string() + ":2"), std::string::npos) << e;
+    EXPECT_NE(e.find("nosuch.mtl"), std::string::npos) << e;
+    EXPECT_EQ(e.find("no emitter"), std::string::npos) << e;
 }
 
 TEST(ObjLoader, DegenerateFacesAreCounted) {

@@ -1,4 +1,7 @@
 // PLY loading (scene/ply_loader.h).
+#include <cstring>
+#include <limits>
+
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -123,6 +126,30 @@ TEST(PlyLoader, ErrorsNameFileAndLine) {
 
 
 // Issue 16 reproducers: element lines are parsed strictly and checked against the file size.
+// Issue 16: body numbers are strict too: non-finite or partial numbers and
+// integers out of their type's range are errors with the line (ASCII) or the
+// byte offset (binary), not values for the scene check to trip over later.
+TEST(PlyLoader, BodyNumbersAreStrictWithLineOrOffset) {
+    auto dir = test::tempDir("ply_strict_body");
+    struct Case { const char* from; const char* to; int line; };
+    for (const Case& c : {Case{"2 1 0 10 10 10", "2 nan 0 10 10 10", 19}, Case{"0 1 0 10 10 10", "0 1 0 300 10 10", 20},
+                          Case{"1 0.5 1 10 10 10", "1 0.5 1e999 10 10 10", 21}, Case{"2 0 0 10", "2 0 0x 10", 18}}) {
+        std::string text = kAscii;
+        text.replace(text.find(c.from), std::string(c.from).size(), c.to);
+        auto path = test::writeFile(dir / "a.ply", text);
+        std::string e = errorOf(path.string());
+        EXPECT_NE(e.find(path.string() + ":" + std::to_string(c.line) + ":"), std::string::npos) << c.to << ": " << e;
+    }
+    std::string bin = binaryPly(false);
+    size_t body = bin.find("end_header\n") + 11;
+    double nan = std::numeric_limits<double>::quiet_NaN();
+    std::memcpy(&bin[body + 8], &nan, 8);  // vertex 0, y
+    auto path = test::writeFile(dir / "b.ply", bin);
+    std::string e = errorOf(path.string());
+    EXPECT_NE(e.find("non-finite"), std::string::npos) << e;
+    EXPECT_NE(e.find("byte offset " + std::to_string(body + 16)), std::string::npos) << e;
+}
+
 TEST(PlyLoader, HostileElementHeadersAreErrorsWithLine) {
     auto dir = test::tempDir("ply_hostile");
     const std::string head = "ply\nformat ascii 1.0\n";
