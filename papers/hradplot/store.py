@@ -77,6 +77,9 @@ def _derive(runs):
         runs["fm_level"] = st.map(lambda d: d.get("fm.level", np.nan)) if len(runs) else []
         runs["oracle_level"] = st.map(lambda d: d.get("oracle.level", np.nan)) if len(runs) else []
         runs["fm_solver"] = st.map(lambda d: d.get("fm.solver", "gauss-seidel")) if len(runs) else []
+        runs["hemicube_res"] = st.map(lambda d: d.get("fm.ff.hemicube_res", np.nan)) if len(runs) else []
+        runs["hemicube_points"] = (st.map(lambda d: d.get("fm.ff.hemicube_points", np.nan))
+                                   if len(runs) else [])
         runs["pr_max_subdivision"] = (st.map(lambda d: d.get("pr.max_subdivision", 2))
                                       if len(runs) else [])
     if "summary" in runs.columns and "patches" not in runs.columns:
