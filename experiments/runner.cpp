@@ -493,7 +493,9 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                     fields.push_back(onRegions.get());
                 }
             }
-            std::vector<render::Image> imgs = render::renderFields(sc, vis, fields, cam, r.render);
+            render::RenderSettings rs = r.render;
+            rs.showProgress = ctx.progress;  // final gather / path tracing take a while
+            std::vector<render::Image> imgs = render::renderFields(sc, vis, fields, cam, rs);
             const render::Image& img = imgs[0];
             double exposure = r.exposure;
             if (p.outputs.errorMap && ref) {
