@@ -64,6 +64,12 @@ ProgressiveSettings ProgressiveSettings::fromParams(const Params& params, const 
     s.historyEvery = int(params.getInt(key("history_every"), s.historyEvery, 1, 1000000000));
     s.regather = params.getBool(key("regather"), s.regather);
     s.ff = transport::FormFactorSettings::fromParams(params, key("ff"), fullMatrixFormFactorDefaults());
+    const int deepest = (s.maxArea > 0 ? s.maxLevel : s.level) + s.maxSubdivision;
+    if (deepest > kMaxElementLevel)
+        throwInputError(params.where(key("max_subdivision")),
+                        "{} = {} puts elements at level {} (patch level {} + {}); the deepest is {}",
+                        key("max_subdivision"), s.maxSubdivision, deepest, deepest - s.maxSubdivision,
+                        s.maxSubdivision, kMaxElementLevel);
     return s;
 }
 
