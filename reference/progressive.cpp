@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "core/error.h"
 #include "core/log.h"
@@ -28,6 +29,11 @@ constexpr int kMaxElementLevel = 14;
 uint64_t elementId(uint32_t patch, scene::ElementKey key) {
     return (uint64_t(patch) << kIdKeyBits) | key;
 }
+
+struct Hit {
+    scene::ElementKey key;  ///< finest element key the cell landed in
+    double dF;              ///< its delta form factor (weighted by the shooter point)
+};
 
 struct Leaf {
     scene::ElementKey key;
@@ -64,6 +70,7 @@ ProgressiveSettings ProgressiveSettings::fromParams(const Params& params, const 
     s.historyEvery = int(params.getInt(key("history_every"), s.historyEvery, 1, 1000000000));
     s.regather = params.getBool(key("regather"), s.regather);
     s.ff = transport::FormFactorSettings::fromParams(params, key("ff"), fullMatrixFormFactorDefaults());
+    s.hemicube = transport::HemicubeSettings::fromParams(params, key("ff"));
     const int deepest = (s.maxArea > 0 ? s.maxLevel : s.level) + s.maxSubdivision;
     if (deepest > kMaxElementLevel)
         throwInputError(params.where(key("max_subdivision")),
@@ -76,9 +83,9 @@ ProgressiveSettings ProgressiveSettings::fromParams(const Params& params, const 
 std::string ProgressiveSettings::describe() const {
     return fmt::format(
         "level={} max_area={} max_level={} max_subdivision={} subdivide_threshold={} "
-        "regather={} tolerance={} max_shots={} ambient={} history_every={} ff={{{}}}",
+        "regather={} tolerance={} max_shots={} ambient={} history_every={} ff={{{}{}}}",
         level, maxArea, maxLevel, maxSubdivision, subdivideThreshold, regather, tolerance, maxShots, ambient,
-        historyEvery, ff.describe());
+        historyEvery, ff.describe(), hemicube.describe());
 }
 
 ProgressiveResult solveProgressive(const scene::Scene& scene, const transport::Visibility& visibility,
@@ -129,6 +136,15 @@ ProgressiveResult solveProgressive(const scene::Scene& scene, const transport::V
     ProgressiveResult res;
     res.patches = n;
     std::vector<uint64_t> ffCount(n, 0), rayCount(n, 0);
+    // Hemicube shooting state (settings.hemicube.enabled).
+    std::optional<transport::Hemicube> cube;
+    if (settings.hemicube.enabled) cube.emplace(settings.hemicube.res);
+    std::vector<size_t> rootOffset(scene.patches.size() + 1, 0);
+    for (uint32_t r = 0; r < scene.patches.size(); ++r)
+        rootOffset[r + 1] = rootOffset[r] + (size_t(1) << (2 * levels[r]));
+    std::vector<std::vector<Hit>> hits(cube ? n : 0);
+    std::vector<Vec3> hcPoints;
+    std::vector<double> hcWeights;
     // Radiosity each patch has shot so far (for regathering new elements).
     std::vector<RGB> shotSoFar(n, RGB(0.0));
 
@@ -182,17 +198,47 @@ ProgressiveResult solveProgressive(const scene::Scene& scene, const transport::V
         const PatchState& S = P[j];
         const transport::ElementRef sRef = refOf(S.root, S.key);
         const RGB U = S.unshot;
+        // Hemicube shooting (Cohen et al. 1988 §3.1): hemicubes on the
+        // shooter give F_{j -> x} per cell; each hit is binned under the
+        // finest element key it may need, per receiving patch.
+        if (cube) {
+            for (auto& h : hits) h.clear();
+            const scene::Patch& sp = scene.patches[S.root];
+            transport::hemicubePoints(sp, sRef.dom, settings.hemicube.points, hcPoints, hcWeights);
+            for (size_t k = 0; k < hcPoints.size(); ++k)
+                rayCount[j] += cube->project(
+                    visibility, scene, hcPoints[k], sp.normal, S.root,
+                    [&](uint32_t q, const Vec3& x, double dF) {
+                        const scene::Patch& pq = scene.patches[q];
+                        Vec2 uv = glm::clamp(scene::patchInverse(pq, x), Vec2(0.0), Vec2(1.0));
+                        if (pq.kind == scene::PatchKind::Triangle && uv.x + uv.y > 1) uv /= uv.x + uv.y;
+                        scene::ElementKey fine =
+                            scene::keyAt(pq.kind, uv.x, uv.y, levels[q] + settings.maxSubdivision);
+                        size_t i = rootOffset[q] +
+                                   size_t((fine >> (2 * settings.maxSubdivision)) -
+                                          (scene::ElementKey(1) << (2 * levels[q])));
+                        hits[i].push_back({fine, hcWeights[k] * dF});
+                    });
+        }
         tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 4), [&](const tbb::blocked_range<size_t>& rg) {
             std::vector<Leaf> out;
             for (size_t i = rg.begin(); i != rg.end(); ++i) {
                 PatchState& R = P[i];
                 // Planar root patches: elements of the same root exchange nothing.
                 if (R.root == S.root) continue;
-                if (!engine.facing(refOf(R.root, R.key), sRef)) continue;
+                if (cube ? hits[i].empty() : !engine.facing(refOf(R.root, R.key), sRef)) continue;
                 const RGB rhoU = scene.patches[R.root].rho * U;
                 const int patchLevel = scene::keyLevel(R.key);
                 const scene::Patch& patch = scene.patches[R.root];
                 auto shotAt = [&](scene::ElementKey k) {
+                    if (cube) {
+                        // F_kj = F_jk A_j / A_k (reciprocity), F_jk the cells landing on k.
+                        double fjk = 0;
+                        for (const Hit& h : hits[i])
+                            if (scene::keyContains(k, h.key)) fjk += h.dF;
+                        double ak = scene::elementArea(patch, scene::keyDomain(patch.kind, k));
+                        return rhoU * (fjk * S.area / ak);
+                    }
                     transport::FormFactorResult f = engine.compute(refOf(R.root, k), sRef);
                     ++ffCount[i];
                     rayCount[i] += f.rays;

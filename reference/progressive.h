@@ -60,6 +60,13 @@
 //   history_every    int     10      a history record (and hook call) every N shots
 //   ff.*                             transport::FormFactorSettings; the full
 //                                    matrix's defaults (adaptive_depth 3)
+//   ff.method        string  "quadrature"  "hemicube": each shot's form factors
+//                                    from hemicubes on the shooter (the 1988
+//                                    paper's own method; transport/hemicube.h,
+//                                    ff.hemicube_res, ff.hemicube_points):
+//                                    F_ej = F_je A_j / A_e with F_je the cells
+//                                    landing on element e. Regathering of new
+//                                    elements still uses the quadrature.
 #pragma once
 
 #include <cstdint>
@@ -72,6 +79,7 @@
 #include "scene/field.h"
 #include "scene/scene.h"
 #include "transport/formfactor.h"
+#include "transport/hemicube.h"
 #include "transport/visibility.h"
 
 namespace hrad::reference {
@@ -88,6 +96,7 @@ struct ProgressiveSettings {
     bool ambient = true;
     int historyEvery = 10;
     transport::FormFactorSettings ff;
+    transport::HemicubeSettings hemicube;  ///< ff.method = hemicube
 
     ProgressiveSettings();
     static ProgressiveSettings fromParams(const Params& params, const std::string& prefix = "pr");

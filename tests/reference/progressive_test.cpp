@@ -205,3 +205,43 @@ TEST(Progressive, SettingsFromParams) {
 
 }  // namespace
 }  // namespace hrad::reference
+
+namespace hrad::reference {
+namespace {
+
+TEST(Progressive, HemicubeShootingApproachesTheQuadratureOnCornell) {
+    // Shooting with hemicubes on the shooter (Cohen et al. 1988) instead of
+    // the element-to-patch quadrature: as the resolution grows the solution
+    // approaches the quadrature's (both against the level-2 full matrix).
+    scene::Scene s = scene::loadScene("cornell");
+    transport::Visibility vis(s);
+    FullMatrixSettings fm;
+    fm.level = 2;
+    FullMatrixResult ref = solveFullMatrix(s, vis, fm, false);
+    ProgressiveSettings st;
+    st.level = 2;
+    st.maxSubdivision = 0;
+    st.ambient = false;
+    st.tolerance = 1e-3;
+    st.hemicube.enabled = true;
+    st.hemicube.points = 1;
+    std::vector<double> err;
+    for (int res : {4, 16, 64}) {
+        st.hemicube.res = res;
+        ProgressiveResult r = solveProgressive(s, vis, st, false);
+        ASSERT_TRUE(r.converged);
+        err.push_back(computeError(*r.field, *ref.field).l2Lum);
+    }
+    for (size_t k = 0; k < err.size(); ++k) RecordProperty("l2_res_" + std::to_string(k), std::to_string(err[k]));
+    EXPECT_LT(err[2], err[0]) << err[0] << " " << err[1] << " " << err[2];
+    EXPECT_LT(err[2], 0.02) << err[0] << " " << err[1] << " " << err[2];
+    // With substructuring the hits are binned onto the finer elements too.
+    st.maxSubdivision = 1;
+    st.hemicube.res = 32;
+    ProgressiveResult sub = solveProgressive(s, vis, st, false);
+    EXPECT_GT(sub.elements, sub.patches);
+    EXPECT_LT(computeError(*sub.field, *ref.field).l2Lum, 0.05) << computeError(*sub.field, *ref.field).l2Lum;
+}
+
+}  // namespace
+}  // namespace hrad::reference
