@@ -198,7 +198,7 @@ ProgressiveResult solveProgressive(const scene::Scene& scene, const transport::V
         const PatchState& S = P[j];
         const transport::ElementRef sRef = refOf(S.root, S.key);
         const RGB U = S.unshot;
-        // Hemicube shooting (Cohen et al. 1988 §3.1): hemicubes on the
+        // Hemicube shooting (Cohen et al. 1988): hemicubes on the
         // shooter give F_{j -> x} per cell; each hit is binned under the
         // finest element key it may need, per receiving patch.
         if (cube) {

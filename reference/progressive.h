@@ -1,7 +1,7 @@
 // Progressive refinement radiosity with adaptive substructuring
 // (Cohen, Chen, Wallace & Greenberg 1988, "A progressive refinement approach
 // to fast radiosity image generation", SIGGRAPH '88; Cohen & Wallace 1993
-// §5.3.3 and §8.2). Selected as `solver = progressive`.
+// §5.3.3). Selected as `solver = progressive`.
 //
 // What it does. Every root patch is split uniformly into *patches* (the
 // shooters, scene::uniformLevels of `level` / `max_area`); each patch carries
@@ -11,14 +11,14 @@
 //
 //     dB_e = rho_e U_j F_je A_j / A_e = rho_e U_j F_ej        (reciprocity)
 //
-// (Cohen et al. 1988 eq. 3, "shooting"), so only the element-to-patch form
+// (Cohen et al. 1988, "shooting"), so only the element-to-patch form
 // factors F_ej of the current shooter are computed (transport::
 // FormFactorEngine, receiver e, sender j): nothing of size n^2 is stored and
 // memory is O(patches + elements). Patch i's unshot radiosity grows by the
 // area-weighted mean of its elements' dB, and U_j is set to 0.
 //
 // Adaptive substructuring (Cohen, Greenberg, Immel & Brock 1986; Cohen et al.
-// 1988 §4): during a shot, an element below `max_subdivision` extra levels is
+// 1988): during a shot, an element below `max_subdivision` extra levels is
 // evaluated on its four children; where the radiosity difference between
 // neighbouring children, max |dB_c - dB_c'|_1, exceeds subdivide_threshold x
 // B_scale the children become elements (each recursively tested), otherwise
@@ -34,7 +34,7 @@
 // errors of several per cent where earlier shots varied across the parent
 // (5 % in the furnace box, tests/reference/progressive_test.cpp).
 //
-// Ambient term (Cohen et al. 1988 §3.3, for display): with rho_avg the
+// Ambient term (Cohen et al. 1988, for display): with rho_avg the
 // area-weighted mean reflectance and R = 1 / (1 - rho_avg),
 //     ambient = R sum_i A_i U_i / sum_i A_i,     B_display,e = B_e + rho_e ambient.
 // It vanishes as the unshot power does.

@@ -1,8 +1,8 @@
 // Final gather and a path-traced reference image (render.reconstruction =
 // final-gather | path-traced).
 //
-// Final gather (the rendering-stage gather of Reichert 1992 and Lischinski,
-// Tampieri & Greenberg 1993 §5; Cohen & Wallace 1993 §9.3.2): the radiosity
+// Final gather (the rendering-stage gather applied to a radiosity solution,
+// e.g. Lischinski, Tampieri & Greenberg 1993): the radiosity
 // seen at a pixel's hit point x (patch i) is recomputed from the solution
 // instead of being read from its (coarse) elements:
 //     B(x) = E_i + rho_i ( D(x) + I(x) )

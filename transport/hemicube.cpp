@@ -34,14 +34,14 @@ Hemicube::Hemicube(int res) : res_(res) {
     const double dA = h * h;
     const double pi = 3.14159265358979323846;
     cells_.reserve(size_t(3) * res * res);
-    // Top face z = 1 (Cohen & Wallace 1993 eq. 4.32).
+    // Top face z = 1 (Cohen & Greenberg 1985).
     for (int i = 0; i < res; ++i)
         for (int j = 0; j < res; ++j) {
             double x = -1 + (i + 0.5) * h, y = -1 + (j + 0.5) * h;
             double q = x * x + y * y + 1;
             cells_.push_back({glm::normalize(Vec3(x, y, 1)), dA / (pi * q * q)});
         }
-    // Four side faces, upper halves z in (0,1] (eq. 4.33); (s, z) are the
+    // Four side faces, upper halves z in (0,1]; (s, z) are the
     // face's in-plane coordinates, the face lies at distance 1 along +-x, +-y.
     for (int face = 0; face < 4; ++face)
         for (int i = 0; i < res; ++i)

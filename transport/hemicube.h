@@ -1,12 +1,12 @@
 // Hemicube form factors (Cohen & Greenberg 1985, "The hemi-cube: a radiosity
 // solution for complex environments", SIGGRAPH '85; Cohen & Wallace 1993
-// §4.9.2). Selected for the full-matrix solver by `fm.ff.method = hemicube`
+// ch. 4). Selected for the full-matrix solver by `fm.ff.method = hemicube`
 // (reference/fullmatrix.h).
 //
 // What it does. A unit hemicube is centred on a receiver point p with normal
 // n: a top face z = 1, x,y in [-1,1], split into res x res cells, and four
 // half side faces (res x res/2 cells each). Each cell carries its delta form
-// factor, precomputed once (Cohen & Wallace 1993 eqs. 4.32, 4.33):
+// factor, precomputed once (Cohen & Greenberg 1985):
 //     top face  (x, y, 1):  dF = dA / (pi (x^2 + y^2 + 1)^2)
 //     side face (1, y, z):  dF = z dA / (pi (y^2 + z^2 + 1)^2)
 // with dA = (2/res)^2 and (x,y,z) the cell centre. The delta form factors
