@@ -80,6 +80,9 @@ def _derive(runs):
         runs["hemicube_res"] = st.map(lambda d: d.get("fm.ff.hemicube_res", np.nan)) if len(runs) else []
         runs["hemicube_points"] = (st.map(lambda d: d.get("fm.ff.hemicube_points", np.nan))
                                    if len(runs) else [])
+        # Shooting / gathering steps when a study caps them (classics_steps).
+        runs["steps"] = (st.map(lambda d: d.get("pr.max_shots", d.get("fm.max_iterations", np.nan)))
+                         if len(runs) else [])
         runs["pr_max_subdivision"] = (st.map(lambda d: d.get("pr.max_subdivision", 2))
                                       if len(runs) else [])
     if "summary" in runs.columns and "patches" not in runs.columns:
