@@ -22,6 +22,7 @@ int runRender(const RenderCliOptions& opt, Params& params) {
     Timer t;
     scene::Scene sc = scene::loadScene(opt.scene, params);
     render::RenderSettings rs = render::RenderSettings::fromParams(params, "render");
+    rs.showProgress = true;  // final gather / path tracing take a while
     double exposure = params.getDouble("render.exposure", 0.0, 0.0, 1e300);
     params.reportUnused();
     std::unique_ptr<scene::LeafField> field = reference::loadSolution(opt.solution, sc);

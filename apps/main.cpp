@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
     int refLevel = -1, width = 0, height = 0;
     bool interpolate = false, noImages = false, noPly = false, quietProgress = false, errorMap = false;
     solve->add_option("scene", so.scene, "built-in name or file")->required();
-    solve->add_option("--solver", solver, "hr | full-matrix");
+    solve->add_option("--solver", solver, "hr | full-matrix | progressive");
     solve->add_option("--oracle", oracle, "refinement oracle (hr): bfa, ff, uniform, error, kv");
     auto* epsOpt = solve->add_option("--eps", eps, "oracle threshold (oracle.eps)");
     auto* minAreaOpt = solve->add_option("--min-area", minArea, "minimum element area (hr.min_area)");

@@ -15,6 +15,7 @@
 #include "hr/solver.h"
 #include "reference/cache.h"
 #include "reference/fullmatrix.h"
+#include "reference/progressive.h"
 #include "reference/metrics.h"
 #include "reference/montecarlo.h"
 #include "render/camera.h"
@@ -76,6 +77,7 @@ struct Resolved {
     std::string solver;
     std::optional<hr::HrSettings> hr;
     std::optional<reference::FullMatrixSettings> fm;
+    std::optional<reference::ProgressiveSettings> pr;
     render::RenderSettings render;
     double exposure = 0.0;
     double errorFloor = 0.01, errorRange = 0.25;  // render.error_floor, render.error_range
@@ -89,9 +91,10 @@ struct Resolved {
 Resolved resolve(const PointSpec& p) {
     Resolved r;
     const Params& s = p.settings;
-    r.solver = s.getEnum("solver", "hr", {"hr", "full-matrix"});
+    r.solver = s.getEnum("solver", "hr", {"hr", "full-matrix", "progressive"});
     if (r.solver == "hr") r.hr = hr::HrSettings::fromParams(s);
     if (r.solver == "full-matrix") r.fm = reference::FullMatrixSettings::fromParams(s, "fm");
+    if (r.solver == "progressive") r.pr = reference::ProgressiveSettings::fromParams(s, "pr");
     r.render = render::RenderSettings::fromParams(s, "render");
     r.exposure = s.getDouble("render.exposure", 0.0, 0.0, 1e300);
     r.errorFloor = s.getDouble("render.error_floor", 0.01, 1e-9, 1.0);
@@ -288,6 +291,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     double historyErrorSeconds = 0.0;  // the iteration hook's error evaluations
     hr::HrResult hrRes;
     reference::FullMatrixResult fmRes;
+    reference::ProgressiveResult prRes;
     Timer tSolve;
     if (r.solver == "hr") {
         summary["solver"] = "hr";
@@ -362,6 +366,47 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
             summary["bytes_per_link"] = json{
                 {"link_storage", double(h.linkBytes()) / double(h.numLinks())},
                 {"all", double(h.linkBytes() + h.elementBytes()) / double(h.numLinks())}};
+    } else if (r.solver == "progressive") {
+        // Progressive refinement (reference/progressive.h); history every
+        // pr.history_every shots, with the error when history_error is asked.
+        summary["solver"] = "progressive";
+        summary["solver_settings"] = r.pr->describe();
+        reference::ProgressiveHook hook;
+        if (p.outputs.historyError && r.refKind != "none") {
+            Timer tRef;
+            earlyRef = computeReference(sc, vis, r, ctx);
+            earlyRefSeconds = tRef.seconds();
+            hook = [&](const scene::RadiosityField& f, reference::ProgressiveRecord& rec) {
+                Timer tHook;
+                rec.l2Lum = reference::computeError(f, *earlyRef->field).l2Lum;
+                historyErrorSeconds += tHook.seconds();
+            };
+        }
+        prRes = reference::solveProgressive(sc, vis, *r.pr, ctx.progress, hook);
+        field = prRes.field.get();
+        summary["counts"] = json{{"elements", prRes.elements},
+                                 {"leaves", prRes.elements},
+                                 {"patches", prRes.patches},
+                                 {"form_factors", prRes.formFactors},
+                                 {"rays", prRes.rays},
+                                 {"iterations", prRes.shots}};
+        summary["residual"] = prRes.unshotFraction;
+        summary["converged"] = prRes.converged;
+        timings["solve"] = prRes.seconds;
+        memory.set("progressive", prRes.bytes);
+        json hist = json::array();
+        for (const auto& it : prRes.history)
+            hist.push_back(json{{"iteration", it.shots},
+                                {"shooter", it.shooter},
+                                {"residual", it.unshotFraction},
+                                {"elements", it.elements},
+                                {"leaves", it.elements},
+                                {"form_factors", it.formFactors},
+                                {"rays", it.rays},
+                                {"seconds", it.seconds},
+                                {"element_bytes", it.bytes},
+                                {"l2_lum", std::isnan(it.l2Lum) ? json(nullptr) : json(it.l2Lum)}});
+        summary["history"] = hist;
     } else {
         summary["solver"] = "full-matrix";
         summary["solver_settings"] = r.fm->describe();
@@ -429,9 +474,10 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     }
     if (p.outputs.historyError)
         summary["history_error"] =
-            r.solver != "hr"        ? "not computed: only the hierarchical solver iterates"
+            r.solver == "full-matrix" ? "not computed: the full-matrix solver keeps no history"
             : r.refKind == "none"   ? "not computed: the study has no reference"
-                                    : "history[].l2_lum: L2 (luminance) after every iteration";
+                                    : "history[].l2_lum: L2 (luminance) after every iteration "
+                                      "(progressive: every pr.history_every shots)";
     summary["timings"] = timings;
     if (ctx.checkpoint) ctx.checkpoint(summary);
 
@@ -466,7 +512,9 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                     fields.push_back(onRegions.get());
                 }
             }
-            std::vector<render::Image> imgs = render::renderFields(sc, vis, fields, cam, r.render);
+            render::RenderSettings rs = r.render;
+            rs.showProgress = ctx.progress;  // final gather / path tracing take a while
+            std::vector<render::Image> imgs = render::renderFields(sc, vis, fields, cam, rs);
             const render::Image& img = imgs[0];
             double exposure = r.exposure;
             if (p.outputs.errorMap && ref) {

@@ -132,15 +132,16 @@ FullMatrixSettings FullMatrixSettings::fromParams(const Params& params, const st
     s.maxIterations = int(params.getInt(key("max_iterations"), s.maxIterations, 1, 1000000000));
     s.ambient = params.getBool(key("ambient"), s.ambient);
     s.ff = transport::FormFactorSettings::fromParams(params, key("ff"), fullMatrixFormFactorDefaults());
+    s.hemicube = transport::HemicubeSettings::fromParams(params, key("ff"));
     return s;
 }
 
 std::string FullMatrixSettings::describe() const {
     return fmt::format(
         "level={} max_area={} max_level={} solver={} tolerance={} max_iterations={} ambient={} "
-        "ff={{{}}}",
+        "ff={{{}{}}}",
         level, maxArea, maxLevel, solverName(solver), tolerance, maxIterations, ambient,
-        ff.describe());
+        ff.describe(), hemicube.describe());
 }
 
 uint64_t FormFactorMatrix::bytes() const {
@@ -184,6 +185,43 @@ FormFactorMatrix computeFormFactorMatrix(const scene::Scene& scene,
     std::vector<std::vector<double>> rowVals(n);
     std::vector<uint64_t> rowRays(n, 0);
     ProgressBar bar(fmt::format("form factors ({} el.)", n), n, showProgress);
+    if (settings.hemicube.enabled) {
+        // Hemicube rows (Cohen & Greenberg 1985): F_ij = sum_p w_p F_{dA(p) -> j}
+        // over the hemicubes' sample points p of element i.
+        const transport::Hemicube cube(settings.hemicube.res);
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1), [&](const tbb::blocked_range<size_t>& r) {
+            std::vector<double> row(n, 0.0);
+            std::vector<uint32_t> touched;
+            std::vector<Vec3> pts;
+            std::vector<double> w;
+            for (size_t i = r.begin(); i != r.end(); ++i) {
+                const transport::ElementRef& ri = refs[i];
+                const scene::Patch& patch = scene.patches[ri.patch];
+                transport::hemicubePoints(patch, ri.dom, settings.hemicube.points, pts, w);
+                for (size_t k = 0; k < pts.size(); ++k)
+                    rowRays[i] += cube.project(
+                        visibility, scene, pts[k], patch.normal, ri.patch,
+                        [&](uint32_t q, const Vec3& x, double dF) {
+                            const scene::Patch& pq = scene.patches[q];
+                            Vec2 uv = glm::clamp(scene::patchInverse(pq, x), Vec2(0.0), Vec2(1.0));
+                            if (pq.kind == scene::PatchKind::Triangle && uv.x + uv.y > 1)
+                                uv /= uv.x + uv.y;
+                            scene::ElementKey key = scene::keyAt(pq.kind, uv.x, uv.y, m.levels[q]);
+                            size_t j = layout.offset(q) + size_t(key - (scene::ElementKey(1) << (2 * m.levels[q])));
+                            if (row[j] == 0) touched.push_back(uint32_t(j));
+                            row[j] += w[k] * dF;
+                        });
+                std::sort(touched.begin(), touched.end());
+                for (uint32_t j : touched) {
+                    rowCols[i].push_back(j);
+                    rowVals[i].push_back(row[j]);
+                    row[j] = 0;
+                }
+                touched.clear();
+                bar.add(1);
+            }
+        });
+    } else {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1),
                       [&](const tbb::blocked_range<size_t>& r) {
                           for (size_t i = r.begin(); i != r.end(); ++i) {
@@ -203,6 +241,7 @@ FormFactorMatrix computeFormFactorMatrix(const scene::Scene& scene,
                               bar.add(1);
                           }
                       });
+    }
     bar.done();
 
     // Pack into CSR, freeing each row as it is copied.

@@ -47,6 +47,12 @@
 //                                   level 1; the adaptive levels 0-2 converge
 //                                   (3.74, 3.82, 3.84) towards the Monte Carlo
 //                                   reference (papers/README.md)
+//   ff.method       string  "quadrature"  "hemicube": each row F_i* from
+//                                   hemicubes on element i (transport/hemicube.h;
+//                                   ff.hemicube_res, ff.hemicube_points); the
+//                                   quadrature keys are then unused. Part of
+//                                   describe(), hence of the cache key, only
+//                                   when it is "hemicube".
 //
 // Storage: the form factors are kept as sparse rows (CSR) with double values
 // and 32-bit column indices, 12 bytes per non-zero plus 8 bytes per row; pairs
@@ -77,6 +83,7 @@
 #include "scene/field.h"
 #include "scene/scene.h"
 #include "transport/formfactor.h"
+#include "transport/hemicube.h"
 #include "transport/visibility.h"
 
 namespace hrad::reference {
@@ -101,6 +108,9 @@ struct FullMatrixSettings {
     int maxIterations = 10000;
     bool ambient = false;
     transport::FormFactorSettings ff = fullMatrixFormFactorDefaults();
+    /// ff.method = hemicube (transport/hemicube.h): rows of F from hemicubes
+    /// at the receiver instead of the quadrature engine; ff.rule etc. unused.
+    transport::HemicubeSettings hemicube;
 
     /// Reads the keys listed above below `prefix` ("fm.level", ..., "fm.ff.points").
     static FullMatrixSettings fromParams(const Params& params, const std::string& prefix = "fm");

@@ -6,11 +6,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <sstream>
 #include <unordered_map>
 
 #include "core/error.h"
+#include "core/log.h"
 #include "core/rng.h"
 #include "core/log.h"
 #include "render/camera.h"
@@ -40,6 +42,19 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
                         s.width, s.height, s.spp, samples, key("max_samples"), s.maxSamples);
     }
     s.interpolate = params.getBool(key("interpolate"), s.interpolate);
+    const std::string rec = params.getEnum(key("reconstruction"), s.interpolate ? "interpolated" : "flat",
+                                           {"flat", "interpolated", "final-gather", "path-traced"});
+    if (s.interpolate && rec != "interpolated")
+        throwInputError(params.where(key("reconstruction")), "'{}' = '{}' contradicts '{}' = true",
+                        key("reconstruction"), rec, key("interpolate"));
+    s.reconstruction = rec == "interpolated"   ? Reconstruction::Interpolated
+                       : rec == "final-gather" ? Reconstruction::FinalGather
+                       : rec == "path-traced"  ? Reconstruction::PathTraced
+                                               : Reconstruction::Flat;
+    s.interpolate = s.reconstruction == Reconstruction::Interpolated;
+    s.gather.gatherRays = int(params.getInt(key("gather_rays"), s.gather.gatherRays, 1, 1 << 20));
+    s.gather.shadowRays = int(params.getInt(key("shadow_rays"), s.gather.shadowRays, 1, 1 << 16));
+    s.gather.seed = uint64_t(params.getInt(key("seed"), 0, 0, INT64_MAX));
     s.backFacesBlack = params.getEnum(key("back_faces"), "black", {"black", "front"}) == "black";
     // "x, y, z" -> Vec3; errors at the setting's file:line.
     auto vec = [&](const std::string& k, const std::string& def) {
@@ -88,8 +103,15 @@ std::string RenderSettings::describe() const {
                           camera->eye.y, camera->eye.z, camera->target.x, camera->target.y,
                           camera->target.z, camera->up.x, camera->up.y, camera->up.z,
                           camera->fovYDegrees);
-    return fmt::format("width={} height={} spp={} interpolate={} back_faces={} camera={}", width,
-                       height, spp, interpolate, backFacesBlack ? "black" : "front", cam);
+    std::string rec = reconstruction == Reconstruction::FinalGather
+                          ? fmt::format(" reconstruction=final-gather gather_rays={} shadow_rays={} seed={}",
+                                        gather.gatherRays, gather.shadowRays, gather.seed)
+                      : reconstruction == Reconstruction::PathTraced
+                          ? fmt::format(" reconstruction=path-traced shadow_rays={} seed={}",
+                                        gather.shadowRays, gather.seed)
+                          : std::string();
+    return fmt::format("width={} height={} spp={} interpolate={} back_faces={} camera={}{}", width,
+                       height, spp, interpolate, backFacesBlack ? "black" : "front", cam, rec);
 }
 
 scene::Camera chooseCamera(const scene::Scene& scene, const transport::Visibility& visibility,
@@ -225,6 +247,59 @@ RGB VertexInterpolation::at(uint32_t patch, double u, double v) const {
     return (1 - a - b) * c[0] + a * c[1] + b * c[2];
 }
 
+namespace {
+
+/// Final gather / path tracing: parallel over 16 x 16 tiles; every sample's
+/// random sequence is seeded by (seed, pixel, sample), so the image does not
+/// depend on the tiling or on the threads.
+std::vector<Image> renderGathered(const scene::Scene& scene, const transport::Visibility& visibility,
+                                  const std::vector<const scene::RadiosityField*>& fields,
+                                  const scene::Camera& camera, const RenderSettings& settings) {
+    const size_t nf = fields.size();
+    const bool path = settings.reconstruction == RenderSettings::Reconstruction::PathTraced;
+    Gatherer gatherer(scene, visibility, settings.gather);
+    CameraFrame frame(camera, settings.width, settings.height);
+    std::vector<Image> img(nf, Image(settings.width, settings.height));
+    const int spp = settings.spp, tile = 16;
+    const int tx = (settings.width + tile - 1) / tile, ty = (settings.height + tile - 1) / tile;
+    ProgressBar bar(path ? "path tracing" : "final gather", uint64_t(tx) * ty, settings.showProgress);
+    tbb::parallel_for(tbb::blocked_range<int>(0, tx * ty, 1), [&](const tbb::blocked_range<int>& r) {
+        std::vector<RGB> sum(nf);
+        for (int t = r.begin(); t != r.end(); ++t) {
+            const int x0 = (t % tx) * tile, y0 = (t / tx) * tile;
+            for (int y = y0; y < std::min(y0 + tile, settings.height); ++y)
+                for (int x = x0; x < std::min(x0 + tile, settings.width); ++x) {
+                    std::fill(sum.begin(), sum.end(), RGB(0.0));
+                    const uint64_t pixel = uint64_t(y) * uint64_t(settings.width) + uint64_t(x);
+                    for (int s = 0; s < spp; ++s) {
+                        Pcg32 rng(hashIds(settings.gather.seed, pixel, uint64_t(s)));
+                        double jx = spp > 1 ? rng.nextDouble() : 0.5;
+                        double jy = spp > 1 ? rng.nextDouble() : 0.5;
+                        Vec3 dir = frame.direction(x + jx, y + jy);
+                        transport::RayHit hit = visibility.intersect(frame.eye, dir);
+                        if (!hit.hit) continue;
+                        const scene::Patch& p = scene.patches[hit.patch];
+                        if (glm::dot(dir, p.normal) > 0) {
+                            if (settings.backFacesBlack) continue;
+                        }
+                        for (size_t f = 0; f < nf; ++f) {
+                            // Each field gets the same random sequence.
+                            Pcg32 g = rng;
+                            sum[f] += path ? gatherer.pathTraced(hit.patch, hit.point, g)
+                                           : gatherer.finalGather(*fields[f], hit.patch, hit.point, g);
+                        }
+                    }
+                    for (size_t f = 0; f < nf; ++f) img[f].at(x, y) = sum[f] / double(spp);
+                }
+            bar.add(1);
+        }
+    });
+    bar.done();
+    return img;
+}
+
+}  // namespace
+
 Image renderField(const scene::Scene& scene, const transport::Visibility& visibility,
                   const scene::RadiosityField& field, const scene::Camera& camera,
                   const RenderSettings& settings) {
@@ -235,6 +310,9 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
                                 const std::vector<const scene::RadiosityField*>& fields,
                                 const scene::Camera& camera, const RenderSettings& settings) {
     const size_t nf = fields.size();
+    if (settings.reconstruction == RenderSettings::Reconstruction::FinalGather ||
+        settings.reconstruction == RenderSettings::Reconstruction::PathTraced)
+        return renderGathered(scene, visibility, fields, camera, settings);
     std::vector<std::unique_ptr<VertexInterpolation>> interp(nf);
     for (size_t f = 0; f < nf; ++f) {
         HRAD_CHECK(&fields[f]->scene() == &scene ||

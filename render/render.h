@@ -36,6 +36,11 @@
 //                                camera, else render/camera.h cameraFor
 //   up           string  "0,1,0" with eye/target: the up direction
 //   fov          double  40      with eye/target: vertical field of view, degrees
+//   reconstruction string "flat" "flat" (constant, as above) | "interpolated"
+//                                (= interpolate true) | "final-gather" |
+//                                "path-traced" (render/final_gather.h, with
+//                                gather_rays, shadow_rays, seed); path-traced
+//                                ignores the field: the Monte Carlo reference
 // Rays that hit nothing are black.
 #pragma once
 
@@ -49,12 +54,17 @@
 #include "scene/field.h"
 #include "scene/scene.h"
 #include "transport/visibility.h"
+#include "render/final_gather.h"
 
 namespace hrad::render {
 
 struct RenderSettings {
     int width = 512, height = 512;
     bool interpolate = false;
+    enum class Reconstruction { Flat, Interpolated, FinalGather, PathTraced };
+    Reconstruction reconstruction = Reconstruction::Flat;
+    GatherSettings gather;
+    bool showProgress = false;  ///< progress bar for final-gather / path-traced
     int spp = 1;
     int64_t maxSamples = int64_t(1) << 26;  ///< render.max_samples: width x height x spp bound
     bool backFacesBlack = true;

@@ -292,7 +292,11 @@ def _caption(r):
     method = str(r.get("method", r.get("solver", "")))
     params = label[len(method):].strip() if label.startswith(method) else label
     short = (method.replace(" + clusters", "+cl").replace("full matrix", "FM")
-             .replace("progressive (Southwell)", "prog."))
+             .replace("progressive (Southwell)", "prog.")
+             .replace("progressive refinement", "PR").replace(" + substructuring", "+sub"))
+    steps = r.get("steps")
+    if isinstance(steps, (int, float)) and not math.isnan(steps):
+        short += f", {int(steps)} steps"
     eps = r.get("eps")
     if isinstance(eps, (int, float)) and not math.isnan(eps) and eps > 0:
         # 0.0002 -> 2e-4: short enough for narrow panels

@@ -77,6 +77,14 @@ def _derive(runs):
         runs["fm_level"] = st.map(lambda d: d.get("fm.level", np.nan)) if len(runs) else []
         runs["oracle_level"] = st.map(lambda d: d.get("oracle.level", np.nan)) if len(runs) else []
         runs["fm_solver"] = st.map(lambda d: d.get("fm.solver", "gauss-seidel")) if len(runs) else []
+        runs["hemicube_res"] = st.map(lambda d: d.get("fm.ff.hemicube_res", np.nan)) if len(runs) else []
+        runs["hemicube_points"] = (st.map(lambda d: d.get("fm.ff.hemicube_points", np.nan))
+                                   if len(runs) else [])
+        # Shooting / gathering steps when a study caps them (classics_steps).
+        runs["steps"] = (st.map(lambda d: d.get("pr.max_shots", d.get("fm.max_iterations", np.nan)))
+                         if len(runs) else [])
+        runs["pr_max_subdivision"] = (st.map(lambda d: d.get("pr.max_subdivision", 2))
+                                      if len(runs) else [])
     if "summary" in runs.columns and "patches" not in runs.columns:
         def patches(s):
             try:
@@ -117,6 +125,10 @@ def _derive(runs):
         runs["peak_rss_mib"] = runs["peak_rss"] / 2**20
     if {"solver", "oracle"} <= set(runs.columns):
         def method(r):
+            if r["solver"] == "progressive":
+                sub = r.get("pr_max_subdivision", 2)
+                sub = 2 if sub is None or sub != sub else int(sub)  # unset (NaN): the default
+                return "progressive refinement" + (" + substructuring" if sub > 0 else "")
             if r["solver"] == "full-matrix":
                 # Progressive (Southwell) runs form their own curve.
                 return ("progressive (Southwell)" if r.get("fm_solver", "") == "southwell"

@@ -132,6 +132,53 @@ history_error = true
     sqlite3_finalize(st);
 }
 
+// solver = progressive: the history (one record every pr.history_every shots)
+// goes to the iterations table with its error, the unshot power falls, and
+// the last record's error is the run's error.
+TEST(Sweep, ProgressiveSolverRecordsHistoryEveryNShots) {
+    auto dir = test::tempDir("sweep_progressive");
+    Study study = parseStudy(R"(
+scenes = ["plates:perpendicular:1:1:1"]
+[solver]
+solver = "progressive"
+"pr.level" = 1
+"pr.history_every" = 2
+"pr.tolerance" = 1e-4
+[reference]
+kind = "full-matrix"
+"fm.level" = 2
+[outputs]
+history_error = true
+)",
+                             "pr.toml", dir);
+    SweepReport r = runSweep(study, options(dir, "pr.sqlite"));
+    ASSERT_EQ(r.finished, 1u);
+    ResultStore s(dir / "pr.sqlite", true);
+    EXPECT_GT(s.count("iterations"), 2);
+    sqlite3_stmt* st = nullptr;
+    sqlite3_prepare_v2(s.handle(), "SELECT iteration, residual, l2_lum FROM iterations ORDER BY iteration",
+                       -1, &st, nullptr);
+    double prevResidual = 2.0, lastL2 = -1;
+    int prevIter = -1;
+    while (sqlite3_step(st) == SQLITE_ROW) {
+        int it = sqlite3_column_int(st, 0);
+        double res = sqlite3_column_double(st, 1);
+        EXPECT_GT(it, prevIter);
+        EXPECT_LT(res, prevResidual) << "shots " << it;
+        EXPECT_NE(sqlite3_column_type(st, 2), SQLITE_NULL);
+        prevIter = it;
+        prevResidual = res;
+        lastL2 = sqlite3_column_double(st, 2);
+    }
+    sqlite3_finalize(st);
+    EXPECT_LE(prevResidual, 1e-4);
+    sqlite3_prepare_v2(s.handle(), "SELECT l2_lum, solver FROM runs", -1, &st, nullptr);
+    ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
+    EXPECT_DOUBLE_EQ(sqlite3_column_double(st, 0), lastL2);
+    EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(st, 1)), "progressive");
+    sqlite3_finalize(st);
+}
+
 // outputs.error_map: the reference render, the 16-bit data map and the false
 // colours are written next to the image; a solution equal to the reference
 // (the same full matrix) has zero error everywhere, a coarse one does not,
