@@ -11,6 +11,7 @@ PACKAGES=(
   libtinyobjloader-dev libsqlite3-dev sqlite3 libpng-dev zlib1g-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-matplotlib python3-numpy python3-pandas
+  slurm-wlm munge
 )
 
 missing=()
