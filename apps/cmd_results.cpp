@@ -9,7 +9,6 @@
 namespace hrad::app {
 
 int runResultsExport(const std::string& store, const std::string& csvDir) {
-    if (!std::filesystem::exists(store)) throw Error(fmt::format("no such results store: {}", store));
     experiments::ResultStore s(store, true);
     s.exportCsv(csvDir);
     fmt::print("exported {} run(s), {} iteration row(s), {} failure(s) to {}/{{studies,runs,"
@@ -18,12 +17,14 @@ int runResultsExport(const std::string& store, const std::string& csvDir) {
     return 0;
 }
 
-int runResultsMerge(const std::string& out, const std::vector<std::string>& inputs) {
+int runResultsMerge(const std::string& out, const std::vector<std::string>& inputs, bool force) {
+    // Every input passes the store checks before the output is created.
+    for (const auto& in : inputs) experiments::ResultStore check(in, true);
     experiments::ResultStore s(out);
     for (const auto& in : inputs) {
-        if (std::filesystem::exists(out) && std::filesystem::equivalent(in, out))
-            throw Error(fmt::format("cannot merge {} into itself", in));
-        int64_t added = s.mergeFrom(in);
+        if (std::filesystem::equivalent(in, out))
+            throwInputError({in, 0, 0}, "cannot merge a store into itself");
+        int64_t added = s.mergeFrom(in, force);
         fmt::print("{}: {} new run(s)\n", in, added);
     }
     fmt::print("{}: {} run(s), {} failure(s)\n", out, s.count("runs"), s.count("failures"));

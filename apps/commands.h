@@ -69,8 +69,9 @@ int runSweepCommand(const SweepCliOptions& options);
 
 /// `hrad results export STORE --csv DIR`: one CSV per table.
 int runResultsExport(const std::string& store, const std::string& csvDir);
-/// `hrad results merge OUT IN...`: joins shard stores without duplicates.
-int runResultsMerge(const std::string& out, const std::vector<std::string>& inputs);
+/// `hrad results merge OUT IN... [--force]`: joins shard stores without
+/// duplicates; refuses to mix study texts or hrad versions unless `force`.
+int runResultsMerge(const std::string& out, const std::vector<std::string>& inputs, bool force);
 
 /// `hrad reference SCENE --kind ...`: computes (or finds) a cached reference
 /// and prints where it is. `params` holds fm.* / mc.* and loader keys.

@@ -130,6 +130,8 @@ int main(int argc, char** argv) {
     std::vector<std::string> mergeIn;
     rmerge->add_option("out", mergeOut, "store to create or extend")->required();
     rmerge->add_option("inputs", mergeIn, "shard stores")->required();
+    bool mergeForce = false;
+    rmerge->add_flag("--force", mergeForce, "merge rows of different study texts or hrad versions");
 
     // reference
     auto* refCmd = app.add_subcommand("reference", "compute (or find) a cached reference solution");
@@ -194,7 +196,7 @@ int main(int argc, char** argv) {
             return app::runSweepCommand(sw);
         }
         if (*rexport) return app::runResultsExport(exportStore, exportDir);
-        if (*rmerge) return app::runResultsMerge(mergeOut, mergeIn);
+        if (*rmerge) return app::runResultsMerge(mergeOut, mergeIn, mergeForce);
         if (*refCmd) {
             ro.progress = !refQuiet;
             return app::runReference(ro, params);

@@ -1,6 +1,8 @@
 #include "experiments/store.h"
 
 #include <algorithm>
+#include <cstdlib>
+#include <cstring>
 
 #include <sqlite3.h>
 
@@ -35,7 +37,8 @@ CREATE TABLE IF NOT EXISTS runs (
   mc_stderr_l2_lum REAL, mc_stderr_l2_rgb REAL, regions INTEGER, reference_desc TEXT,
   bytes TEXT, summary TEXT,
   l1_reflected_lum REAL, l2_reflected_lum REAL, l1_nonemitter_lum REAL,
-  l2_nonemitter_lum REAL, mean_ratio_nonemitter REAL, error_estimate REAL, residual REAL);
+  l2_nonemitter_lum REAL, mean_ratio_nonemitter REAL, error_estimate REAL, residual REAL,
+  slurm_job_id TEXT, slurm_array_task_id INTEGER);
 CREATE TABLE IF NOT EXISTS iterations (
   run_key TEXT, iteration INTEGER, stage INTEGER, eps REAL, links INTEGER,
   elements INTEGER, leaves INTEGER, refined_links INTEGER, rays INTEGER,
@@ -44,8 +47,22 @@ CREATE TABLE IF NOT EXISTS iterations (
   PRIMARY KEY (run_key, iteration));
 CREATE TABLE IF NOT EXISTS failures (
   key TEXT PRIMARY KEY, study TEXT, point_index INTEGER, scene TEXT, settings TEXT,
-  kind TEXT, message TEXT, version TEXT, host TEXT, date TEXT, wall_s REAL, peak_rss INTEGER);
+  kind TEXT, message TEXT, version TEXT, host TEXT, date TEXT, wall_s REAL, peak_rss INTEGER,
+  slurm_job_id TEXT, slurm_array_task_id INTEGER);
 )sql";
+
+/// PRAGMA application_id of an hrad store ("HRAD" in ASCII) and the schema
+/// version in PRAGMA user_version (both in the SQLite file header,
+/// https://www.sqlite.org/fileformat.html section 1.3). Versions:
+///   1  the first stores (no application id, user_version 0)
+///   2  runs gain the reflected/non-emitter errors, error estimate, residual
+///      (still user_version 0; told apart from 1 by its columns)
+///   3  application id and user_version set; runs and failures gain
+///      slurm_job_id and slurm_array_task_id (provenance)
+/// Older versions are migrated when opened for writing (missing columns are
+/// added, NULL in old rows) and read as they are when opened read-only.
+constexpr int32_t kApplicationId = 0x48524144;
+constexpr int kSchemaVersion = 3;
 
 const char* kTables[] = {"studies", "runs", "iterations", "failures"};
 
@@ -58,7 +75,25 @@ const std::pair<const char*, const char*> kAddedRunColumns[] = {
     {"l1_reflected_lum", "REAL"},  {"l2_reflected_lum", "REAL"},
     {"l1_nonemitter_lum", "REAL"}, {"l2_nonemitter_lum", "REAL"},
     {"mean_ratio_nonemitter", "REAL"}, {"error_estimate", "REAL"},
-    {"residual", "REAL"}};
+    {"residual", "REAL"}, {"slurm_job_id", "TEXT"}, {"slurm_array_task_id", "INTEGER"}};
+const std::pair<const char*, const char*> kAddedFailureColumns[] = {
+    {"slurm_job_id", "TEXT"}, {"slurm_array_task_id", "INTEGER"}};
+
+/// The Slurm job of this process ("" / -1 outside Slurm): the array job id
+/// and task id for array tasks, else the job id.
+std::pair<json, json> slurmProvenance() {
+    const char* arrayJob = std::getenv("SLURM_ARRAY_JOB_ID");
+    const char* job = std::getenv("SLURM_JOB_ID");
+    const char* task = std::getenv("SLURM_ARRAY_TASK_ID");
+    json j = arrayJob ? json(arrayJob) : job ? json(job) : json(nullptr);
+    json t = nullptr;
+    if (task) {
+        char* end = nullptr;
+        long long v = std::strtoll(task, &end, 10);
+        if (end && *end == 0 && end != task) t = int64_t(v);
+    }
+    return {j, t};
+}
 
 /// A prepared statement with positional binding of JSON values.
 class Stmt {
@@ -148,6 +183,26 @@ uint64_t fnv1a(const std::string& s) {
 }  // namespace
 
 ResultStore::ResultStore(const fs::path& path, bool readOnly) : path_(path) {
+    SourceLocation where{path.string(), 0, 0};
+    // Not SQLite at all (or cut short inside its 100-byte header): say so
+    // before SQLite answers with "file is not a database" to a statement.
+    std::error_code ec;
+    if (fs::exists(path, ec) && fs::is_regular_file(path, ec)) {
+        uintmax_t size = fs::file_size(path, ec);
+        if (size > 0) {
+            char head[16] = {};
+            std::ifstream in(path, std::ios::binary);
+            in.read(head, sizeof head);
+            if (in.gcount() < 16 || std::memcmp(head, "SQLite format 3", 16) != 0)
+                throwInputError(where, "not an hrad results store: the file is not an SQLite "
+                                       "database (its first bytes are not the SQLite header)");
+            if (size < 100)
+                throwInputError(where, "the results store is truncated ({} bytes, shorter than "
+                                       "the 100-byte SQLite header)", size);
+        }
+    } else if (readOnly) {
+        throwInputError(where, "no such results store");
+    }
     int flags = readOnly ? SQLITE_OPEN_READONLY : (SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE);
     if (!readOnly && path.has_parent_path()) fs::create_directories(path.parent_path());
     if (sqlite3_open_v2(path.string().c_str(), &db_, flags, nullptr) != SQLITE_OK) {
@@ -157,15 +212,145 @@ ResultStore::ResultStore(const fs::path& path, bool readOnly) : path_(path) {
         throw Error(fmt::format("cannot open results store {}: {}", path.string(), msg));
     }
     sqlite3_busy_timeout(db_, 30000);
-    if (!readOnly) {
-        exec("PRAGMA journal_mode=WAL");
-        exec("PRAGMA synchronous=NORMAL");
-        exec(kSchema);
-        std::vector<std::string> have = columns("main", "runs");
-        for (const auto& [name, type] : kAddedRunColumns)
-            if (std::find(have.begin(), have.end(), name) == have.end())
-                exec(fmt::format("ALTER TABLE runs ADD COLUMN {} {}", name, type));
+    try {
+        checkStore(readOnly);
+    } catch (...) {
+        sqlite3_close(db_);
+        db_ = nullptr;
+        throw;
     }
+}
+
+void ResultStore::checkStore(bool readOnly) {
+    SourceLocation where{path_.string(), 0, 0};
+    // A single value of a PRAGMA or query; any SQLite failure here means the
+    // file is damaged (or not a database): one sentence, exit 2.
+    auto scalar = [&](const std::string& sql) -> std::string {
+        sqlite3_stmt* st = nullptr;
+        int rc = sqlite3_prepare_v2(db_, sql.c_str(), -1, &st, nullptr);
+        std::string out;
+        if (rc == SQLITE_OK) rc = sqlite3_step(st);
+        if (rc == SQLITE_ROW) {
+            const char* t = reinterpret_cast<const char*>(sqlite3_column_text(st, 0));
+            out = t ? t : "";
+        } else if (rc != SQLITE_DONE) {
+            std::string msg = sqlite3_errmsg(db_);
+            sqlite3_finalize(st);
+            throwInputError(where, "the results store is corrupt or not an SQLite database "
+                                   "(SQLite reports: {}); restore it from a copy or merge its "
+                                   "shard stores again", msg);
+        }
+        sqlite3_finalize(st);
+        return out;
+    };
+    std::string check = scalar("PRAGMA quick_check(1)");
+    if (check != "ok")
+        throwInputError(where, "the results store is corrupt (SQLite integrity check: {}); "
+                               "restore it from a copy or merge its shard stores again", check);
+    int64_t appId = std::stoll(scalar("PRAGMA application_id"));
+    int64_t version = std::stoll(scalar("PRAGMA user_version"));
+    if (appId != 0 && appId != kApplicationId)
+        throwInputError(where, "not an hrad results store: it is an SQLite database of another "
+                               "application (application_id 0x{:08x})", uint32_t(appId));
+    if (version > kSchemaVersion)
+        throwInputError(where, "the results store has schema version {}, written by a newer "
+                               "hrad; this hrad reads versions up to {}", version, kSchemaVersion);
+
+    // The tables and columns this hrad writes (kSchema in a scratch database).
+    sqlite3* ref = nullptr;
+    sqlite3_open(":memory:", &ref);
+    sqlite3_exec(ref, kSchema, nullptr, nullptr, nullptr);
+    auto columnsOf = [](sqlite3* db, const std::string& table) {
+        std::vector<std::string> out;
+        sqlite3_stmt* st = nullptr;
+        sqlite3_prepare_v2(db, fmt::format("PRAGMA table_info({})", table).c_str(), -1, &st, nullptr);
+        while (sqlite3_step(st) == SQLITE_ROW) {
+            const char* n = reinterpret_cast<const char*>(sqlite3_column_text(st, 1));
+            if (n) out.emplace_back(n);
+        }
+        sqlite3_finalize(st);
+        return out;
+    };
+    std::vector<std::string> tables;
+    {
+        sqlite3_stmt* st = nullptr;
+        sqlite3_prepare_v2(db_, "SELECT name FROM sqlite_master WHERE type = 'table' AND name NOT LIKE 'sqlite_%'",
+                           -1, &st, nullptr);
+        while (sqlite3_step(st) == SQLITE_ROW)
+            tables.emplace_back(reinterpret_cast<const char*>(sqlite3_column_text(st, 0)));
+        sqlite3_finalize(st);
+    }
+    std::string problem;
+    if (!tables.empty()) {
+        bool anyOurs = false;
+        for (const char* t : kTables)
+            if (std::find(tables.begin(), tables.end(), t) != tables.end()) anyOurs = true;
+        if (!anyOurs) {
+            std::string list;
+            for (const auto& t : tables) list += (list.empty() ? "" : ", ") + t;
+            problem = fmt::format("it has the tables {} and none of hrad's (studies, runs, "
+                                  "iterations, failures)", list);
+        }
+        for (const char* t : kTables) {
+            if (!problem.empty()) break;
+            if (std::find(tables.begin(), tables.end(), t) == tables.end()) {
+                problem = fmt::format("it has no table '{}'", t);
+                break;
+            }
+            std::vector<std::string> mine = columnsOf(ref, t), theirs = columnsOf(db_, t);
+            for (const auto& c : theirs)
+                if (std::find(mine.begin(), mine.end(), c) == mine.end()) {
+                    problem = fmt::format("its table '{}' has a column '{}' that hrad does not write", t, c);
+                    break;
+                }
+            if (!problem.empty()) break;
+            // Columns added in later versions may be missing (migrated below); others may not.
+            auto added = [&](const std::string& c) {
+                for (const auto& a : kAddedRunColumns)
+                    if (std::string(t) == "runs" && c == a.first) return true;
+                for (const auto& a : kAddedFailureColumns)
+                    if (std::string(t) == "failures" && c == a.first) return true;
+                return false;
+            };
+            for (const auto& c : mine)
+                if (std::find(theirs.begin(), theirs.end(), c) == theirs.end() && !added(c)) {
+                    problem = fmt::format("its table '{}' lacks the column '{}'", t, c);
+                    break;
+                }
+        }
+    }
+    sqlite3_close(ref);
+    if (!problem.empty()) throwInputError(where, "not an hrad results store: {}", problem);
+    // Rows without a key cannot be skipped, merged or resumed.
+    if (!tables.empty())
+        for (auto [table, key] : {std::pair{"runs", "key"}, std::pair{"failures", "key"},
+                                  std::pair{"studies", "hash"}, std::pair{"iterations", "run_key"}}) {
+            std::string rowid = scalar(fmt::format("SELECT rowid FROM {} WHERE {} IS NULL LIMIT 1", table, key));
+            if (!rowid.empty())
+                throwInputError(where, "the results store was modified outside hrad: a row of "
+                                       "table '{}' (rowid {}) has no {} (NULL)", table, rowid, key);
+        }
+
+    if (readOnly) return;
+    exec("PRAGMA journal_mode=WAL");
+    exec("PRAGMA synchronous=NORMAL");
+    exec(kSchema);
+    std::vector<std::string> have = columns("main", "runs");
+    for (const auto& [name, type] : kAddedRunColumns)
+        if (std::find(have.begin(), have.end(), name) == have.end())
+            exec(fmt::format("ALTER TABLE runs ADD COLUMN {} {}", name, type));
+    have = columns("main", "failures");
+    for (const auto& [name, type] : kAddedFailureColumns)
+        if (std::find(have.begin(), have.end(), name) == have.end())
+            exec(fmt::format("ALTER TABLE failures ADD COLUMN {} {}", name, type));
+    exec(fmt::format("PRAGMA application_id = {}", kApplicationId));
+    exec(fmt::format("PRAGMA user_version = {}", kSchemaVersion));
+}
+
+int ResultStore::schemaVersion() const {
+    Stmt st(db_, "PRAGMA user_version");
+    st.step();
+    return int(sqlite3_column_int64(st.get(), 0));
 }
 
 std::vector<std::string> ResultStore::columns(const std::string& schema,
@@ -213,7 +398,8 @@ void ResultStore::addRun(const std::string& key, const std::string& study, int64
         "linf_lum", "l1_rgb", "l2_rgb", "linf_rgb", "mc_stderr_l2_lum", "mc_stderr_l2_rgb",
         "regions", "reference_desc", "bytes", "summary", "l1_reflected_lum",
         "l2_reflected_lum", "l1_nonemitter_lum", "l2_nonemitter_lum", "mean_ratio_nonemitter",
-        "error_estimate", "residual"};
+        "error_estimate", "residual", "slurm_job_id", "slurm_array_task_id"};
+    auto [slurmJob, slurmTask] = slurmProvenance();
     json settings = at(s, "settings");
     json oracle = nullptr;
     if (at(s, "solver") == "hr")
@@ -274,7 +460,9 @@ void ResultStore::addRun(const std::string& key, const std::string& study, int64
                               at(s, "error", "l2_nonemitter_lum"),
                               at(s, "error", "mean_ratio_nonemitter"),
                               at(s, "error_estimate"),
-                              at(s, "residual")};
+                              at(s, "residual"),
+                              slurmJob,
+                              slurmTask};
     exec("BEGIN IMMEDIATE");
     try {
         Stmt st(db_, insertSql("runs", cols, "INSERT OR REPLACE"));
@@ -313,8 +501,10 @@ void ResultStore::addRun(const std::string& key, const std::string& study, int64
 void ResultStore::addFailure(const FailureRecord& f) {
     Stmt st(db_, insertSql("failures",
                            {"key", "study", "point_index", "scene", "settings", "kind", "message",
-                            "version", "host", "date", "wall_s", "peak_rss"},
+                            "version", "host", "date", "wall_s", "peak_rss", "slurm_job_id",
+                            "slurm_array_task_id"},
                            "INSERT OR REPLACE"));
+    auto [slurmJob, slurmTask] = slurmProvenance();
     st.bind(1, f.key).bind(2, f.study).bind(3, f.pointIndex).bind(4, f.scene);
     st.bind(5, f.settingsJson).bind(6, f.kind).bind(7, f.message).bind(8, codeVersion());
     st.bind(9, hostName()).bind(10, isoDateUtc()).bind(11, f.wallSeconds).bind(12, f.peakRss);
@@ -358,9 +548,42 @@ void ResultStore::exportCsv(const fs::path& dir) const {
     }
 }
 
-int64_t ResultStore::mergeFrom(const fs::path& other) {
-    if (!fs::exists(other)) throw Error(fmt::format("no such results store: {}", other.string()));
+std::set<std::string> ResultStore::distinct(const std::string& sql) const {
+    std::set<std::string> out;
+    Stmt st(db_, sql);
+    while (st.step()) {
+        const char* t = reinterpret_cast<const char*>(sqlite3_column_text(st.get(), 0));
+        out.insert(t ? t : "(none)");
+    }
+    return out;
+}
+
+int64_t ResultStore::mergeFrom(const fs::path& other, bool force) {
+    // The source passes the same checks as any store (hrad's, readable,
+    // not newer) before it is attached.
+    { ResultStore check(other, true); }
     int64_t before = count("runs");
+    const char* studiesSql = "SELECT study FROM runs UNION SELECT study FROM failures";
+    const char* versionsSql = "SELECT version FROM runs UNION SELECT version FROM failures";
+    if (!force) {
+        ResultStore src(other, true);
+        auto join = [](const std::set<std::string>& a) {
+            std::string out;
+            for (const auto& x : a) out += (out.empty() ? "" : ", ") + x;
+            return out;
+        };
+        for (auto [sql, what] : {std::pair{studiesSql, "study texts (hashes)"},
+                                 std::pair{versionsSql, "hrad versions"}}) {
+            std::set<std::string> mine = distinct(sql), theirs = src.distinct(sql), all = mine;
+            all.insert(theirs.begin(), theirs.end());
+            if (all.size() > 1)
+                throwInputError({other.string(), 0, 0},
+                                "refusing to merge into {}: the rows would mix {} ({} here, {} "
+                                "there); pass --force to merge them anyway",
+                                path_.string(), what, mine.empty() ? "none" : join(mine),
+                                join(theirs));
+        }
+    }
     Stmt attach(db_, "ATTACH DATABASE ? AS src");
     attach.bind(1, other.string()).step();
     try {

@@ -16,6 +16,19 @@
 //               PK (run_key, iteration))
 //   failures   (key PK, study, point_index, scene, settings JSON, kind, message,
 //               version, host, date, wall_s, peak_rss)
+// runs also carry slurm_job_id and slurm_array_task_id (from SLURM_ARRAY_JOB_ID
+// or SLURM_JOB_ID, and SLURM_ARRAY_TASK_ID; NULL outside Slurm) next to host,
+// version and study (the study text's hash): the provenance of every row.
+//
+// Schema version and refusals: an hrad store has PRAGMA application_id
+// 0x48524144 ("HRAD") and its schema version in PRAGMA user_version (see
+// store.cpp for the history). Opening checks, before anything is written:
+// the SQLite header, PRAGMA quick_check, the application id, a version not
+// newer than this hrad's, hrad's four tables with no column hrad does not
+// know, and no row without a key. Each failure is an InputError naming the
+// file with one sentence (exit 2), never an SQL statement. Older versions are
+// migrated when opened for writing (columns added, NULL in older rows).
+//
 // A point's run row and its iterations are written in one transaction, so a
 // killed sweep never leaves a half-written run. Only the parent process of a
 // sweep writes; children hand their summary over in a file.
@@ -71,11 +84,19 @@ class ResultStore {
 
     /// Copies rows of another store that are not here yet (runs by key;
     /// failures only for keys without a run). Returns runs added.
-    int64_t mergeFrom(const std::filesystem::path& other);
+    /// Refuses (InputError) to mix rows of different study texts or hrad
+    /// versions unless `force`.
+    int64_t mergeFrom(const std::filesystem::path& other, bool force = false);
+
+    /// PRAGMA user_version (3 for a store written by this hrad).
+    int schemaVersion() const;
+    /// Distinct values of the first column of `sql` (NULL as "(none)").
+    std::set<std::string> distinct(const std::string& sql) const;
 
     sqlite3* handle() const { return db_; }
 
   private:
+    void checkStore(bool readOnly);
     void exec(const std::string& sql) const;
     /// Column names of `table` in attached database `schema` ("main", "src").
     std::vector<std::string> columns(const std::string& schema, const std::string& table) const;

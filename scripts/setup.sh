@@ -12,6 +12,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-matplotlib python3-numpy python3-pandas
   clang libclang-rt-14-dev
+  slurm-wlm munge
 )
 
 missing=()

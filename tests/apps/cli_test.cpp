@@ -287,3 +287,23 @@ TEST(Cli, RenderSampleBound) {
     EXPECT_NE(r.output.find("render.spp"), std::string::npos) << r.output;
     EXPECT_FALSE(std::filesystem::exists(dir / "s" / "summary.json"));
 }
+
+// Stores that are not hrad's or are corrupt: exit 2 and one sentence naming
+// the file, no SQL (issue 16 item 6); a missing input refuses before the
+// output of a merge is created.
+TEST(Cli, ForeignAndCorruptStoresExitTwo) {
+    auto dir = hrad::test::tempDir("cli_stores");
+    std::string text = (dir / "notes.sqlite").string();
+    { std::ofstream(text) << "just some notes\n"; }
+    Result r = run("results export " + text + " --csv " + (dir / "csv").string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find(text + ": error: not an hrad results store"), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("SELECT"), std::string::npos) << r.output;
+    std::string out = (dir / "merged.sqlite").string();
+    r = run("results merge " + out + " " + text);
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(out));
+    r = run("results merge " + out + " " + (dir / "absent.sqlite").string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("no such results store"), std::string::npos) << r.output;
+}
