@@ -20,24 +20,57 @@ bool isBuiltinName(const std::string& spec) {
     return std::find(names.begin(), names.end(), head) != names.end();
 }
 
-Scene loadScene(const std::string& spec, const Params& params) {
-    Timer timer;
-    // Every key is read up front, whether or not it applies to this format,
-    // so that the caller's reportUnused() only flags misspellings.
+namespace {
+
+// Each format's settings, read from Params (with range checks).
+MgfOptions mgfOptions(const Params& params) {
     MgfOptions mgf;
     mgf.resolution = int(params.getInt("mgf.resolution", mgf.resolution, 3, 4096));
     mgf.whitePoint = params.getEnum("mgf.white_point", mgf.whitePoint, {"E", "D65"});
     mgf.maxFaces = size_t(params.getInt("mgf.max_faces", int64_t(mgf.maxFaces), 1, int64_t(1) << 40));
+    return mgf;
+}
+
+ObjOptions objOptions(const Params& params) {
     ObjOptions obj;
     obj.defaultRho = params.getDouble("obj.default_rho", obj.defaultRho, 0.0, 1.0);
     if (!(obj.defaultRho < 1.0))
         throwInputError(params.where("obj.default_rho"), "setting 'obj.default_rho' must be < 1");
     obj.clampRho = params.getDouble("obj.clamp_rho", obj.clampRho, 0.0, 0.999999);
+    obj.twoSided = params.getBool("obj.two_sided", obj.twoSided);
+    return obj;
+}
+
+PlyOptions plyOptions(const Params& params) {
     PlyOptions ply;
     ply.emission = params.getDouble("ply.emission", ply.emission, 0.0, 1e30);
     ply.defaultRho = params.getDouble("ply.default_rho", ply.defaultRho, 0.0, 1.0);
     if (!(ply.defaultRho < 1.0))
         throwInputError(params.where("ply.default_rho"), "setting 'ply.default_rho' must be < 1");
+    return ply;
+}
+
+}  // namespace
+
+// The format registry: a new loader adds its files in scene/ and one line here.
+const std::vector<SceneFormat>& sceneFormats() {
+    static const std::vector<SceneFormat> formats = {
+        {"obj", {".obj"}, [](const Params& p) { (void)objOptions(p); },
+         [](const std::string& path, const Params& p) { return loadObj(path, objOptions(p)); }},
+        {"mgf", {".mgf"}, [](const Params& p) { (void)mgfOptions(p); },
+         [](const std::string& path, const Params& p) { return loadMgf(path, mgfOptions(p)); }},
+        {"ply", {".ply"}, [](const Params& p) { (void)plyOptions(p); },
+         [](const std::string& path, const Params& p) { return loadPly(path, plyOptions(p)); }},
+    };
+    return formats;
+}
+
+Scene loadScene(const std::string& spec, const Params& params) {
+    Timer timer;
+    // Every key is read up front, whether or not it applies to this format,
+    // so that the caller's reportUnused() only flags misspellings.
+    for (const SceneFormat& f : sceneFormats()) f.readSettings(params);
+    const std::string twoSided = params.getEnum("two_sided", "auto", {"auto", "all", "none"});
     bool validate = params.getBool("validate", true);
 
     Scene scene;
@@ -48,11 +81,18 @@ Scene loadScene(const std::string& spec, const Params& params) {
         std::string ext = path.extension().string();
         std::transform(ext.begin(), ext.end(), ext.begin(),
                        [](unsigned char c) { return char(std::tolower(c)); });
-        if (ext != ".obj" && ext != ".mgf" && ext != ".ply")
+        const SceneFormat* format = nullptr;
+        std::string known;
+        for (const SceneFormat& f : sceneFormats())
+            for (const std::string& e : f.extensions) {
+                if (e == ext) format = &f;
+                known += (known.empty() ? "" : ", ") + e;
+            }
+        if (!format)
             throwInputError(SourceLocation{spec, 0, 0},
-                            "unknown scene file extension '{}' (expected .obj, .mgf or .ply, or a "
+                            "unknown scene file extension '{}' (expected one of {}, or a "
                             "built-in name: cornell, furnace, plates:..., office:N)",
-                            ext);
+                            ext, known);
         // error_code forms: a name the system refuses (too long, ...) is an
         // input error, not a std::filesystem exception.
         std::error_code ec;
@@ -61,13 +101,14 @@ Scene loadScene(const std::string& spec, const Params& params) {
                             ec ? " (" + ec.message() + ")" : std::string());
         if (!std::filesystem::is_regular_file(path, ec))
             throwInputError(SourceLocation{spec, 0, 0}, "scene path is not a regular file (a folder or device)");
-        if (ext == ".obj")
-            scene = loadObj(spec, obj);
-        else if (ext == ".mgf")
-            scene = loadMgf(spec, mgf);
-        else
-            scene = loadPly(spec, ply);
+        scene = format->load(spec, params);
         scene.name = spec;
+    }
+    // Two-sided materials become front/back patch pairs (scene.h, Patch::twin).
+    if (twoSided == "none") {
+        for (Material& m : scene.materials) m.twoSided = false;
+    } else {
+        scene.addBackSides(twoSided == "all");
     }
     if (validate) scene.validate();
     scene.stats.loadSeconds = timer.seconds();

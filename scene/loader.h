@@ -17,17 +17,36 @@
 //                                  (equal energy, as Radiance/MGF) or "D65"
 //   ply.emission     double 1.0    E of faces coloured pure white (255,255,255)
 //   ply.default_rho  double 0.5    grey reflectance of faces without colour
+//   obj.two_sided    bool   false  every OBJ material is two-sided
+//   two_sided        string "auto" "auto": materials say which surfaces are two-
+//                                  sided (MGF sides 2, ...); "all": every
+//                                  surface; "none": ignore the flags (one-sided)
 //   validate         bool   true   run Scene::validate() (rho range, emitter)
 //
 // Every key is read whatever the format, so callers may reportUnused().
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "core/params.h"
 #include "scene/scene.h"
 
 namespace hrad::scene {
+
+/// One scene file format. Adding a loader: its files in scene/ and one entry
+/// in sceneFormats() (loader.cpp).
+struct SceneFormat {
+    const char* name;                     ///< "obj", "mgf", ...
+    std::vector<std::string> extensions;  ///< lower case, with the dot
+    /// Reads (and range-checks) every setting the format uses, so that
+    /// Params::reportUnused() flags only misspellings whatever the format.
+    void (*readSettings)(const Params&);
+    Scene (*load)(const std::string& path, const Params&);
+};
+
+/// The registry of file formats, in the order they are listed to users.
+const std::vector<SceneFormat>& sceneFormats();
 
 /// Loads a built-in scene by name or a file by extension; throws InputError
 /// with file:line on malformed input. Fills scene.stats (incl. load time).

@@ -178,6 +178,7 @@ std::unique_ptr<FileText> readFile(const std::string& path, const SourceLocation
 struct MgfMaterial {
     double rd = 0.0, ed = 0.0;
     Chroma rdColour, edColour;
+    int sides = 1;        ///< MGF `sides`: 2 = seen (and lit) from both sides
     int sceneIndex = -1;  ///< scene material for the current values, -1 = stale
 };
 
@@ -302,6 +303,10 @@ class MgfLoader {
                                  materialName_, m.rd));
         }
         mat.emission = toRgb(m.edColour, m.ed);
+        // MGF spec: `sides 2` makes the material visible from both sides; an
+        // emitting two-sided material emits from both (as RenderPark's twins).
+        mat.twoSided = m.sides == 2;
+        mat.emitsBothSides = mat.twoSided;
         m.sceneIndex = int(scene_.addMaterial(mat));
         return uint32_t(m.sceneIndex);
     }
@@ -522,7 +527,14 @@ class MgfLoader {
                     material_->edColour = *colour_;
                 }
                 material_->sceneIndex = -1;
-            } else if (k == "rs" || k == "ts" || k == "td" || k == "sides" || k == "ir") {
+            } else if (k == "sides") {
+                needArgs(f, s, 1, 1);
+                if (!material_) fail(f, s, "'sides' outside a material context");
+                double v = num(f, s, 1);
+                if (v != 1.0 && v != 2.0) fail(f, s, fmt::format("sides = {} must be 1 or 2", s.tok[1]));
+                material_->sides = int(v);
+                material_->sceneIndex = -1;
+            } else if (k == "rs" || k == "ts" || k == "td" || k == "ir") {
                 ++scene_.stats.ignoredStatements;
                 warnOnce("ignored:" + k, fmt::format("{}:{}: MGF '{}' is ignored (hrad models diffuse "
                                                      "reflection and emission only)", f.path, s.line, k));

@@ -269,6 +269,7 @@ Scene loadObj(const std::string& path, const ObjOptions& options) {
                 throwInputError(where, "material '{}': emission Ke must be finite and >= 0", m.name);
             }
         }
+        mat.twoSided = options.twoSided;
         scene.addMaterial(mat);
     }
 
@@ -294,7 +295,8 @@ Scene loadObj(const std::string& path, const ObjOptions& options) {
             uint32_t material;
             if (mid < 0 || size_t(mid) >= mats.size()) {
                 if (defaultMaterial == UINT32_MAX)
-                    defaultMaterial = scene.addMaterial({"default", RGB(options.defaultRho), RGB(0.0)});
+                    defaultMaterial = scene.addMaterial(
+                        {"default", RGB(options.defaultRho), RGB(0.0), options.twoSided, false});
                 material = defaultMaterial;
                 ++scene.stats.defaultMaterialFaces;
             } else {

@@ -24,6 +24,9 @@ struct ObjOptions {
     /// error unless this is set: then each such channel becomes `clampRho`'s
     /// value (< 1) with one warning per material. 0 = off.
     double clampRho = 0.0;
+    /// Every material is two-sided (OBJ has no per-material flag); emitters
+    /// still emit from the front only.
+    bool twoSided = false;
 };
 
 /// Loads an OBJ file (and its MTL libraries); throws InputError with file:line.

@@ -66,9 +66,44 @@ bool Scene::addPolygonPatch(PatchKind kind, const Vec3 (&v)[4], uint32_t materia
 
 void Scene::applyMaterials() {
     for (auto& p : patches) {
-        p.rho = materials[p.material].rho;
-        p.emission = materials[p.material].emission;
+        const Material& m = materials[p.material];
+        p.rho = m.rho;
+        p.emission = (p.backSide && !m.emitsBothSides) ? RGB(0.0) : m.emission;
     }
+}
+
+size_t Scene::addBackSides(bool all) {
+    const size_t n = patches.size();
+    size_t added = 0;
+    for (size_t i = 0; i < n; ++i) {
+        if (patches[i].twin != UINT32_MAX) continue;  // already a pair
+        const Material& m = materials[patches[i].material];
+        if (!all && !m.twoSided) continue;
+        Patch back = patches[i];
+        // Reverse the winding so that the normal is negated and the
+        // parametrisation stays counter-clockwise seen from the back:
+        // quad v0 v3 v2 v1, triangle v0 v2 v1 (v[3] mirrors v[2]).
+        if (back.kind == PatchKind::Quad) {
+            std::swap(back.v[1], back.v[3]);
+        } else {
+            std::swap(back.v[1], back.v[2]);
+            back.v[3] = back.v[2];
+        }
+        back.normal = -patches[i].normal;
+        back.backSide = true;
+        back.twin = uint32_t(i);
+        back.emission = m.emitsBothSides ? m.emission : RGB(0.0);
+        patches[i].twin = uint32_t(patches.size());
+        patches.push_back(back);
+        ++added;
+    }
+    return added;
+}
+
+size_t Scene::numBackSides() const {
+    size_t k = 0;
+    for (const auto& p : patches) k += p.backSide ? 1 : 0;
+    return k;
 }
 
 Bounds3 Scene::bounds() const {

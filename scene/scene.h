@@ -27,6 +27,14 @@ struct Material {
     std::string name;
     RGB rho{0.0};       ///< diffuse reflectance, each channel in [0, 1)
     RGB emission{0.0};  ///< emitted radiosity E (W/m^2)
+    /// Seen and lit from both sides (MGF `sides 2`, Mitsuba `twosided`, glTF
+    /// `doubleSided`, the `two_sided` setting). Scene::addBackSides() gives
+    /// every patch of such a material a back-side twin (see Patch::twin).
+    bool twoSided = false;
+    /// For a two-sided material: whether the back side emits too. Mitsuba's
+    /// area emitters emit from the front only; MGF and glTF materials are the
+    /// same on both faces.
+    bool emitsBothSides = false;
     bool isEmitter() const { return emission.r > 0 || emission.g > 0 || emission.b > 0; }
 };
 
@@ -43,6 +51,14 @@ struct Patch {
     double area = 0.0;
     RGB rho{0.0};
     RGB emission{0.0};
+    /// Two-sided surfaces are two patches on the same polygon with opposite
+    /// normals (RenderPark's "twin" faces): each side has its own elements
+    /// and radiosity, and nothing else changes in the solvers. `twin` is the
+    /// other side's index (UINT32_MAX for a one-sided patch); `backSide`
+    /// marks the copy made by Scene::addBackSides(). Visibility keeps one
+    /// polygon per pair and reports the side a ray arrives at.
+    uint32_t twin = UINT32_MAX;
+    bool backSide = false;
 
     int numVertices() const { return kind == PatchKind::Quad ? 4 : 3; }
     bool isEmitter() const { return emission.r > 0 || emission.g > 0 || emission.b > 0; }
@@ -100,8 +116,18 @@ class Scene {
     bool addTriangle(const Vec3& a, const Vec3& b, const Vec3& c, uint32_t material);
     bool addQuad(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, uint32_t material);
 
-    /// Copies rho/emission from materials onto patches (after materials change).
+    /// Copies rho/emission from materials onto patches (after materials change);
+    /// a back side gets emission only when its material emitsBothSides.
     void applyMaterials();
+    /// Appends a back-side twin (reversed winding, negated normal) for every
+    /// one-sided patch whose material is twoSided, or for every patch when
+    /// `all` is set. Returns the number of twins added. Idempotent.
+    size_t addBackSides(bool all = false);
+    /// Number of back-side twins (patches made by addBackSides()).
+    size_t numBackSides() const;
+    /// The patch that carries the polygon in the ray-tracing structures: the
+    /// front side of a pair, or the patch itself.
+    uint32_t frontOf(uint32_t i) const { return patches[i].backSide ? patches[i].twin : i; }
     Bounds3 bounds() const;
     double totalArea() const;
     RGB emittedPower() const;  ///< sum of E * area

@@ -16,6 +16,11 @@
 // RTCRayN_id(ray, N, i), never with the lane i. A hit on either endpoint
 // patch is rejected by clearing valid[i].
 //
+// Two-sided surfaces (scene.h, Patch::twin): only the front patch of a pair
+// goes into Embree, segment endpoints and ignored patches are mapped to their
+// front patch, and intersect() reports the side the ray arrives at (the back
+// twin when the ray meets the front patch's back face).
+//
 // Segment rays: org = a, dir = b - a (unnormalised), tnear = 0,
 // tfar = 1 - 1e-5 (the relative epsilon keeps a blocker lying exactly in the
 // plane of b from counting; hits on b's own patch are filtered anyway).
@@ -83,6 +88,10 @@ struct Visibility::Impl {
     RTCScene scene = nullptr;
     std::atomic<int64_t> bytes{0};
     std::vector<uint32_t> triToPatch, quadToPatch;
+    // Two-sided pairs (empty when the scene has none): the front patch of
+    // every patch, and the back twin and normal of every front patch.
+    std::vector<uint32_t> front, twin;
+    std::vector<Vec3> normal;
     unsigned triGeom = RTC_INVALID_GEOMETRY_ID, quadGeom = RTC_INVALID_GEOMETRY_ID;
 
     void check(const char* what) const {
@@ -112,8 +121,19 @@ Visibility::Visibility(const scene::Scene& sc) : impl_(std::make_unique<Impl>())
     rtcSetSceneFlags(m.scene, RTC_SCENE_FLAG_ROBUST);
     rtcSetSceneBuildQuality(m.scene, RTC_BUILD_QUALITY_HIGH);
 
+    if (sc.numBackSides() > 0) {
+        m.front.resize(sc.patches.size());
+        m.twin.resize(sc.patches.size());
+        m.normal.resize(sc.patches.size());
+        for (uint32_t i = 0; i < sc.patches.size(); ++i) {
+            m.front[i] = sc.frontOf(i);
+            m.twin[i] = sc.patches[i].twin;
+            m.normal[i] = sc.patches[i].normal;
+        }
+    }
     for (uint32_t i = 0; i < sc.patches.size(); ++i)
-        (sc.patches[i].kind == scene::PatchKind::Quad ? m.quadToPatch : m.triToPatch).push_back(i);
+        if (!sc.patches[i].backSide)
+            (sc.patches[i].kind == scene::PatchKind::Quad ? m.quadToPatch : m.triToPatch).push_back(i);
 
     auto addGeometry = [&](RTCGeometryType type, const std::vector<uint32_t>& prims, int nv) {
         RTCGeometry g = rtcNewGeometry(m.device, type);
@@ -154,6 +174,10 @@ Visibility::~Visibility() {
     }
 }
 
+uint32_t Visibility::frontOf(uint32_t patch) const {
+    return patch < impl_->front.size() ? impl_->front[patch] : patch;
+}
+
 void Visibility::occluded(const Segment* segments, size_t count, uint8_t* out) const {
     alignas(16) RTCRay rays[kBatch];
     uint32_t pairs[2 * kBatch];
@@ -174,8 +198,8 @@ void Visibility::occluded(const Segment* segments, size_t count, uint8_t* out) c
             r.mask = 0xFFFFFFFFu;
             r.id = unsigned(i);
             r.flags = 0;
-            pairs[2 * i] = s.patchA;
-            pairs[2 * i + 1] = s.patchB;
+            pairs[2 * i] = frontOf(s.patchA);
+            pairs[2 * i + 1] = frontOf(s.patchB);
         }
         QueryContext qc;
         rtcInitIntersectContext(&qc.ctx);
@@ -211,7 +235,8 @@ RayHit Visibility::intersect(const Vec3& origin, const Vec3& dir, double tmin, d
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    uint32_t pairs[2] = {ignorePatch, ignorePatch};
+    const uint32_t ignore = frontOf(ignorePatch);
+    uint32_t pairs[2] = {ignore, ignore};
     QueryContext qc;
     rtcInitIntersectContext(&qc.ctx);
     qc.pairs = pairs;
@@ -220,6 +245,9 @@ RayHit Visibility::intersect(const Vec3& origin, const Vec3& dir, double tmin, d
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return out;
     out.hit = true;
     out.patch = impl_->patchOf(rh.hit.geomID, rh.hit.primID);
+    if (out.patch < impl_->twin.size() && impl_->twin[out.patch] != UINT32_MAX &&
+        glm::dot(impl_->normal[out.patch], dir) > 0.0)
+        out.patch = impl_->twin[out.patch];
     out.t = double(rh.ray.tfar);
     out.point = origin + out.t * dir;
     return out;

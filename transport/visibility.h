@@ -42,9 +42,14 @@ class Visibility {
     void occluded(const Segment* segments, size_t count, uint8_t* out) const;
     bool occluded(const Segment& s) const;
 
-    /// Nearest hit along origin + t dir for t in (tmin, tmax), ignoring `ignorePatch`.
+    /// Nearest hit along origin + t dir for t in (tmin, tmax), ignoring
+    /// `ignorePatch` (and its twin). On a two-sided surface the hit patch is
+    /// the side facing the ray.
     RayHit intersect(const Vec3& origin, const Vec3& dir, double tmin = 0.0, double tmax = 1e300,
                      uint32_t ignorePatch = UINT32_MAX) const;
+
+    /// The patch whose polygon is in the Embree scene (front of a two-sided pair).
+    uint32_t frontOf(uint32_t patch) const;
 
     /// Bytes held by the Embree scene (from the device memory monitor).
     uint64_t memoryBytes() const;
