@@ -18,6 +18,10 @@ int runInfo(const std::string& spec, Params& params) {
     fmt::print("source         {}\n", s.source);
     fmt::print("patches        {} ({} triangles, {} quads)\n", s.patches.size(),
                s.count(scene::PatchKind::Triangle), s.count(scene::PatchKind::Quad));
+    if (size_t twins = s.numBackSides())
+        fmt::print("two-sided      {} patches have a back-side twin (counted above, and twice in "
+                   "the area)\n",
+                   twins);
     fmt::print("input faces    {}\n", st.inputFaces);
     fmt::print("triangulated   {} faces\n", st.triangulatedFaces);
     fmt::print("dropped        {} degenerate faces\n", st.droppedDegenerate);

@@ -28,6 +28,7 @@ MgfOptions mgfOptions(const Params& params) {
     mgf.resolution = int(params.getInt("mgf.resolution", mgf.resolution, 3, 4096));
     mgf.whitePoint = params.getEnum("mgf.white_point", mgf.whitePoint, {"E", "D65"});
     mgf.maxFaces = size_t(params.getInt("mgf.max_faces", int64_t(mgf.maxFaces), 1, int64_t(1) << 40));
+    mgf.defaultSides = int(params.getInt("mgf.default_sides", mgf.defaultSides, 1, 2));
     return mgf;
 }
 

@@ -17,6 +17,8 @@
 //                                  (equal energy, as Radiance/MGF) or "D65"
 //   ply.emission     double 1.0    E of faces coloured pure white (255,255,255)
 //   ply.default_rho  double 0.5    grey reflectance of faces without colour
+//   mgf.default_sides int   1      `sides` of MGF materials that do not state it
+//                                  (the MGF spec says 2; RenderPark forces 1)
 //   obj.two_sided    bool   false  every OBJ material is two-sided
 //   two_sided        string "auto" "auto": materials say which surfaces are two-
 //                                  sided (MGF sides 2, ...); "all": every

@@ -192,6 +192,7 @@ class MgfLoader {
     MgfLoader(const MgfOptions& o) : opt_(o), toXyz_(rgbToXyz(o.whitePoint)), toRgb_(glm::inverse(toXyz_)) {
         unnamedColour_ = Chroma{};
         colour_ = &unnamedColour_;
+        unnamedMaterial_.sides = o.defaultSides;
         material_ = &unnamedMaterial_;
     }
 
@@ -595,6 +596,7 @@ class MgfLoader {
         size_t n = s.tok.size() - 1;
         if (n == 0) {
             unnamedMaterial_ = MgfMaterial{};
+            unnamedMaterial_.sides = opt_.defaultSides;
             material_ = &unnamedMaterial_;
             materialName_ = "mgf_default";
         } else if (n == 1) {
@@ -604,6 +606,7 @@ class MgfLoader {
             materialName_ = s.tok[1];
         } else if (s.tok[2] == "=" && n <= 3) {
             MgfMaterial init;
+            init.sides = opt_.defaultSides;
             if (n == 3) {
                 auto it = materials_.find(s.tok[3]);
                 if (it == materials_.end()) fail(f, s, fmt::format("undefined material template '{}'", s.tok[3]));

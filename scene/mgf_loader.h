@@ -6,8 +6,9 @@
 // (-t, -rx/-ry/-rz degrees, -s, -mx/-my/-mz, -i N repetition, -a N arrays,
 // nested), colour contexts (`c`, `c name`, `c name =`, `c name = template`,
 // `cxy`, and approximations of `cspec`, `cct`, `cmix` with one warning),
-// material contexts (`m ...` like `c`, `rd`, `ed`; `rs`, `ts`, `td`, `sides`,
-// `ir` are ignored with one warning per kind, counted in
+// material contexts (`m ...` like `c`, `rd`, `ed`, `sides`: a two-sided
+// material becomes front/back patch pairs, both sides emitting; `rs`, `ts`,
+// `td`, `ir` are ignored with one warning per kind, counted in
 // stats.ignoredStatements), vertex contexts (`v name =`, `p`, `n`), faces `f`
 // (through addPolygon: MGF hole seams are triangulated correctly), and the
 // primitives `sph`, `cyl`, `cone`, `ring`, `torus`, `prism` tessellated with
@@ -46,6 +47,13 @@ struct MgfOptions {
     /// expansion (hostile or mistaken nested -a arrays); exceeding it is an
     /// InputError naming the setting.
     size_t maxFaces = 20'000'000;
+    /// `sides` of materials that do not state it. The MGF specification's
+    /// default is 2 (Ward's parser: every material starts two-sided), but
+    /// RenderPark forces one-sided surfaces unless told otherwise
+    /// (-dont-force-onesided), and the MGF scenes in use were modelled as
+    /// closed, one-sided geometry; hrad follows RenderPark: 1. An explicit
+    /// `sides` statement is always obeyed.
+    int defaultSides = 1;
 };
 
 Scene loadMgf(const std::string& path, const MgfOptions& options = {});
