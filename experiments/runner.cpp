@@ -23,6 +23,7 @@
 #include "render/image.h"
 #include "render/ply_export.h"
 #include "render/render.h"
+#include "render/residual.h"
 #include "scene/loader.h"
 #include "transport/visibility.h"
 
@@ -82,6 +83,7 @@ struct Resolved {
     double exposure = 0.0;
     double errorFloor = 0.01, errorRange = 0.25;  // render.error_floor, render.error_range
     bool errorOnRegions = true;                   // render.error_mode = regions | pixels
+    std::optional<render::ResidualSettings> residual;  // metrics.residual = true
 
     std::string refKind = "none";
     std::optional<reference::FullMatrixSettings> refFm;
@@ -100,6 +102,7 @@ Resolved resolve(const PointSpec& p) {
     r.errorFloor = s.getDouble("render.error_floor", 0.01, 1e-9, 1.0);
     r.errorRange = s.getDouble("render.error_range", 0.25, 1e-6, 1.0);
     r.errorOnRegions = s.getEnum("render.error_mode", "regions", {"regions", "pixels"}) == "regions";
+    if (s.getBool("metrics.residual", false)) r.residual = render::ResidualSettings::fromParams(s);
 
     const Params& ref = p.reference;
     r.refKind = ref.getEnum("kind", "none", {"none", "full-matrix", "montecarlo"});
@@ -442,6 +445,28 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         summary["artefacts"]["solution"] = sol.string();
     }
     if (ctx.checkpoint) ctx.checkpoint(summary);
+
+    // ---- the solution's transport residual (render/residual.h) ----------------
+    if (r.residual) {
+        render::ResidualSummary res = render::computeResidual(sc, vis, *field, *r.residual, ctx.progress);
+        summary["transport_residual"] = json{{"l1", res.l1},
+                                             {"l1_noise", res.l1Noise},
+                                             {"ratio", res.ratio()},
+                                             {"leaves", res.leaves.size()},
+                                             {"rays", res.rays},
+                                             {"seconds", res.seconds}};
+        timings["residual"] = res.seconds;
+        summary["timings"] = timings;
+        spdlog::info("transport residual: L1 = {:.4g} (noise {:.2g}), solution / gathered reflected = {:.4f}",
+                     res.l1, res.l1Noise, res.ratio());
+        if (!ctx.artefactDir.empty()) {
+            fs::create_directories(ctx.artefactDir);
+            fs::path csv = ctx.artefactDir / "residual.csv";
+            render::writeResidualCsv(csv.string(), res);
+            summary["artefacts"]["residual"] = csv.string();
+        }
+        if (ctx.checkpoint) ctx.checkpoint(summary);
+    }
 
     // ---- error against the reference --------------------------------------------
     std::optional<Reference> ref;

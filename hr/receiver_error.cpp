@@ -8,6 +8,31 @@
 
 namespace hrad::hr {
 
+namespace {
+/// Per surface element, the range [lo, hi] of its leaves' radiosities, per
+/// channel (children are created after their parents, so one pass from the
+/// last element to the first sees every child before its parent).
+void leafRanges(const Hierarchy& h, std::vector<RGB>& lo, std::vector<RGB>& hi) {
+    const uint32_t n = h.numElements();
+    lo.assign(n, RGB(0.0));
+    hi.assign(n, RGB(0.0));
+    for (uint32_t e = n; e-- > 0;) {
+        if (h.isCluster(e) || h.patch(e) == kNone) continue;
+        if (h.firstChild(e) == kNone) {
+            lo[e] = hi[e] = h.B(e);
+            continue;
+        }
+        lo[e] = RGB(1e300);
+        hi[e] = RGB(-1e300);
+        for (uint32_t c = 0; c < h.numChildren(e); ++c) {
+            const uint32_t k = h.child(e, c);
+            lo[e] = glm::min(lo[e], lo[k]);
+            hi[e] = glm::max(hi[e], hi[k]);
+        }
+    }
+}
+}  // namespace
+
 KernelSamples linkKernelSamples(const Hierarchy& h, const transport::FormFactorEngine& engine,
                                 uint32_t r, uint32_t s) {
     KernelSamples out{};
@@ -56,9 +81,11 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
             if (wanted[pendingRecv[i]] && surfaceLink(pendingRecv[i], pending[i]))
                 items[fill[pendingRecv[i]]++] = 2 * uint64_t(i) + 1;
     }
+    std::vector<RGB> lo, hi;
+    leafRanges(h, lo, hi);
     constexpr int K = transport::FormFactorEngine::kMaxKernelSamples;
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 64), [&](const auto& range) {
-        std::vector<float> linkDev;
+        std::vector<float> linkDev, linkSend;
         for (uint32_t r = range.begin(); r != range.end(); ++r) {
             if (!wanted[r]) continue;
             const RGB rho = h.rho(r);
@@ -66,9 +93,10 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
             const int m = h.scene().patches[h.patch(r)].kind == scene::PatchKind::Quad ? 9 : 7;
             RGB D[K];
             for (auto& d : D) d = RGB(0.0);
-            RGB unsignedPart(0.0);
+            RGB unsignedPart(0.0), senderSum(0.0);
             uint64_t b = offset[r], e = offset[r + 1];
             linkDev.assign(e - b, 0.f);
+            linkSend.assign(e - b, 0.f);
             for (uint64_t j = b; j < e; ++j) {
                 uint64_t code = items[j];
                 const Link& l = (code & 1) ? pending[code >> 1] : accepted[code >> 1];
@@ -92,6 +120,12 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
                     dev += maxComponent(t);
                 }
                 linkDev[j - b] = float(dev);
+                // The sender's own error bound: its average against the
+                // extremes of its leaves (any part of it may be the part the
+                // receiver sees).
+                const RGB sp = rho * double(l.K) * glm::max(hi[s] - h.B(s), h.B(s) - lo[s]);
+                senderSum += sp;
+                linkSend[j - b] = float(maxComponent(sp));
             }
             double rangeMax = 0.0, devMax = 0.0;
             for (int c = 0; c < 3; ++c) {
@@ -113,6 +147,8 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
                 o.deviation = float(devMax);
                 o.linkDeviation = linkDev[j - b];
                 o.links = uint32_t(e - b);
+                o.senderSum = float(maxComponent(senderSum));
+                o.linkSender = linkSend[j - b];
             }
         }
     });

@@ -449,6 +449,10 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                         e.receiverDeviation = rerr[i].deviation;
                         e.linkDeviation = rerr[i].linkDeviation;
                         e.receiverLinks = rerr[i].links;
+                        if (rerr[i].range >= 0.f) {
+                            e.senderAggregate = rerr[i].senderSum;
+                            e.linkSenderPart = rerr[i].linkSender;
+                        }
                     }
                     Decision d = oracles::constrain(oracle.decide(e), e);
                     if (d == Decision::Accept && guardEps > 0.0 && e.receiverRange >= 0.0 &&

@@ -84,8 +84,15 @@ Decision VariationOracle::decide(const LinkEstimate& e) const {
         bool receiverBad = !errorWithinEps(err, s_.eps, s_.norm, e) &&
                            e.linkDeviation * std::max<uint32_t>(1, e.receiverLinks) >=
                                e.receiverDeviation;
+        // The sender side is judged by its own aggregate when the solver
+        // gives one: the receiver's averaged senders together within eps,
+        // the links with at least an even share of it refined on the sender.
         bool senderBad =
-            !errorWithinEps(e.F * e.senderSpread * e.importance, s_.eps, s_.norm, e);
+            e.senderAggregate >= 0.0
+                ? !errorWithinEps(e.senderAggregate * e.importance, s_.eps, s_.norm, e) &&
+                      e.linkSenderPart > 0.0 &&
+                      e.linkSenderPart * std::max<uint32_t>(1, e.receiverLinks) >= e.senderAggregate
+                : !errorWithinEps(e.F * e.senderSpread * e.importance, s_.eps, s_.norm, e);
         if (!receiverBad && !senderBad) return Decision::Accept;
         Decision d = receiverBad && senderBad ? Decision::RefineBoth
                      : receiverBad            ? Decision::RefineReceiver

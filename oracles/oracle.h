@@ -65,6 +65,11 @@ struct LinkEstimate {
     /// the error of gathering the sender's average instead of its parts
     /// (the sender side of Lischinski, Smits & Greenberg 1994).
     double senderSpread = 0.0;
+    /// Sender side of the receiver aggregate (hr/receiver_error.h): the sum
+    /// over the receiver's surface links of K_l rho_r max_c |B_c - B_l|, and
+    /// this link's own term; negative when not evaluated. The error of
+    /// gathering averaged senders, which accumulates with one sign.
+    double senderAggregate = -1.0, linkSenderPart = 0.0;
     int receiverLevel = 0, senderLevel = 0;
     bool receiverCanSubdivide = false, senderCanSubdivide = false;
     bool receiverIsCluster = false, senderIsCluster = false;

@@ -118,7 +118,13 @@ TEST(Cornell, ErrorOraclesConvergeWithEps) {
             auto err = reference::computeError(*r.field, *ref.field);
             uint64_t links = r.hierarchy->numLinks();
             std::cout << oracle << " eps " << eps << ": links " << links << ", elements "
-                      << r.hierarchy->numElements() << ", L2(lum) " << err.l2Lum << "\n";
+                      << r.hierarchy->numElements() << ", L2(lum) " << err.l2Lum
+                      << ", non-emitter mean ratio " << err.meanRatioNonEmit << "\n";
+            // Lit surfaces are not systematically dark: the receivers'
+            // averaged senders are held to eps together (hr/receiver_error.h);
+            // judged link by link they stayed 3-4 % dark at every eps
+            // (error: 0.962, 0.963, 0.971 at 1e-3, 3e-4, 1e-4).
+            if (eps <= 1e-4) EXPECT_GT(err.meanRatioNonEmit, 0.98) << oracle;
             EXPECT_LT(err.l2Lum, prevL2) << oracle << " eps " << eps;
             EXPECT_GT(links, prevLinks) << oracle << " eps " << eps;
             prevL2 = err.l2Lum;
