@@ -12,10 +12,9 @@
 
 #include "core/memory.h"
 #include "core/timer.h"
-#include "hr/solver.h"
+#include "experiments/solvers.h"
 #include "reference/cache.h"
 #include "reference/fullmatrix.h"
-#include "reference/progressive.h"
 #include "reference/metrics.h"
 #include "reference/montecarlo.h"
 #include "render/camera.h"
@@ -75,9 +74,7 @@ json metricsJson(const reference::ErrorMetrics& m) {
 /// and runPoint so that a dry run checks exactly what a run reads).
 struct Resolved {
     std::string solver;
-    std::optional<hr::HrSettings> hr;
-    std::optional<reference::FullMatrixSettings> fm;
-    std::optional<reference::ProgressiveSettings> pr;
+    std::shared_ptr<const Solver> solverImpl;  ///< from the registry (experiments/solvers.h)
     render::RenderSettings render;
     double exposure = 0.0;
     double errorFloor = 0.01, errorRange = 0.25;  // render.error_floor, render.error_range
@@ -91,10 +88,8 @@ struct Resolved {
 Resolved resolve(const PointSpec& p) {
     Resolved r;
     const Params& s = p.settings;
-    r.solver = s.getEnum("solver", "hr", {"hr", "full-matrix", "progressive"});
-    if (r.solver == "hr") r.hr = hr::HrSettings::fromParams(s);
-    if (r.solver == "full-matrix") r.fm = reference::FullMatrixSettings::fromParams(s, "fm");
-    if (r.solver == "progressive") r.pr = reference::ProgressiveSettings::fromParams(s, "pr");
+    r.solver = s.getString("solver", "hr");
+    r.solverImpl = createSolver(r.solver, s, s.where("solver"));
     r.render = render::RenderSettings::fromParams(s, "render");
     r.exposure = s.getDouble("render.exposure", 0.0, 0.0, 1e300);
     r.errorFloor = s.getDouble("render.error_floor", 0.01, 1e-9, 1.0);
@@ -289,141 +284,30 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     std::optional<Reference> earlyRef;
     double earlyRefSeconds = 0.0;
     double historyErrorSeconds = 0.0;  // the iteration hook's error evaluations
-    hr::HrResult hrRes;
-    reference::FullMatrixResult fmRes;
-    reference::ProgressiveResult prRes;
+    const SolverInfo& info = solverInfo(r.solver);
     Timer tSolve;
-    if (r.solver == "hr") {
-        summary["solver"] = "hr";
-        summary["solver_settings"] = r.hr->describe();
-        hr::HrSolver s(sc, vis, *r.hr);
-        if (p.outputs.historyError && r.refKind != "none") {
-            // The reference is needed during the solve: compute (or load) it
-            // first; the error block below reuses it.
-            Timer tRef;
-            earlyRef = computeReference(sc, vis, r, ctx);
-            earlyRefSeconds = tRef.seconds();
-            s.setIterationHook([&](const hr::Hierarchy& hh, hr::IterationRecord& rec) {
-                Timer tHook;
-                hr::HierarchyField f(hh);
-                rec.l2Lum = reference::computeError(f, *earlyRef->field).l2Lum;
-                historyErrorSeconds += tHook.seconds();
-            });
-        }
-        hrRes = s.solve(ctx.progress);
-        field = hrRes.field.get();
-        const hr::Hierarchy& h = *hrRes.hierarchy;
-        summary["oracle"] = hrRes.oracleDescription;
-        summary["cluster_model"] = hrRes.clusterModel;
-        summary["converged"] = hrRes.converged;
-        summary["residual"] = hrRes.history.empty() ? json(nullptr) : json(hrRes.history.back().residual);
-        summary["link_cap_hit"] = hrRes.linkCapHit;
-        summary["memory_budget_hit"] = hrRes.memoryBudgetHit;
-        summary["time_limit_hit"] = hrRes.timeLimitHit;
-        summary["min_area"] = hrRes.minArea;
-        summary["error_estimate"] = hrRes.errorEstimate;
-        summary["counts"] = json{{"elements", h.numElements()},
-                                 {"leaves", h.numLeaves()},
-                                 {"links", h.numLinks()},
-                                 {"initial_links", hrRes.initialLinks},
-                                 {"initial_pairs", hrRes.initialPairs},
-                                 {"links_ss", hrRes.linksSS},
-                                 {"links_sc", hrRes.linksSC},
-                                 {"links_cs", hrRes.linksCS},
-                                 {"links_cc", hrRes.linksCC},
-                                 {"rays", hrRes.totalRays},
-                                 {"form_factors", hrRes.totalFormFactors},
-                                 {"iterations", hrRes.history.size()}};
-        if (hrRes.clusterTree) timings["cluster_build"] = hrRes.clusterBuildSeconds;
-        timings["linking"] = hrRes.linkingSeconds;
-        timings["refine"] = hrRes.refineSeconds;
-        timings["gather"] = hrRes.gatherSeconds;
-        timings["push_pull"] = hrRes.pushPullSeconds;
-        timings["error_estimate"] = hrRes.errorEstimateSeconds;
-        for (const auto& [k, v] : hrRes.memory.all()) memory.set(k, v);
-        json hist = json::array();
-        for (const auto& it : hrRes.history)
-            hist.push_back(json{{"iteration", it.iteration},
-                                {"stage", it.stage},
-                                {"eps", std::isnan(it.eps) ? json(nullptr) : json(it.eps)},
-                                {"links", it.links},
-                                {"elements", it.elements},
-                                {"leaves", it.leaves},
-                                {"refined_links", it.refinedLinks},
-                                {"rays", it.rays},
-                                {"form_factors", it.formFactors},
-                                {"residual", it.residual},
-                                {"extrapolation", it.extrapolation},
-                                {"reflected_power", rgbJson(it.reflectedPower)},
-                                {"refine_s", it.refineSeconds},
-                                {"gather_s", it.gatherSeconds},
-                                {"push_pull_s", it.pushPullSeconds},
-                                {"element_bytes", it.elementBytes},
-                                {"link_bytes", it.linkBytes},
-                                {"l2_lum", std::isnan(it.l2Lum) ? json(nullptr) : json(it.l2Lum)}});
-        summary["history"] = hist;
-        if (h.numLinks())
-            summary["bytes_per_link"] = json{
-                {"link_storage", double(h.linkBytes()) / double(h.numLinks())},
-                {"all", double(h.linkBytes() + h.elementBytes()) / double(h.numLinks())}};
-    } else if (r.solver == "progressive") {
-        // Progressive refinement (reference/progressive.h); history every
-        // pr.history_every shots, with the error when history_error is asked.
-        summary["solver"] = "progressive";
-        summary["solver_settings"] = r.pr->describe();
-        reference::ProgressiveHook hook;
-        if (p.outputs.historyError && r.refKind != "none") {
-            Timer tRef;
-            earlyRef = computeReference(sc, vis, r, ctx);
-            earlyRefSeconds = tRef.seconds();
-            hook = [&](const scene::RadiosityField& f, reference::ProgressiveRecord& rec) {
-                Timer tHook;
-                rec.l2Lum = reference::computeError(f, *earlyRef->field).l2Lum;
-                historyErrorSeconds += tHook.seconds();
-            };
-        }
-        prRes = reference::solveProgressive(sc, vis, *r.pr, ctx.progress, hook);
-        field = prRes.field.get();
-        summary["counts"] = json{{"elements", prRes.elements},
-                                 {"leaves", prRes.elements},
-                                 {"patches", prRes.patches},
-                                 {"form_factors", prRes.formFactors},
-                                 {"rays", prRes.rays},
-                                 {"iterations", prRes.shots}};
-        summary["residual"] = prRes.unshotFraction;
-        summary["converged"] = prRes.converged;
-        timings["solve"] = prRes.seconds;
-        memory.set("progressive", prRes.bytes);
-        json hist = json::array();
-        for (const auto& it : prRes.history)
-            hist.push_back(json{{"iteration", it.shots},
-                                {"shooter", it.shooter},
-                                {"residual", it.unshotFraction},
-                                {"elements", it.elements},
-                                {"leaves", it.elements},
-                                {"form_factors", it.formFactors},
-                                {"rays", it.rays},
-                                {"seconds", it.seconds},
-                                {"element_bytes", it.bytes},
-                                {"l2_lum", std::isnan(it.l2Lum) ? json(nullptr) : json(it.l2Lum)}});
-        summary["history"] = hist;
-    } else {
-        summary["solver"] = "full-matrix";
-        summary["solver_settings"] = r.fm->describe();
-        fmRes = reference::solveFullMatrix(sc, vis, *r.fm, ctx.progress);
-        field = fmRes.field.get();
-        const auto& st = fmRes.stats;
-        summary["counts"] = json{{"elements", st.elements},
-                                 {"leaves", st.elements},
-                                 {"form_factors", st.formFactors},
-                                 {"rays", st.rays},
-                                 {"iterations", st.iterations}};
-        summary["residual"] = st.residual;
-        summary["converged"] = st.converged;
-        timings["form_factors"] = st.ffSeconds;
-        timings["solve"] = st.solveSeconds;
-        memory.set("matrix", st.matrixBytes);
+    summary["solver"] = r.solver;
+    summary["solver_settings"] = r.solverImpl->describe();
+    SolveContext solveCtx;
+    solveCtx.progress = ctx.progress;
+    if (info.keepsHistory && p.outputs.historyError && r.refKind != "none") {
+        // The reference is needed during the solve: compute (or load) it
+        // first; the error block below reuses it.
+        Timer tRef;
+        earlyRef = computeReference(sc, vis, r, ctx);
+        earlyRefSeconds = tRef.seconds();
+        solveCtx.historyError = [&](const scene::RadiosityField& f) {
+            Timer tHook;
+            double l2 = reference::computeError(f, *earlyRef->field).l2Lum;
+            historyErrorSeconds += tHook.seconds();
+            return l2;
+        };
     }
+    SolveOutput solved = r.solverImpl->solve(sc, vis, solveCtx);
+    field = solved.field;
+    for (const auto& [k, v] : solved.summary.items()) summary[k] = v;
+    for (const auto& [k, v] : solved.timings.items()) timings[k] = v;
+    for (const auto& [k, v] : solved.memory.all()) memory.set(k, v);
     timings["solve_total"] = tSolve.seconds();
     summary["radiosity_power"] = rgbJson(field->totalPower());
     summary["timings"] = timings;
@@ -474,10 +358,10 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     }
     if (p.outputs.historyError)
         summary["history_error"] =
-            r.solver == "full-matrix" ? "not computed: the full-matrix solver keeps no history"
-            : r.refKind == "none"   ? "not computed: the study has no reference"
-                                    : "history[].l2_lum: L2 (luminance) after every iteration "
-                                      "(progressive: every pr.history_every shots)";
+            !info.keepsHistory  ? fmt::format("not computed: the {} solver keeps no history", r.solver)
+            : r.refKind == "none" ? "not computed: the study has no reference"
+                                  : "history[].l2_lum: L2 (luminance) after every iteration "
+                                    "(progressive: every pr.history_every shots)";
     summary["timings"] = timings;
     if (ctx.checkpoint) ctx.checkpoint(summary);
 
