@@ -25,6 +25,7 @@ LABELS = {
     "refine_s": "refinement time (s)",
     "peak_rss": "peak RSS (bytes)",
     "peak_rss_mib": "peak RSS (MiB)",
+    "solver_mib": "solver data (MiB)",
     "links": "links",
     "elements": "elements",
     "leaves": "leaf elements",
@@ -37,6 +38,7 @@ LABELS = {
 SOURCES = {
     "compute_s": ["wall_s"],
     "peak_rss_mib": ["peak_rss"],
+    "solver_mib": ["bytes"],
     "method": ["solver", "oracle", "settings"],
     "cluster_model": ["settings"],
     "fm_level": ["settings"],
