@@ -79,6 +79,12 @@ struct Resolved {
     double exposure = 0.0;
     double errorFloor = 0.01, errorRange = 0.25;  // render.error_floor, render.error_range
     bool errorOnRegions = true;                   // render.error_mode = regions | pixels
+    // render.error_reference = path-traced: the error map compares the
+    // solution's image with a path-traced image of the same camera
+    // (render.reference_spp samples per pixel) instead of the reference
+    // solution's image: the pixel reference for final gather (issue 14).
+    bool errorVsPathTraced = false;
+    int pathTracedSpp = 256;
 
     std::string refKind = "none";
     std::optional<reference::FullMatrixSettings> refFm;
@@ -95,13 +101,31 @@ Resolved resolve(const PointSpec& p) {
     r.errorFloor = s.getDouble("render.error_floor", 0.01, 1e-9, 1.0);
     r.errorRange = s.getDouble("render.error_range", 0.25, 1e-6, 1.0);
     r.errorOnRegions = s.getEnum("render.error_mode", "regions", {"regions", "pixels"}) == "regions";
+    r.errorVsPathTraced =
+        s.getEnum("render.error_reference", "solution", {"solution", "path-traced"}) == "path-traced";
+    if (r.errorVsPathTraced) {
+        if (s.has("render.error_mode") && r.errorOnRegions)
+            throwInputError(s.where("render.error_mode"),
+                            "render.error_mode = \"regions\" needs a reference solution; with "
+                            "render.error_reference = \"path-traced\" the error is per pixel");
+        r.errorOnRegions = false;
+        r.pathTracedSpp = int(s.getInt("render.reference_spp", 256, 1, 65536));
+        int64_t samples = int64_t(r.render.width) * r.render.height * r.pathTracedSpp;
+        if (samples > r.render.maxSamples)
+            throwInputError(s.where("render.reference_spp"),
+                            "path-traced reference: {}x{} pixels x {} spp = {} samples, more than "
+                            "render.max_samples = {}",
+                            r.render.width, r.render.height, r.pathTracedSpp, samples,
+                            r.render.maxSamples);
+    }
 
     const Params& ref = p.reference;
     r.refKind = ref.getEnum("kind", "none", {"none", "full-matrix", "montecarlo"});
-    if (p.outputs.errorMap && r.refKind == "none")
+    if (p.outputs.errorMap && r.refKind == "none" && !r.errorVsPathTraced)
         throw InputError(p.outputs.errorMapWhere,
                          "an error map needs a reference ([reference] kind = \"full-matrix\" or "
-                         "\"montecarlo\"; hrad solve: --reference-level)");
+                         "\"montecarlo\"; hrad solve: --reference-level; or render.error_reference = "
+                         "\"path-traced\")");
     if (r.refKind == "full-matrix") r.refFm = reference::FullMatrixSettings::fromParams(ref, "fm");
     if (r.refKind == "montecarlo") r.refMc = reference::MonteCarloSettings::fromParams(ref, "mc");
     ref.reportUnused();
@@ -367,7 +391,8 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
 
     // ---- artefacts -------------------------------------------------------------------
     json artefacts = summary.contains("artefacts") ? summary["artefacts"] : json::object();
-    bool images = p.outputs.exr || (p.outputs.errorMap && ref);
+    const bool errorMap = p.outputs.errorMap && (ref || r.errorVsPathTraced);
+    bool images = p.outputs.exr || errorMap;
     if (images || p.outputs.ply) {
         fs::create_directories(ctx.artefactDir);
         if (p.outputs.ply) {
@@ -389,7 +414,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
             // ray cast; pixels mode compares the two reconstructions.
             std::vector<const scene::RadiosityField*> fields{field};
             std::unique_ptr<scene::UniformField> onRegions;
-            if (p.outputs.errorMap && ref) {
+            if (errorMap && !r.errorVsPathTraced) {
                 fields.push_back(ref->field.get());
                 if (r.errorOnRegions) {
                     onRegions = reference::averageOnRegions(*field, *ref->field);
@@ -401,10 +426,20 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
             std::vector<render::Image> imgs = render::renderFields(sc, vis, fields, cam, rs);
             const render::Image& img = imgs[0];
             double exposure = r.exposure;
-            if (p.outputs.errorMap && ref) {
+            render::Image pathTraced;  // render.error_reference = path-traced
+            if (errorMap) {
+                if (r.errorVsPathTraced) {
+                    render::RenderSettings ps = rs;
+                    ps.reconstruction = render::RenderSettings::Reconstruction::PathTraced;
+                    ps.interpolate = false;
+                    ps.spp = r.pathTracedSpp;
+                    Timer tp;
+                    pathTraced = std::move(render::renderFields(sc, vis, {field}, cam, ps)[0]);
+                    timings["render_path_traced"] = tp.seconds();
+                }
                 // The reference's exposure is used for both PNGs, so every
                 // run of a scene shares one exposure.
-                const render::Image& refImg = imgs[1];
+                const render::Image& refImg = r.errorVsPathTraced ? pathTraced : imgs[1];
                 if (!(exposure > 0)) exposure = render::pngAutoExposure(refImg);
                 render::ErrorMap em =
                     render::computeErrorMap(imgs[onRegions ? 2 : 0], refImg, r.errorFloor);
@@ -418,6 +453,10 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                 artefacts["error_map"] = data.string();
                 artefacts["error_false_colour"] = fc.string();
                 summary["error_map"] = json{{"mode", r.errorOnRegions ? "regions" : "pixels"},
+                                            {"reference", r.errorVsPathTraced
+                                                              ? fmt::format("path-traced, {} spp",
+                                                                            r.pathTracedSpp)
+                                                              : std::string("solution")},
                                             {"pixels", em.pixels},
                                             {"floor", em.floor},
                                             {"floor_fraction", r.errorFloor},

@@ -1,11 +1,16 @@
 // The solver registry (experiments/solvers.h): names, errors for unknown
 // names, and that a solve through the registry is the solver's own solve
 // (same field, same counts), so the runner and `hrad solve` report the numbers
-// they reported before the registry existed.
+// they reported before the registry existed. Also the runner's pixel error
+// against a path-traced image (render.error_reference = path-traced).
 #include <gtest/gtest.h>
+
+#include <filesystem>
+#include <map>
 
 #include <fmt/format.h>
 
+#include "experiments/runner.h"
 #include "experiments/solvers.h"
 #include "experiments/study.h"
 #include "hr/solver.h"
@@ -13,6 +18,7 @@
 #include "reference/metrics.h"
 #include "reference/progressive.h"
 #include "scene/loader.h"
+#include "tests/test_util.h"
 #include "transport/visibility.h"
 
 namespace hrad::experiments {
@@ -153,6 +159,67 @@ TEST_F(RegistryMatchesDirectCall, HierarchicalRadiosity) {
     EXPECT_EQ(out.summary.at("counts").at("links").get<size_t>(), res.hierarchy->numLinks());
     EXPECT_EQ(out.summary.at("history").size(), res.history.size());
     EXPECT_TRUE(out.timings.contains("refine"));
+}
+
+// ---- render.error_reference = path-traced (the pixel reference of final gather) ----
+PointSpec coarseCornell(const std::string& reconstruction) {
+    PointSpec p;
+    p.scene = p.sceneLabel = "cornell";
+    SourceLocation here{"study.toml", 4, 1};
+    p.settings.set("solver", std::string("full-matrix"), here);
+    p.settings.set("fm.level", int64_t(1), here);
+    p.settings.set("render.reconstruction", reconstruction, here);
+    p.settings.set("render.width", int64_t(48), here);
+    p.settings.set("render.height", int64_t(48), here);
+    p.settings.set("render.spp", int64_t(4), here);
+    p.settings.set("render.error_reference", std::string("path-traced"), here);
+    p.settings.set("render.reference_spp", int64_t(256), here);
+    p.outputs.errorMap = true;
+    return p;
+}
+
+// The final-gather image of a coarse solve is closer to a path-traced image
+// of the same camera than the flat and the interpolated ones (the relative
+// image L1 of the error map, sum |I - P| / sum |P| in luminance), and no
+// reference solution is needed for the map. Same scene and sizes as
+// FinalGather.CloserToPathTracedThanFlatAndInterpolated
+// (tests/render/final_gather_test.cpp), here through the runner's error map.
+TEST(ErrorReference, FinalGatherIsClosestToThePathTracedImage) {
+    auto dir = test::tempDir("error_reference_pt");
+    std::map<std::string, double> l1;
+    for (std::string rec : {"flat", "interpolated", "final-gather"}) {
+        RunContext ctx;
+        ctx.artefactDir = dir / rec;
+        auto s = runPoint(coarseCornell(rec), ctx);
+        ASSERT_TRUE(s.contains("error_map")) << rec;
+        EXPECT_EQ(s["error_map"]["reference"], "path-traced, 256 spp");
+        EXPECT_EQ(s["error_map"]["mode"], "pixels");
+        EXPECT_FALSE(s.contains("error")) << "no reference solution was asked for";
+        EXPECT_TRUE(std::filesystem::exists(ctx.artefactDir / "reference.png"));
+        EXPECT_TRUE(std::filesystem::exists(ctx.artefactDir / "error_fc.png"));
+        l1[rec] = s["error_map"]["l1"].get<double>();
+    }
+    EXPECT_LT(l1["final-gather"], l1["flat"]);
+    EXPECT_LT(l1["final-gather"], l1["interpolated"]);
+}
+
+TEST(ErrorReference, RegionsModeNeedsAReferenceSolution) {
+    PointSpec p = coarseCornell("final-gather");
+    p.settings.set("render.error_mode", std::string("regions"), SourceLocation{"study.toml", 9, 1});
+    try {
+        validatePoint(p);
+        FAIL() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("study.toml:9"), std::string::npos) << e.what();
+    }
+    PointSpec q = coarseCornell("flat");
+    q.settings.set("render.reference_spp", int64_t(65536), SourceLocation{"study.toml", 11, 1});
+    try {
+        validatePoint(q);
+        FAIL() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("study.toml:11"), std::string::npos) << e.what();
+    }
 }
 
 }  // namespace
