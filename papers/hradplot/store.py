@@ -84,6 +84,11 @@ def _derive(runs):
         runs["steps"] = (st.map(lambda d: d.get("pr.max_shots", d.get("fm.max_iterations",
                                                                         d.get("hr.max_iterations", np.nan))))
                          if len(runs) else [])
+        # Reconstruction of the image where a study sets it (classics_gather).
+        runs["reconstruction"] = (st.map(lambda d: d.get("render.reconstruction", ""))
+                                  if len(runs) else [])
+        runs["gather_rays"] = (st.map(lambda d: d.get("render.gather_rays", np.nan))
+                               if len(runs) else [])
         runs["pr_max_subdivision"] = (st.map(lambda d: d.get("pr.max_subdivision", 2))
                                       if len(runs) else [])
     if "summary" in runs.columns and "patches" not in runs.columns:
@@ -113,7 +118,8 @@ def _derive(runs):
                           ("l1_nonemitter_lum", ("error", "l1_nonemitter_lum")),
                           ("l2_nonemitter_lum", ("error", "l2_nonemitter_lum")),
                           ("mean_ratio_nonemitter", ("error", "mean_ratio_nonemitter")),
-                          ("error_estimate", ("error_estimate",))):
+                          ("error_estimate", ("error_estimate",)),
+                          ("error_map_l1", ("error_map", "l1"))):
             if col not in runs.columns:
                 runs[col] = runs["summary"].map(from_summary(path)).astype(float)
     if "wall_s" in runs.columns:
