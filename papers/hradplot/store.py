@@ -84,6 +84,10 @@ def _derive(runs):
         runs["steps"] = (st.map(lambda d: d.get("pr.max_shots", d.get("fm.max_iterations",
                                                                         d.get("hr.max_iterations", np.nan))))
                          if len(runs) else [])
+        if "iterations" in runs.columns and len(runs):
+            # A solver that converges before the cap stops there (Gauss-Seidel
+            # reaching fm.tolerance): the steps it took, not the cap.
+            runs["steps"] = np.fmin(runs["steps"].astype(float), runs["iterations"].astype(float))
         # Reconstruction of the image where a study sets it (classics_gather).
         runs["reconstruction"] = (st.map(lambda d: d.get("render.reconstruction", ""))
                                   if len(runs) else [])
