@@ -9,6 +9,7 @@
 
 #include "apps/commands.h"
 #include "experiments/runner.h"
+#include "experiments/solvers.h"
 
 namespace hrad::app {
 
@@ -40,8 +41,10 @@ int runSolve(const SolveOptions& opt, Params& params) {
                 point.reference.set(k, e.value, e.where);
         point.reference.set("fm.level", int64_t(refLevel), params.where("metrics.reference_level"));
         point.reference.set("fm.max_area", 0.0, params.where("metrics.reference_level"));
-        // fm.* keys belong to the reference only when the solver does not read them.
-        if (solver != "full-matrix")
+        // fm.* keys belong to the reference only when the solver does not read
+        // them (an unknown solver is reported by runPoint, with the names).
+        const experiments::SolverInfo* info = experiments::findSolver(solver);
+        if (!(info && info->readsKey("fm.")))
             for (const auto& [k, e] : point.reference.entries())
                 if (k.rfind("fm.", 0) == 0) params.erase(k);
     }

@@ -12,10 +12,9 @@
 
 #include "core/memory.h"
 #include "core/timer.h"
-#include "hr/solver.h"
+#include "experiments/solvers.h"
 #include "reference/cache.h"
 #include "reference/fullmatrix.h"
-#include "reference/progressive.h"
 #include "reference/metrics.h"
 #include "reference/montecarlo.h"
 #include "render/camera.h"
@@ -76,14 +75,18 @@ json metricsJson(const reference::ErrorMetrics& m) {
 /// and runPoint so that a dry run checks exactly what a run reads).
 struct Resolved {
     std::string solver;
-    std::optional<hr::HrSettings> hr;
-    std::optional<reference::FullMatrixSettings> fm;
-    std::optional<reference::ProgressiveSettings> pr;
+    std::shared_ptr<const Solver> solverImpl;  ///< from the registry (experiments/solvers.h)
     render::RenderSettings render;
     double exposure = 0.0;
     double errorFloor = 0.01, errorRange = 0.25;  // render.error_floor, render.error_range
     bool errorOnRegions = true;                   // render.error_mode = regions | pixels
     std::optional<render::ResidualSettings> residual;  // metrics.residual = true
+    // render.error_reference = path-traced: the error map compares the
+    // solution's image with a path-traced image of the same camera
+    // (render.reference_spp samples per pixel) instead of the reference
+    // solution's image: the pixel reference for final gather (issue 14).
+    bool errorVsPathTraced = false;
+    int pathTracedSpp = 256;
 
     std::string refKind = "none";
     std::optional<reference::FullMatrixSettings> refFm;
@@ -93,23 +96,39 @@ struct Resolved {
 Resolved resolve(const PointSpec& p) {
     Resolved r;
     const Params& s = p.settings;
-    r.solver = s.getEnum("solver", "hr", {"hr", "full-matrix", "progressive"});
-    if (r.solver == "hr") r.hr = hr::HrSettings::fromParams(s);
-    if (r.solver == "full-matrix") r.fm = reference::FullMatrixSettings::fromParams(s, "fm");
-    if (r.solver == "progressive") r.pr = reference::ProgressiveSettings::fromParams(s, "pr");
+    r.solver = s.getString("solver", "hr");
+    r.solverImpl = createSolver(r.solver, s, s.where("solver"));
     r.render = render::RenderSettings::fromParams(s, "render");
     r.exposure = s.getDouble("render.exposure", 0.0, 0.0, 1e300);
     r.errorFloor = s.getDouble("render.error_floor", 0.01, 1e-9, 1.0);
     r.errorRange = s.getDouble("render.error_range", 0.25, 1e-6, 1.0);
     r.errorOnRegions = s.getEnum("render.error_mode", "regions", {"regions", "pixels"}) == "regions";
     if (s.getBool("metrics.residual", false)) r.residual = render::ResidualSettings::fromParams(s);
+    r.errorVsPathTraced =
+        s.getEnum("render.error_reference", "solution", {"solution", "path-traced"}) == "path-traced";
+    if (r.errorVsPathTraced) {
+        if (s.has("render.error_mode") && r.errorOnRegions)
+            throwInputError(s.where("render.error_mode"),
+                            "render.error_mode = \"regions\" needs a reference solution; with "
+                            "render.error_reference = \"path-traced\" the error is per pixel");
+        r.errorOnRegions = false;
+        r.pathTracedSpp = int(s.getInt("render.reference_spp", 256, 1, 65536));
+        int64_t samples = int64_t(r.render.width) * r.render.height * r.pathTracedSpp;
+        if (samples > r.render.maxSamples)
+            throwInputError(s.where("render.reference_spp"),
+                            "path-traced reference: {}x{} pixels x {} spp = {} samples, more than "
+                            "render.max_samples = {}",
+                            r.render.width, r.render.height, r.pathTracedSpp, samples,
+                            r.render.maxSamples);
+    }
 
     const Params& ref = p.reference;
     r.refKind = ref.getEnum("kind", "none", {"none", "full-matrix", "montecarlo"});
-    if (p.outputs.errorMap && r.refKind == "none")
+    if (p.outputs.errorMap && r.refKind == "none" && !r.errorVsPathTraced)
         throw InputError(p.outputs.errorMapWhere,
                          "an error map needs a reference ([reference] kind = \"full-matrix\" or "
-                         "\"montecarlo\"; hrad solve: --reference-level)");
+                         "\"montecarlo\"; hrad solve: --reference-level; or render.error_reference = "
+                         "\"path-traced\")");
     if (r.refKind == "full-matrix") r.refFm = reference::FullMatrixSettings::fromParams(ref, "fm");
     if (r.refKind == "montecarlo") r.refMc = reference::MonteCarloSettings::fromParams(ref, "mc");
     ref.reportUnused();
@@ -292,141 +311,30 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     std::optional<Reference> earlyRef;
     double earlyRefSeconds = 0.0;
     double historyErrorSeconds = 0.0;  // the iteration hook's error evaluations
-    hr::HrResult hrRes;
-    reference::FullMatrixResult fmRes;
-    reference::ProgressiveResult prRes;
+    const SolverInfo& info = solverInfo(r.solver);
     Timer tSolve;
-    if (r.solver == "hr") {
-        summary["solver"] = "hr";
-        summary["solver_settings"] = r.hr->describe();
-        hr::HrSolver s(sc, vis, *r.hr);
-        if (p.outputs.historyError && r.refKind != "none") {
-            // The reference is needed during the solve: compute (or load) it
-            // first; the error block below reuses it.
-            Timer tRef;
-            earlyRef = computeReference(sc, vis, r, ctx);
-            earlyRefSeconds = tRef.seconds();
-            s.setIterationHook([&](const hr::Hierarchy& hh, hr::IterationRecord& rec) {
-                Timer tHook;
-                hr::HierarchyField f(hh);
-                rec.l2Lum = reference::computeError(f, *earlyRef->field).l2Lum;
-                historyErrorSeconds += tHook.seconds();
-            });
-        }
-        hrRes = s.solve(ctx.progress);
-        field = hrRes.field.get();
-        const hr::Hierarchy& h = *hrRes.hierarchy;
-        summary["oracle"] = hrRes.oracleDescription;
-        summary["cluster_model"] = hrRes.clusterModel;
-        summary["converged"] = hrRes.converged;
-        summary["residual"] = hrRes.history.empty() ? json(nullptr) : json(hrRes.history.back().residual);
-        summary["link_cap_hit"] = hrRes.linkCapHit;
-        summary["memory_budget_hit"] = hrRes.memoryBudgetHit;
-        summary["time_limit_hit"] = hrRes.timeLimitHit;
-        summary["min_area"] = hrRes.minArea;
-        summary["error_estimate"] = hrRes.errorEstimate;
-        summary["counts"] = json{{"elements", h.numElements()},
-                                 {"leaves", h.numLeaves()},
-                                 {"links", h.numLinks()},
-                                 {"initial_links", hrRes.initialLinks},
-                                 {"initial_pairs", hrRes.initialPairs},
-                                 {"links_ss", hrRes.linksSS},
-                                 {"links_sc", hrRes.linksSC},
-                                 {"links_cs", hrRes.linksCS},
-                                 {"links_cc", hrRes.linksCC},
-                                 {"rays", hrRes.totalRays},
-                                 {"form_factors", hrRes.totalFormFactors},
-                                 {"iterations", hrRes.history.size()}};
-        if (hrRes.clusterTree) timings["cluster_build"] = hrRes.clusterBuildSeconds;
-        timings["linking"] = hrRes.linkingSeconds;
-        timings["refine"] = hrRes.refineSeconds;
-        timings["gather"] = hrRes.gatherSeconds;
-        timings["push_pull"] = hrRes.pushPullSeconds;
-        timings["error_estimate"] = hrRes.errorEstimateSeconds;
-        for (const auto& [k, v] : hrRes.memory.all()) memory.set(k, v);
-        json hist = json::array();
-        for (const auto& it : hrRes.history)
-            hist.push_back(json{{"iteration", it.iteration},
-                                {"stage", it.stage},
-                                {"eps", std::isnan(it.eps) ? json(nullptr) : json(it.eps)},
-                                {"links", it.links},
-                                {"elements", it.elements},
-                                {"leaves", it.leaves},
-                                {"refined_links", it.refinedLinks},
-                                {"rays", it.rays},
-                                {"form_factors", it.formFactors},
-                                {"residual", it.residual},
-                                {"extrapolation", it.extrapolation},
-                                {"reflected_power", rgbJson(it.reflectedPower)},
-                                {"refine_s", it.refineSeconds},
-                                {"gather_s", it.gatherSeconds},
-                                {"push_pull_s", it.pushPullSeconds},
-                                {"element_bytes", it.elementBytes},
-                                {"link_bytes", it.linkBytes},
-                                {"l2_lum", std::isnan(it.l2Lum) ? json(nullptr) : json(it.l2Lum)}});
-        summary["history"] = hist;
-        if (h.numLinks())
-            summary["bytes_per_link"] = json{
-                {"link_storage", double(h.linkBytes()) / double(h.numLinks())},
-                {"all", double(h.linkBytes() + h.elementBytes()) / double(h.numLinks())}};
-    } else if (r.solver == "progressive") {
-        // Progressive refinement (reference/progressive.h); history every
-        // pr.history_every shots, with the error when history_error is asked.
-        summary["solver"] = "progressive";
-        summary["solver_settings"] = r.pr->describe();
-        reference::ProgressiveHook hook;
-        if (p.outputs.historyError && r.refKind != "none") {
-            Timer tRef;
-            earlyRef = computeReference(sc, vis, r, ctx);
-            earlyRefSeconds = tRef.seconds();
-            hook = [&](const scene::RadiosityField& f, reference::ProgressiveRecord& rec) {
-                Timer tHook;
-                rec.l2Lum = reference::computeError(f, *earlyRef->field).l2Lum;
-                historyErrorSeconds += tHook.seconds();
-            };
-        }
-        prRes = reference::solveProgressive(sc, vis, *r.pr, ctx.progress, hook);
-        field = prRes.field.get();
-        summary["counts"] = json{{"elements", prRes.elements},
-                                 {"leaves", prRes.elements},
-                                 {"patches", prRes.patches},
-                                 {"form_factors", prRes.formFactors},
-                                 {"rays", prRes.rays},
-                                 {"iterations", prRes.shots}};
-        summary["residual"] = prRes.unshotFraction;
-        summary["converged"] = prRes.converged;
-        timings["solve"] = prRes.seconds;
-        memory.set("progressive", prRes.bytes);
-        json hist = json::array();
-        for (const auto& it : prRes.history)
-            hist.push_back(json{{"iteration", it.shots},
-                                {"shooter", it.shooter},
-                                {"residual", it.unshotFraction},
-                                {"elements", it.elements},
-                                {"leaves", it.elements},
-                                {"form_factors", it.formFactors},
-                                {"rays", it.rays},
-                                {"seconds", it.seconds},
-                                {"element_bytes", it.bytes},
-                                {"l2_lum", std::isnan(it.l2Lum) ? json(nullptr) : json(it.l2Lum)}});
-        summary["history"] = hist;
-    } else {
-        summary["solver"] = "full-matrix";
-        summary["solver_settings"] = r.fm->describe();
-        fmRes = reference::solveFullMatrix(sc, vis, *r.fm, ctx.progress);
-        field = fmRes.field.get();
-        const auto& st = fmRes.stats;
-        summary["counts"] = json{{"elements", st.elements},
-                                 {"leaves", st.elements},
-                                 {"form_factors", st.formFactors},
-                                 {"rays", st.rays},
-                                 {"iterations", st.iterations}};
-        summary["residual"] = st.residual;
-        summary["converged"] = st.converged;
-        timings["form_factors"] = st.ffSeconds;
-        timings["solve"] = st.solveSeconds;
-        memory.set("matrix", st.matrixBytes);
+    summary["solver"] = r.solver;
+    summary["solver_settings"] = r.solverImpl->describe();
+    SolveContext solveCtx;
+    solveCtx.progress = ctx.progress;
+    if (info.keepsHistory && p.outputs.historyError && r.refKind != "none") {
+        // The reference is needed during the solve: compute (or load) it
+        // first; the error block below reuses it.
+        Timer tRef;
+        earlyRef = computeReference(sc, vis, r, ctx);
+        earlyRefSeconds = tRef.seconds();
+        solveCtx.historyError = [&](const scene::RadiosityField& f) {
+            Timer tHook;
+            double l2 = reference::computeError(f, *earlyRef->field).l2Lum;
+            historyErrorSeconds += tHook.seconds();
+            return l2;
+        };
     }
+    SolveOutput solved = r.solverImpl->solve(sc, vis, solveCtx);
+    field = solved.field;
+    for (const auto& [k, v] : solved.summary.items()) summary[k] = v;
+    for (const auto& [k, v] : solved.timings.items()) timings[k] = v;
+    for (const auto& [k, v] : solved.memory.all()) memory.set(k, v);
     timings["solve_total"] = tSolve.seconds();
     summary["radiosity_power"] = rgbJson(field->totalPower());
     summary["timings"] = timings;
@@ -499,16 +407,17 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     }
     if (p.outputs.historyError)
         summary["history_error"] =
-            r.solver == "full-matrix" ? "not computed: the full-matrix solver keeps no history"
-            : r.refKind == "none"   ? "not computed: the study has no reference"
-                                    : "history[].l2_lum: L2 (luminance) after every iteration "
-                                      "(progressive: every pr.history_every shots)";
+            !info.keepsHistory  ? fmt::format("not computed: the {} solver keeps no history", r.solver)
+            : r.refKind == "none" ? "not computed: the study has no reference"
+                                  : "history[].l2_lum: L2 (luminance) after every iteration "
+                                    "(progressive: every pr.history_every shots)";
     summary["timings"] = timings;
     if (ctx.checkpoint) ctx.checkpoint(summary);
 
     // ---- artefacts -------------------------------------------------------------------
     json artefacts = summary.contains("artefacts") ? summary["artefacts"] : json::object();
-    bool images = p.outputs.exr || (p.outputs.errorMap && ref);
+    const bool errorMap = p.outputs.errorMap && (ref || r.errorVsPathTraced);
+    bool images = p.outputs.exr || errorMap;
     if (images || p.outputs.ply) {
         fs::create_directories(ctx.artefactDir);
         if (p.outputs.ply) {
@@ -530,7 +439,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
             // ray cast; pixels mode compares the two reconstructions.
             std::vector<const scene::RadiosityField*> fields{field};
             std::unique_ptr<scene::UniformField> onRegions;
-            if (p.outputs.errorMap && ref) {
+            if (errorMap && !r.errorVsPathTraced) {
                 fields.push_back(ref->field.get());
                 if (r.errorOnRegions) {
                     onRegions = reference::averageOnRegions(*field, *ref->field);
@@ -542,10 +451,20 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
             std::vector<render::Image> imgs = render::renderFields(sc, vis, fields, cam, rs);
             const render::Image& img = imgs[0];
             double exposure = r.exposure;
-            if (p.outputs.errorMap && ref) {
+            render::Image pathTraced;  // render.error_reference = path-traced
+            if (errorMap) {
+                if (r.errorVsPathTraced) {
+                    render::RenderSettings ps = rs;
+                    ps.reconstruction = render::RenderSettings::Reconstruction::PathTraced;
+                    ps.interpolate = false;
+                    ps.spp = r.pathTracedSpp;
+                    Timer tp;
+                    pathTraced = std::move(render::renderFields(sc, vis, {field}, cam, ps)[0]);
+                    timings["render_path_traced"] = tp.seconds();
+                }
                 // The reference's exposure is used for both PNGs, so every
                 // run of a scene shares one exposure.
-                const render::Image& refImg = imgs[1];
+                const render::Image& refImg = r.errorVsPathTraced ? pathTraced : imgs[1];
                 if (!(exposure > 0)) exposure = render::pngAutoExposure(refImg);
                 render::ErrorMap em =
                     render::computeErrorMap(imgs[onRegions ? 2 : 0], refImg, r.errorFloor);
@@ -559,6 +478,10 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                 artefacts["error_map"] = data.string();
                 artefacts["error_false_colour"] = fc.string();
                 summary["error_map"] = json{{"mode", r.errorOnRegions ? "regions" : "pixels"},
+                                            {"reference", r.errorVsPathTraced
+                                                              ? fmt::format("path-traced, {} spp",
+                                                                            r.pathTracedSpp)
+                                                              : std::string("solution")},
                                             {"pixels", em.pixels},
                                             {"floor", em.floor},
                                             {"floor_fraction", r.errorFloor},

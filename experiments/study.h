@@ -22,7 +22,11 @@
 //               render.error_mode = "regions" (default: the solution's
 //               averages over the reference's regions against the reference,
 //               the quantities the L1/L2 errors sum) or "pixels" (the two
-//               reconstructed renders compared pixel by pixel).
+//               reconstructed renders compared pixel by pixel);
+//               render.error_reference = "path-traced" compares the
+//               solution's render with a path-traced image of the same camera
+//               (render.reference_spp paths per pixel, default 256) pixel by
+//               pixel, and needs no reference solution.
 //   [limits]    max_seconds (number), max_memory_mb (integer): per point,
 //               overridden by --max-seconds / --max-memory; max_points
 //               (integer, default 1,000,000; sweep.max_points, overridden by

@@ -119,6 +119,18 @@ def main():
         check(list(zip(c["x"], c["y"])) == want, "error-vs-links curve is the store's (links, l2_lum)")
         plot(["error", "--store", store, "--out", out + "_mem", "--x", "peak_rss_mib"])
         nonempty(out + "_mem")
+        # solver_mib: the solver's memory counters without visibility and RSS.
+        plot(["scaling", "--store", store, "--out", out + "_smem", "--x", "elements", "--y", "solver_mib"])
+        side = json.load(open(out + "_smem.json"))["panels"]["solver_mib"]["HR bfa"]
+        con = sqlite3.connect(store)
+        want = []
+        for el, b in con.execute("select elements, bytes from runs order by elements"):
+            d = json.loads(b)
+            want.append(sum(v for k, v in d.items()
+                            if k != "visibility" and not k.startswith("peak_rss")) / 2**20)
+        con.close()
+        check("links" in json.loads(b) and all(w > 0 for w in want), "stores carry link and element bytes")
+        check(np.allclose(side["y"], want, rtol=1e-12), f"solver_mib {side['y']} == counters {want}")
         plot(["convergence", "--store", store, "--out", out + "_conv"])
         nonempty(out + "_conv")
         conv = json.load(open(out + "_conv.json"))

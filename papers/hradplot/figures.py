@@ -25,6 +25,7 @@ LABELS = {
     "refine_s": "refinement time (s)",
     "peak_rss": "peak RSS (bytes)",
     "peak_rss_mib": "peak RSS (MiB)",
+    "solver_mib": "solver data (MiB)",
     "links": "links",
     "elements": "elements",
     "leaves": "leaf elements",
@@ -37,6 +38,7 @@ LABELS = {
 SOURCES = {
     "compute_s": ["wall_s"],
     "peak_rss_mib": ["peak_rss"],
+    "solver_mib": ["bytes"],
     "method": ["solver", "oracle", "settings"],
     "cluster_model": ["settings"],
     "fm_level": ["settings"],
@@ -294,6 +296,12 @@ def _caption(r):
     short = (method.replace(" + clusters", "+cl").replace("full matrix", "FM")
              .replace("progressive (Southwell)", "prog.")
              .replace("progressive refinement", "PR").replace(" + substructuring", "+sub"))
+    rec = r.get("reconstruction")
+    if isinstance(rec, str) and rec:
+        short += ", " + rec
+        rays = r.get("gather_rays")
+        if rec == "final-gather" and isinstance(rays, (int, float)) and not math.isnan(rays):
+            short += f" {int(rays)}"
     steps = r.get("steps")
     if isinstance(steps, (int, float)) and not math.isnan(steps):
         short += f", {int(steps)} steps"
@@ -306,6 +314,10 @@ def _caption(r):
     line2 = params.replace("eps=", r"$\varepsilon$=").replace("fm.level=", "level ")
     if isinstance(r.get("l2_lum"), float) and not math.isnan(r["l2_lum"]):
         line2 += (", " if line2 else "") + f"$L_2$ {r['l2_lum']:.2g}"
+    elif isinstance(r.get("error_map_l1"), float) and not math.isnan(r["error_map_l1"]):
+        # no reference solution: the image L1 of the error map (e.g. against
+        # a path-traced image, render.error_reference)
+        line2 += (", " if line2 else "") + f"image $L_1$ {r['error_map_l1']:.2g}"
     return short + "\n" + line2
 
 

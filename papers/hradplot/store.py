@@ -81,8 +81,18 @@ def _derive(runs):
         runs["hemicube_points"] = (st.map(lambda d: d.get("fm.ff.hemicube_points", np.nan))
                                    if len(runs) else [])
         # Shooting / gathering steps when a study caps them (classics_steps).
-        runs["steps"] = (st.map(lambda d: d.get("pr.max_shots", d.get("fm.max_iterations", np.nan)))
+        runs["steps"] = (st.map(lambda d: d.get("pr.max_shots", d.get("fm.max_iterations",
+                                                                        d.get("hr.max_iterations", np.nan))))
                          if len(runs) else [])
+        if "iterations" in runs.columns and len(runs):
+            # A solver that converges before the cap stops there (Gauss-Seidel
+            # reaching fm.tolerance): the steps it took, not the cap.
+            runs["steps"] = np.fmin(runs["steps"].astype(float), runs["iterations"].astype(float))
+        # Reconstruction of the image where a study sets it (classics_gather).
+        runs["reconstruction"] = (st.map(lambda d: d.get("render.reconstruction", ""))
+                                  if len(runs) else [])
+        runs["gather_rays"] = (st.map(lambda d: d.get("render.gather_rays", np.nan))
+                               if len(runs) else [])
         runs["pr_max_subdivision"] = (st.map(lambda d: d.get("pr.max_subdivision", 2))
                                       if len(runs) else [])
     if "summary" in runs.columns and "patches" not in runs.columns:
@@ -112,7 +122,8 @@ def _derive(runs):
                           ("l1_nonemitter_lum", ("error", "l1_nonemitter_lum")),
                           ("l2_nonemitter_lum", ("error", "l2_nonemitter_lum")),
                           ("mean_ratio_nonemitter", ("error", "mean_ratio_nonemitter")),
-                          ("error_estimate", ("error_estimate",))):
+                          ("error_estimate", ("error_estimate",)),
+                          ("error_map_l1", ("error_map", "l1"))):
             if col not in runs.columns:
                 runs[col] = runs["summary"].map(from_summary(path)).astype(float)
     if "wall_s" in runs.columns:
@@ -123,6 +134,18 @@ def _derive(runs):
         runs["compute_s"] = runs["wall_s"] - sub
     if "peak_rss" in runs.columns:
         runs["peak_rss_mib"] = runs["peak_rss"] / 2**20
+    if "bytes" in runs.columns and len(runs):
+        # The solver's own data (matrix; patches and elements; elements,
+        # links and clusters), from its memory counters: without the
+        # visibility structure and the process baseline that peak RSS holds.
+        def solver_mib(s):
+            try:
+                b = json.loads(s)
+            except (TypeError, ValueError):
+                return np.nan
+            return sum(v for k, v in b.items()
+                       if k != "visibility" and not k.startswith("peak_rss")) / 2**20
+        runs["solver_mib"] = runs["bytes"].map(solver_mib).astype(float)
     if {"solver", "oracle"} <= set(runs.columns):
         def method(r):
             if r["solver"] == "progressive":

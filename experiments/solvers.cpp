@@ -1,0 +1,254 @@
+#include "experiments/solvers.h"
+
+#include <cmath>
+#include <utility>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "hr/solver.h"
+#include "reference/fullmatrix.h"
+#include "reference/progressive.h"
+
+namespace hrad::experiments {
+
+using nlohmann::json;
+
+namespace {
+
+json rgbJson(const RGB& c) { return json::array({c.r, c.g, c.b}); }
+json nanToNull(double v) { return std::isnan(v) ? json(nullptr) : json(v); }
+
+// ---- hr: hierarchical radiosity (hr/solver.h) ------------------------------------
+class HrEntry final : public Solver {
+public:
+    explicit HrEntry(const Params& p) : settings_(hr::HrSettings::fromParams(p)) {}
+    std::string describe() const override { return settings_.describe(); }
+
+    SolveOutput solve(const scene::Scene& sc, const transport::Visibility& vis,
+                      const SolveContext& ctx) const override {
+        hr::HrSolver s(sc, vis, settings_);
+        if (ctx.historyError)
+            s.setIterationHook([&](const hr::Hierarchy& hh, hr::IterationRecord& rec) {
+                hr::HierarchyField f(hh);
+                rec.l2Lum = ctx.historyError(f);
+            });
+        auto res = std::make_shared<hr::HrResult>(s.solve(ctx.progress));
+        SolveOutput out;
+        out.field = res->field.get();
+        const hr::Hierarchy& h = *res->hierarchy;
+        json& sm = out.summary;
+        sm["oracle"] = res->oracleDescription;
+        sm["cluster_model"] = res->clusterModel;
+        sm["converged"] = res->converged;
+        sm["residual"] = res->history.empty() ? json(nullptr) : json(res->history.back().residual);
+        sm["link_cap_hit"] = res->linkCapHit;
+        sm["memory_budget_hit"] = res->memoryBudgetHit;
+        sm["time_limit_hit"] = res->timeLimitHit;
+        sm["min_area"] = res->minArea;
+        sm["error_estimate"] = res->errorEstimate;
+        sm["counts"] = json{{"elements", h.numElements()},
+                            {"leaves", h.numLeaves()},
+                            {"links", h.numLinks()},
+                            {"initial_links", res->initialLinks},
+                            {"initial_pairs", res->initialPairs},
+                            {"links_ss", res->linksSS},
+                            {"links_sc", res->linksSC},
+                            {"links_cs", res->linksCS},
+                            {"links_cc", res->linksCC},
+                            {"rays", res->totalRays},
+                            {"form_factors", res->totalFormFactors},
+                            {"iterations", res->history.size()}};
+        json& t = out.timings;
+        if (res->clusterTree) t["cluster_build"] = res->clusterBuildSeconds;
+        t["linking"] = res->linkingSeconds;
+        t["refine"] = res->refineSeconds;
+        t["gather"] = res->gatherSeconds;
+        t["push_pull"] = res->pushPullSeconds;
+        t["error_estimate"] = res->errorEstimateSeconds;
+        for (const auto& [k, v] : res->memory.all()) out.memory.set(k, v);
+        json hist = json::array();
+        for (const auto& it : res->history)
+            hist.push_back(json{{"iteration", it.iteration},
+                                {"stage", it.stage},
+                                {"eps", nanToNull(it.eps)},
+                                {"links", it.links},
+                                {"elements", it.elements},
+                                {"leaves", it.leaves},
+                                {"refined_links", it.refinedLinks},
+                                {"rays", it.rays},
+                                {"form_factors", it.formFactors},
+                                {"residual", it.residual},
+                                {"extrapolation", it.extrapolation},
+                                {"reflected_power", rgbJson(it.reflectedPower)},
+                                {"refine_s", it.refineSeconds},
+                                {"gather_s", it.gatherSeconds},
+                                {"push_pull_s", it.pushPullSeconds},
+                                {"element_bytes", it.elementBytes},
+                                {"link_bytes", it.linkBytes},
+                                {"l2_lum", nanToNull(it.l2Lum)}});
+        sm["history"] = hist;
+        if (h.numLinks())
+            sm["bytes_per_link"] = json{
+                {"link_storage", double(h.linkBytes()) / double(h.numLinks())},
+                {"all", double(h.linkBytes() + h.elementBytes()) / double(h.numLinks())}};
+        out.owner = std::move(res);
+        return out;
+    }
+
+private:
+    hr::HrSettings settings_;
+};
+
+// ---- full-matrix: all n^2 form factors (reference/fullmatrix.h) -------------------
+class FullMatrixEntry final : public Solver {
+public:
+    explicit FullMatrixEntry(const Params& p)
+        : settings_(reference::FullMatrixSettings::fromParams(p, "fm")) {}
+    std::string describe() const override { return settings_.describe(); }
+
+    SolveOutput solve(const scene::Scene& sc, const transport::Visibility& vis,
+                      const SolveContext& ctx) const override {
+        auto res = std::make_shared<reference::FullMatrixResult>(
+            reference::solveFullMatrix(sc, vis, settings_, ctx.progress));
+        SolveOutput out;
+        out.field = res->field.get();
+        const auto& st = res->stats;
+        out.summary["counts"] = json{{"elements", st.elements},
+                                     {"leaves", st.elements},
+                                     {"form_factors", st.formFactors},
+                                     {"rays", st.rays},
+                                     {"iterations", st.iterations}};
+        out.summary["residual"] = st.residual;
+        out.summary["converged"] = st.converged;
+        out.timings["form_factors"] = st.ffSeconds;
+        out.timings["solve"] = st.solveSeconds;
+        out.memory.set("matrix", st.matrixBytes);
+        out.owner = std::move(res);
+        return out;
+    }
+
+private:
+    reference::FullMatrixSettings settings_;
+};
+
+// ---- progressive: progressive refinement (reference/progressive.h) ----------------
+class ProgressiveEntry final : public Solver {
+public:
+    explicit ProgressiveEntry(const Params& p)
+        : settings_(reference::ProgressiveSettings::fromParams(p, "pr")) {}
+    std::string describe() const override { return settings_.describe(); }
+
+    SolveOutput solve(const scene::Scene& sc, const transport::Visibility& vis,
+                      const SolveContext& ctx) const override {
+        reference::ProgressiveHook hook;
+        if (ctx.historyError)
+            hook = [&](const scene::RadiosityField& f, reference::ProgressiveRecord& rec) {
+                rec.l2Lum = ctx.historyError(f);
+            };
+        auto res = std::make_shared<reference::ProgressiveResult>(
+            reference::solveProgressive(sc, vis, settings_, ctx.progress, hook));
+        SolveOutput out;
+        out.field = res->field.get();
+        out.summary["counts"] = json{{"elements", res->elements},
+                                     {"leaves", res->elements},
+                                     {"patches", res->patches},
+                                     {"form_factors", res->formFactors},
+                                     {"rays", res->rays},
+                                     {"iterations", res->shots}};
+        out.summary["residual"] = res->unshotFraction;
+        out.summary["converged"] = res->converged;
+        out.timings["solve"] = res->seconds;
+        out.memory.set("progressive", res->bytes);
+        json hist = json::array();
+        for (const auto& it : res->history)
+            hist.push_back(json{{"iteration", it.shots},
+                                {"shooter", it.shooter},
+                                {"residual", it.unshotFraction},
+                                {"elements", it.elements},
+                                {"leaves", it.elements},
+                                {"form_factors", it.formFactors},
+                                {"rays", it.rays},
+                                {"seconds", it.seconds},
+                                {"element_bytes", it.bytes},
+                                {"l2_lum", nanToNull(it.l2Lum)}});
+        out.summary["history"] = hist;
+        out.owner = std::move(res);
+        return out;
+    }
+
+private:
+    reference::ProgressiveSettings settings_;
+};
+
+using Factory = std::function<std::unique_ptr<Solver>(const Params&)>;
+
+struct Entry {
+    SolverInfo info;
+    Factory factory;
+};
+
+template <class T>
+Factory make() {
+    return [](const Params& p) { return std::make_unique<T>(p); };
+}
+
+const std::vector<Entry>& table() {
+    static const std::vector<Entry> t = {
+        {{"hr",
+          "hierarchical radiosity, optional clustering (Hanrahan et al. 1991; Smits et al. 1994)",
+          {"hr.", "oracle.", "cluster.", "ff.", "memory."},
+          true,
+          "one record per gather iteration"},
+         make<HrEntry>()},
+        {{"full-matrix",
+          "uniform mesh, n^2 form factors, Jacobi / Gauss-Seidel / Southwell (Cohen & Wallace 1993)",
+          {"fm."},
+          false,
+          ""},
+         make<FullMatrixEntry>()},
+        {{"progressive",
+          "progressive refinement with substructuring (Cohen, Chen, Wallace & Greenberg 1988)",
+          {"pr."},
+          true,
+          "one record every pr.history_every shots"},
+         make<ProgressiveEntry>()},
+    };
+    return t;
+}
+
+}  // namespace
+
+bool SolverInfo::readsKey(const std::string& key) const {
+    for (const auto& p : keyPrefixes)
+        if (key.rfind(p, 0) == 0) return true;
+    return false;
+}
+
+std::vector<std::string> solverNames() {
+    std::vector<std::string> names;
+    for (const auto& e : table()) names.push_back(e.info.name);
+    return names;
+}
+
+const SolverInfo* findSolver(const std::string& name) {
+    for (const auto& e : table())
+        if (e.info.name == name) return &e.info;
+    return nullptr;
+}
+
+const SolverInfo& solverInfo(const std::string& name, const SourceLocation& where) {
+    if (const SolverInfo* i = findSolver(name)) return *i;
+    throwInputError(where, "unknown solver '{}'; valid solvers: {}", name,
+                    fmt::join(solverNames(), ", "));
+}
+
+std::unique_ptr<Solver> createSolver(const std::string& name, const Params& params,
+                                     const SourceLocation& where) {
+    for (const auto& e : table())
+        if (e.info.name == name) return e.factory(params);
+    throwInputError(where, "unknown solver '{}'; valid solvers: {}", name,
+                    fmt::join(solverNames(), ", "));
+}
+
+}  // namespace hrad::experiments
