@@ -196,6 +196,10 @@ GltfCounts writeGlb(const scene::RadiosityField& field, const std::string& path,
         cam.type = "perspective";
         cam.perspective.yfov = c.fovYDegrees * std::numbers::pi / 180.0;
         cam.perspective.znear = std::max(1e-6, 1e-4 * sc.bounds().diagonal());
+        // tinygltf writes zfar even when 0 (which glTF forbids): a far plane well
+        // beyond the scene seen from the eye.
+        cam.perspective.zfar = 10.0 * (sc.bounds().diagonal() + glm::length(c.eye - sc.bounds().center())) +
+                               1.0 + cam.perspective.znear;
         m.cameras.push_back(cam);
         tinygltf::Node camNode;
         camNode.name = "scene camera";
