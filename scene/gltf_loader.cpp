@@ -18,6 +18,7 @@
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
 #include <glm/mat4x4.hpp>
+#include <stb/stb_image.h>
 #include <tiny_gltf.h>
 
 #include "core/error.h"
@@ -134,11 +135,27 @@ struct ImageLoadLog {
     std::vector<std::string> failures;
 };
 
+/// Largest decoded texture (bytes) whose mean is taken: a few hundred bytes of
+/// PNG header may claim 65535 x 65535 texels, which stb_image would allocate.
+constexpr double kMaxDecodedTextureBytes = double(1u << 30);
+
 bool lenientImageLoader(tinygltf::Image* image, const int index, std::string* err, std::string* warn, int reqW,
                         int reqH, const unsigned char* bytes, int size, void* user) {
+    auto* log = static_cast<ImageLoadLog*>(user);
+    int iw = 0, ih = 0, ic = 0;
+    if (stbi_info_from_memory(bytes, size, &iw, &ih, &ic)) {
+        double decoded = double(iw) * double(ih) * double(ic) * (stbi_is_16_bit_from_memory(bytes, size) ? 2 : 1);
+        if (decoded > kMaxDecodedTextureBytes) {
+            log->failures.push_back(fmt::format("image {}: {} x {} texels ({:.3g} GiB decoded) is more than the 1 "
+                                                "GiB hrad decodes for a texture mean",
+                                                index, iw, ih, decoded / double(1u << 30)));
+            image->image.clear();
+            image->width = image->height = 0;
+            return true;
+        }
+    }
     std::string e, w;
     if (tinygltf::LoadImageData(image, index, &e, &w, reqW, reqH, bytes, size, nullptr)) return true;
-    auto* log = static_cast<ImageLoadLog*>(user);
     log->failures.push_back(fmt::format("image {}: {}", index, firstLine(e.empty() ? w : e)));
     image->image.clear();
     image->width = image->height = 0;
@@ -243,9 +260,10 @@ void Loader::parse() {
             fail("GLB files of 4 GiB or more are not supported");
         ok = gltf.LoadBinaryFromMemory(&model_, &err, &warnText, bytes.data(), unsigned(bytes.size()), baseDir);
     } else {
+        if (bytes.size() > size_t(std::numeric_limits<unsigned int>::max()))
+            fail(".gltf files of 4 GiB or more are not supported");
         ok = gltf.LoadASCIIFromString(&model_, &err, &warnText, reinterpret_cast<const char*>(bytes.data()),
-                                      unsigned(std::min(bytes.size(), size_t(std::numeric_limits<unsigned>::max()))),
-                                      baseDir);
+                                      unsigned(bytes.size()), baseDir);
     }
     if (!ok) {
         std::string msg = firstLine(err.empty() ? warnText : err);
@@ -500,6 +518,9 @@ void Loader::addMesh(int meshIndex, const Mat4& world, int node) {
             if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
                 fail(fmt::format("{}.attributes.POSITION: vertex {} is not finite", where, i));
             pos[i] = Vec3(world * p);
+            if (!std::isfinite(pos[i].x) || !std::isfinite(pos[i].y) || !std::isfinite(pos[i].z))
+                fail(fmt::format("{}.attributes.POSITION: vertex {} is not finite after node {}'s transform", where,
+                                 i, node));
         }
         idx.clear();
         if (prim.indices >= 0) {
@@ -584,6 +605,8 @@ void Loader::camera(const std::vector<std::pair<int, Mat4>>& placed) {
     if (!(glm::length(forward) > 1e-12) || !(glm::length(up) > 1e-12) ||
         !(glm::length(glm::cross(forward, up)) > 1e-12 * glm::length(forward) * glm::length(up)))
         fail(fmt::format("camera {}: its node transform is degenerate (no view direction)", index));
+    if (!std::isfinite(eye.x + eye.y + eye.z + forward.x + forward.y + forward.z + up.x + up.y + up.z))
+        fail(fmt::format("camera {}: its node transform is not finite", index));
     Camera cam;
     cam.eye = eye;
     cam.target = eye + glm::normalize(forward);

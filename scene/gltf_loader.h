@@ -27,8 +27,9 @@
 //     A texture's mean is the mean over all texels of the sRGB-decoded image
 //     (glTF colour textures are sRGB, §3.9.2), not weighted by UV coverage,
 //     with one warning per material; an image tinygltf's stb loader cannot
-//     decode (or an external image file that is missing) leaves the factor
-//     alone and warns. metallic/roughness, alpha, normal and occlusion maps
+//     decode (or an external image file that is missing, or one that would
+//     decode to more than 1 GiB, checked from its header with stb_image
+//     before decoding) leaves the factor alone and warns. metallic/roughness, alpha, normal and occlusion maps
 //     are ignored: the diffuse albedo is baseColor, as a path tracer that
 //     treats the surface as Lambertian would see it.
 //     Reflectance channels >= 1 (glTF's default baseColorFactor is 1, so
