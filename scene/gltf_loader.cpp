@@ -129,6 +129,87 @@ std::string firstLine(const std::string& s) {
     return out;
 }
 
+/// Where the value at a JSON path (e.g. "meshes[0].primitives[1].indices")
+/// starts in well-formed JSON text, or npos. tinygltf keeps no positions, so
+/// errors found after parsing are located by scanning the text once more:
+/// only along the path, skipping other values by bracket counting.
+size_t locateJsonPath(const std::string& t, const std::string& path) {
+    constexpr size_t npos = std::string::npos;
+    static const std::regex stepRe(R"(^(?:\.?([A-Za-z_][A-Za-z_0-9]*)|\[([0-9]{1,9})\]))");
+    const size_t end = t.size();
+    size_t i = 0;
+    auto ws = [&] {
+        while (i < end && (t[i] == ' ' || t[i] == '\t' || t[i] == '\n' || t[i] == '\r')) ++i;
+    };
+    auto skipString = [&] {  // at the opening quote
+        for (++i; i < end && t[i] != '"'; ++i)
+            if (t[i] == '\\') ++i;
+        ++i;
+    };
+    auto skipValue = [&] {
+        ws();
+        if (i >= end) return;
+        if (t[i] == '"') return skipString();
+        if (t[i] == '{' || t[i] == '[') {
+            for (int depth = 0; i < end;) {
+                char c = t[i];
+                if (c == '"') {
+                    skipString();
+                    continue;
+                }
+                if (c == '{' || c == '[') ++depth;
+                if ((c == '}' || c == ']') && --depth == 0) {
+                    ++i;
+                    return;
+                }
+                ++i;
+            }
+            return;
+        }
+        while (i < end && t[i] != ',' && t[i] != '}' && t[i] != ']') ++i;
+    };
+    std::smatch m;
+    for (std::string rest = path; !rest.empty(); rest = m.suffix().str()) {
+        if (!std::regex_search(rest, m, stepRe)) return npos;
+        ws();
+        if (i >= end) return npos;
+        if (m[1].matched) {
+            if (t[i] != '{') return npos;
+            for (++i;;) {
+                ws();
+                if (i >= end || t[i] == '}') return npos;
+                if (t[i] == ',') {
+                    ++i;
+                    continue;
+                }
+                if (t[i] != '"') return npos;
+                size_t k0 = i + 1;
+                skipString();
+                std::string key = t.substr(k0, std::min(i, end) - 1 - k0);
+                ws();
+                if (i >= end || t[i] != ':') return npos;
+                ++i;
+                if (key == m[1].str()) break;
+                skipValue();
+            }
+        } else {
+            if (t[i] != '[') return npos;
+            size_t want = std::stoul(m[2].str());
+            ++i;
+            for (size_t k = 0;; ++k) {
+                ws();
+                if (i >= end || t[i] == ']') return npos;
+                if (k == want) break;
+                skipValue();
+                ws();
+                if (i < end && t[i] == ',') ++i;
+            }
+        }
+    }
+    ws();
+    return i < end ? i : npos;
+}
+
 // Image loading: tinygltf's stb loader, but an image it cannot decode is a
 // warning (the material keeps its factor), not a failed load.
 struct ImageLoadLog {
@@ -224,8 +305,24 @@ class Loader {
     uint64_t skippedPrimitives_ = 0, noPositionPrimitives_ = 0, remainderIndices_ = 0;
     bool vertexColoursSeen_ = false;
     size_t faces_ = 0;
+    std::string json_;       // the JSON text (a .gltf, or a .glb's JSON chunk), to locate errors
+    size_t jsonOffset_ = 0;  // where json_ starts in the file
+    bool binary_ = false;
 
-    [[noreturn]] void fail(const std::string& msg) const { throw InputError(SourceLocation{path_, 0, 0}, msg); }
+    /// Throws InputError. A message that starts with a JSON path (e.g.
+    /// "nodes[3].children: ...") is located: its line in a .gltf, its byte
+    /// offset in a .glb.
+    [[noreturn]] void fail(const std::string& msg) const {
+        static const std::regex pathRe(R"(^[A-Za-z_]+(\[[0-9]+\]|\.[A-Za-z_0-9]+)*)");
+        std::smatch m;
+        size_t at = std::string::npos;
+        if (std::regex_search(msg, m, pathRe)) at = locateJsonPath(json_, m[0].str());
+        if (at == std::string::npos) throw InputError(SourceLocation{path_, 0, 0}, msg);
+        if (binary_)
+            throw InputError(SourceLocation{path_, 0, 0}, fmt::format("{} (at byte offset {})", msg, jsonOffset_ + at));
+        int line = 1 + int(std::count(json_.begin(), json_.begin() + std::ptrdiff_t(at), '\n'));
+        throw InputError(SourceLocation{path_, line, 0}, msg);
+    }
     void warn(const std::string& msg) { scene_.stats.warnings.push_back(fmt::format("{}: {}", path_, msg)); }
 
     void parse();
@@ -233,8 +330,8 @@ class Loader {
                   std::initializer_list<int> componentTypes) const;
     Mat4 localMatrix(int node) const;
     void addMesh(int meshIndex, const Mat4& world, int node);
-    uint32_t material(int index);
-    RGB textureMean(int textureIndex, const std::string& materialName, const char* slot);
+    uint32_t material(int index, const std::string& where);
+    RGB textureMean(int textureIndex, int materialIndex, const std::string& materialName, const char* slot);
     void camera(const std::vector<std::pair<int, Mat4>>& placed);
 };
 
@@ -289,7 +386,9 @@ void Loader::parse() {
     std::istringstream ws(warnText);
     for (std::string w; std::getline(ws, w);)
         if (!firstLine(w).empty()) warn(firstLine(w));
-    (void)jsonEnd;
+    json_.assign(bytes.begin() + std::ptrdiff_t(jsonBegin), bytes.begin() + std::ptrdiff_t(jsonEnd));
+    jsonOffset_ = jsonBegin;
+    binary_ = binary;
     for (const std::string& f : images.failures)
         warn(fmt::format("{}: could not be decoded (texture means that use it are not applied)", f));
 }
@@ -301,7 +400,9 @@ View Loader::accessor(int index, const std::string& what, std::initializer_list<
         fail(fmt::format("{}: accessor {} does not exist (the file has {} accessors)", what, index,
                          m.accessors.size()));
     const tinygltf::Accessor& a = m.accessors[size_t(index)];
-    std::string name = fmt::format("{} (accessor {})", what, index);
+    // Problems of the accessor itself are located at it; the referencing path
+    // stays in the message.
+    std::string name = fmt::format("accessors[{}] (used as {})", index, what);
     if (a.sparse.isSparse) fail(name + ": sparse accessors are not supported");
     if (std::find(types.begin(), types.end(), a.type) == types.end())
         fail(fmt::format("{}: unexpected accessor type {}", name, a.type));
@@ -369,11 +470,12 @@ Mat4 Loader::localMatrix(int index) const {
     return t * r * s;
 }
 
-RGB Loader::textureMean(int textureIndex, const std::string& materialName, const char* slot) {
+RGB Loader::textureMean(int textureIndex, int materialIndex, const std::string& materialName, const char* slot) {
     if (textureIndex < 0) return RGB(1.0);
     if (size_t(textureIndex) >= model_.textures.size())
-        fail(fmt::format("material '{}': {} names texture {} which does not exist (the file has {})", materialName,
-                         slot, textureIndex, model_.textures.size()));
+        fail(fmt::format("materials[{}]{}{}.index (material '{}'): texture {} does not exist (the file has {})",
+                         materialIndex, std::strcmp(slot, "baseColorTexture") == 0 ? ".pbrMetallicRoughness." : ".",
+                         slot, materialName, textureIndex, model_.textures.size()));
     int source = model_.textures[size_t(textureIndex)].source;
     if (source < 0 || size_t(source) >= model_.images.size()) {
         warn(fmt::format("material '{}': {} (texture {}) has no image; its mean is not applied", materialName, slot,
@@ -417,48 +519,52 @@ RGB Loader::textureMean(int textureIndex, const std::string& materialName, const
     return mean;
 }
 
-uint32_t Loader::material(int index) {
+uint32_t Loader::material(int index, const std::string& where) {
     if (index < 0) {
         if (defaultMaterial_ == UINT32_MAX)
             defaultMaterial_ = scene_.addMaterial({"default", RGB(opt_.defaultRho), RGB(0.0), false, false});
         return defaultMaterial_;
     }
     if (size_t(index) >= model_.materials.size())
-        fail(fmt::format("a primitive names material {} which does not exist (the file has {})", index,
+        fail(fmt::format("{}: material {} does not exist (the file has {})", where, index,
                          model_.materials.size()));
     auto it = materialOf_.find(index);
     if (it != materialOf_.end()) return it->second;
     const tinygltf::Material& gm = model_.materials[size_t(index)];
     Material m;
     m.name = gm.name.empty() ? fmt::format("material_{}", index) : gm.name;
+    // Errors of this material start with its JSON path, so fail() locates them.
+    auto mfail = [&](const std::string& what, const std::string& msg) {
+        fail(fmt::format("materials[{}]{} (material '{}'): {}", index, what, m.name, msg));
+    };
     const auto& bc = gm.pbrMetallicRoughness.baseColorFactor;
-    if (bc.size() != 4) fail(fmt::format("material '{}': baseColorFactor has {} numbers (expected 4)", m.name, bc.size()));
+    if (bc.size() != 4) mfail(".pbrMetallicRoughness.baseColorFactor", fmt::format("{} numbers (expected 4)", bc.size()));
     const auto& ef = gm.emissiveFactor;
-    if (ef.size() != 3) fail(fmt::format("material '{}': emissiveFactor has {} numbers (expected 3)", m.name, ef.size()));
+    if (ef.size() != 3) mfail(".emissiveFactor", fmt::format("{} numbers (expected 3)", ef.size()));
     double strength = 1.0;
     auto ext = gm.extensions.find("KHR_materials_emissive_strength");
     if (ext != gm.extensions.end() && ext->second.Has("emissiveStrength")) {
         const tinygltf::Value& s = ext->second.Get("emissiveStrength");
-        if (!s.IsNumber()) fail(fmt::format("material '{}': emissiveStrength is not a number", m.name));
+        if (!s.IsNumber()) mfail(".extensions.KHR_materials_emissive_strength", "emissiveStrength is not a number");
         strength = s.GetNumberAsDouble();
     }
     if (!(std::isfinite(strength) && strength >= 0))
-        fail(fmt::format("material '{}': emissiveStrength must be finite and >= 0", m.name));
+        mfail(".extensions.KHR_materials_emissive_strength", "emissiveStrength must be finite and >= 0");
     RGB base(bc[0], bc[1], bc[2]);
     RGB emissive(ef[0], ef[1], ef[2]);
     for (int c = 0; c < 3; ++c) {
         if (!(std::isfinite(base[c]) && base[c] >= 0))
-            fail(fmt::format("material '{}': baseColorFactor must be finite and >= 0", m.name));
+            mfail(".pbrMetallicRoughness.baseColorFactor", "must be finite and >= 0");
         if (!(std::isfinite(emissive[c]) && emissive[c] >= 0))
-            fail(fmt::format("material '{}': emissiveFactor must be finite and >= 0", m.name));
+            mfail(".emissiveFactor", "must be finite and >= 0");
     }
-    m.rho = base * textureMean(gm.pbrMetallicRoughness.baseColorTexture.index, m.name, "baseColorTexture");
+    m.rho = base * textureMean(gm.pbrMetallicRoughness.baseColorTexture.index, index, m.name, "baseColorTexture");
     bool emits = emissive.r > 0 || emissive.g > 0 || emissive.b > 0;
-    RGB emissiveTex = emits && strength > 0 ? textureMean(gm.emissiveTexture.index, m.name, "emissiveTexture") : RGB(1.0);
+    RGB emissiveTex = emits && strength > 0 ? textureMean(gm.emissiveTexture.index, index, m.name, "emissiveTexture") : RGB(1.0);
     // E = pi L: radiance of a Lambertian emitter -> radiosity (see the header).
     m.emission = std::numbers::pi * emissive * strength * emissiveTex * opt_.emissionScale;
     for (int c = 0; c < 3; ++c)
-        if (!std::isfinite(m.emission[c])) fail(fmt::format("material '{}': emission overflows", m.name));
+        if (!std::isfinite(m.emission[c])) mfail("", "emission overflows");
     if (opt_.clampRho > 0) {
         bool clamped = false;
         for (int c = 0; c < 3; ++c)
@@ -471,9 +577,10 @@ uint32_t Loader::material(int index) {
     } else {
         for (int c = 0; c < 3; ++c)
             if (m.rho[c] >= 1.0)
-                fail(fmt::format("material '{}': reflectance ({:.6g}, {:.6g}, {:.6g}) must be < 1 per channel (set "
-                                 "gltf.clamp_rho, e.g. 0.99, to clamp)",
-                                 m.name, m.rho.r, m.rho.g, m.rho.b));
+                mfail(".pbrMetallicRoughness",
+                      fmt::format("reflectance ({:.6g}, {:.6g}, {:.6g}) must be < 1 per channel (set "
+                                  "gltf.clamp_rho, e.g. 0.99, to clamp)",
+                                  m.rho.r, m.rho.g, m.rho.b));
     }
     m.twoSided = gm.doubleSided;
     m.emitsBothSides = gm.doubleSided;
@@ -541,7 +648,7 @@ void Loader::addMesh(int meshIndex, const Mat4& world, int node) {
             idx.resize(pos.size());
             for (size_t i = 0; i < idx.size(); ++i) idx[i] = uint32_t(i);
         }
-        uint32_t mat = material(prim.material);
+        uint32_t mat = material(prim.material, where + ".material");
         size_t n = idx.size();
         size_t triangles = mode == TINYGLTF_MODE_TRIANGLES ? n / 3 : n >= 3 ? n - 2 : 0;
         if (mode == TINYGLTF_MODE_TRIANGLES) remainderIndices_ += n % 3;
@@ -582,10 +689,7 @@ void Loader::camera(const std::vector<std::pair<int, Mat4>>& placed) {
             chosen = &p;
             break;
         }
-    int index = chosen->first;
-    if (index < 0 || size_t(index) >= model_.cameras.size())
-        fail(fmt::format("a node names camera {} which does not exist (the file has {})", index,
-                         model_.cameras.size()));
+    int index = chosen->first;  // checked during the traversal
     const tinygltf::Camera& gc = model_.cameras[size_t(index)];
     if (model_.cameras.size() > 1)
         warn(fmt::format("{} cameras; using camera {} ('{}')", model_.cameras.size(), index, gc.name));
@@ -624,7 +728,8 @@ Scene Loader::load() {
     static const std::set<std::string> readable = {"KHR_materials_emissive_strength", "KHR_mesh_quantization",
                                                    "KHR_texture_transform", "KHR_materials_unlit"};
     for (const std::string& e : model_.extensionsRequired)
-        if (!readable.count(e)) fail(fmt::format("the file requires extension '{}', which hrad cannot read", e));
+        if (!readable.count(e))
+            fail(fmt::format("extensionsRequired: the file requires extension '{}', which hrad cannot read", e));
     for (const std::string& e : model_.extensionsUsed)
         if (e == "KHR_lights_punctual")
             warn("KHR_lights_punctual lights (point, spot, directional) are not supported and are ignored; only "
@@ -637,13 +742,14 @@ Scene Loader::load() {
             if (c < 0 || size_t(c) >= numNodes)
                 fail(fmt::format("nodes[{}].children: node {} does not exist (the file has {} nodes)", i, c, numNodes));
             if (parent[size_t(c)] >= 0)
-                fail(fmt::format("node {} is a child of nodes {} and {} (glTF nodes form trees)", c, parent[size_t(c)], i));
+                fail(fmt::format("nodes[{}].children: node {} is also a child of node {} (glTF nodes form trees)", i, c,
+                                 parent[size_t(c)]));
             parent[size_t(c)] = int(i);
         }
     std::vector<int> roots;
     if (!model_.scenes.empty()) {
         int s = model_.defaultScene;
-        if (s >= int(model_.scenes.size())) fail(fmt::format("scene {} does not exist", s));
+        if (s >= int(model_.scenes.size())) fail(fmt::format("scene: scene {} does not exist", s));
         if (s < 0) s = 0;
         roots = model_.scenes[size_t(s)].nodes;
         for (int r : roots) {
@@ -671,7 +777,12 @@ Scene Loader::load() {
         Mat4 world = parentWorld * localMatrix(n);
         const tinygltf::Node& node = model_.nodes[size_t(n)];
         if (node.mesh >= 0) addMesh(node.mesh, world, n);
-        if (node.camera >= 0) cameras.emplace_back(node.camera, world);
+        if (node.camera >= 0) {
+            if (size_t(node.camera) >= model_.cameras.size())
+                fail(fmt::format("nodes[{}].camera: camera {} does not exist (the file has {})", n, node.camera,
+                                 model_.cameras.size()));
+            cameras.emplace_back(node.camera, world);
+        }
         for (auto c = node.children.rbegin(); c != node.children.rend(); ++c) stack.emplace_back(*c, world);
     }
     camera(cameras);
