@@ -301,6 +301,7 @@ class Loader {
     tinygltf::Model model_;
     Scene scene_;
     std::map<int, uint32_t> materialOf_;  // glTF material index -> hrad material
+    std::map<int, RGB> imageMean_;        // image index -> mean of its linear texels
     uint32_t defaultMaterial_ = UINT32_MAX;
     uint64_t skippedPrimitives_ = 0, noPositionPrimitives_ = 0, remainderIndices_ = 0;
     bool vertexColoursSeen_ = false;
@@ -491,6 +492,13 @@ RGB Loader::textureMean(int textureIndex, int materialIndex, const std::string& 
                          materialName, slot, source, img.uri.empty() ? img.name : img.uri));
         return RGB(1.0);
     }
+    auto cached = imageMean_.find(source);
+    if (cached != imageMean_.end()) {
+        warn(fmt::format("material '{}': {} replaced by its mean ({:.4g}, {:.4g}, {:.4g}) (radiosity has one "
+                         "value per material)",
+                         materialName, slot, cached->second.r, cached->second.g, cached->second.b));
+        return cached->second;
+    }
     // Colour textures are sRGB-encoded (§3.9.2); the mean is taken in linear RGB.
     auto toLinear = [](double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); };
     double lut[256];
@@ -513,6 +521,7 @@ RGB Loader::textureMean(int textureIndex, int materialIndex, const std::string& 
         p += size_t(img.component) * size_t(bytesPer);
     }
     RGB mean = sum / double(texels);
+    imageMean_[source] = mean;
     warn(fmt::format("material '{}': {} replaced by its mean ({:.4g}, {:.4g}, {:.4g}) (radiosity has one "
                      "value per material)",
                      materialName, slot, mean.r, mean.g, mean.b));
