@@ -9,6 +9,7 @@
 #include "apps/commands.h"
 #include "core/timer.h"
 #include "reference/cache.h"
+#include "render/gltf_export.h"
 #include "render/image.h"
 #include "render/render.h"
 #include "scene/loader.h"
@@ -39,6 +40,14 @@ int runRender(const RenderCliOptions& opt, Params& params) {
                cam.eye.y, cam.eye.z, cam.target.x, cam.target.y, cam.target.z, cam.up.x, cam.up.y,
                cam.up.z, cam.fovYDegrees);
     fmt::print("wrote {}\nwrote {}\n", exr.string(), png.string());
+    if (opt.writeGlb) {
+        fs::path glb = fs::path(opt.outDir) / "solution.glb";
+        // render.exposure when set, else automatic over the leaves, as the
+        // PLY/glTF export of hrad solve: both commands write the same file.
+        // Interpolated when the render is (render.interpolate).
+        render::writeGlb(*field, glb.string(), {exposure, rs.interpolate});
+        fmt::print("wrote {}\n", glb.string());
+    }
     return 0;
 }
 

@@ -52,6 +52,7 @@ int runSolve(const SolveOptions& opt, Params& params) {
     point.settings = params;
     point.outputs.exr = opt.writeImages;
     point.outputs.ply = opt.writePly;
+    point.outputs.glb = opt.writeGlb;
     point.outputs.errorMap = opt.errorMap;
     point.outputs.solution = opt.writeSolution;
     point.outputs.errorMapWhere = SourceLocation{"command line (--error-map)", 0, 0};

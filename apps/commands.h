@@ -17,6 +17,7 @@ struct SolveOptions {
     bool progress = true;
     bool writeImages = true;
     bool writePly = true;
+    bool writeGlb = false;  ///< --glb: solution.glb (render/gltf_export.h)
     bool errorMap = false;  ///< --error-map (needs --reference-level)
     bool writeSolution = true;  ///< solution.hrsol (--no-solution turns it off)
 };
@@ -25,6 +26,7 @@ struct RenderCliOptions {
     std::string scene;
     std::string solution;  ///< a solution.hrsol
     std::string outDir = "out";
+    bool writeGlb = false;  ///< --glb: also solution.glb
 };
 
 struct SweepCliOptions {

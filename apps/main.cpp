@@ -80,6 +80,8 @@ int main(int argc, char** argv) {
     solve->add_flag("--interpolate", interpolate, "vertex-interpolated reconstruction in the image");
     solve->add_flag("--no-images", noImages, "do not render image.exr / image.png");
     solve->add_flag("--no-ply", noPly, "do not write solution.ply");
+    solve->add_flag("--glb", so.writeGlb,
+                    "also write solution.glb (glTF, vertex colours; interpolated with --interpolate)");
     bool noSolution = false;
     solve->add_flag("--no-solution", noSolution,
                     "do not write solution.hrsol (the solution for hrad render)");
@@ -97,6 +99,8 @@ int main(int argc, char** argv) {
     auto* rWidthOpt = renderCmd->add_option("--width", renderWidth, "image width");
     auto* rHeightOpt = renderCmd->add_option("--height", renderHeight, "image height");
     renderCmd->add_flag("--interpolate", renderInterpolate, "vertex-interpolated reconstruction");
+    renderCmd->add_flag("--glb", rco.writeGlb,
+                        "also write solution.glb (glTF, vertex colours; interpolated with --interpolate)");
 
     // sweep
     auto* sweep = app.add_subcommand("sweep", "run a study (TOML) into a results store (SQLite)");

@@ -20,6 +20,7 @@
 #include "render/camera.h"
 #include "render/error_map.h"
 #include "render/image.h"
+#include "render/gltf_export.h"
 #include "render/ply_export.h"
 #include "render/render.h"
 #include "render/residual.h"
@@ -295,7 +296,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                                  {"emitted_power", rgbJson(sc.emittedPower())},
                                  {"dropped_degenerate", sc.stats.droppedDegenerate}};
     spdlog::info("loaded {}: {} patches in {:.2f} s", sc.name, sc.patches.size(), loadSeconds);
-    if ((p.outputs.exr || p.outputs.ply || p.outputs.errorMap || p.outputs.solution) &&
+    if ((p.outputs.exr || p.outputs.ply || p.outputs.glb || p.outputs.errorMap || p.outputs.solution) &&
         ctx.artefactDir.empty())
         throw Error("outputs requested but no artefact folder given");
 
@@ -418,12 +419,17 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     json artefacts = summary.contains("artefacts") ? summary["artefacts"] : json::object();
     const bool errorMap = p.outputs.errorMap && (ref || r.errorVsPathTraced);
     bool images = p.outputs.exr || errorMap;
-    if (images || p.outputs.ply) {
+    if (images || p.outputs.ply || p.outputs.glb) {
         fs::create_directories(ctx.artefactDir);
         if (p.outputs.ply) {
             fs::path ply = ctx.artefactDir / "solution.ply";
             render::writePly(*field, ply.string(), r.exposure);
             artefacts["ply"] = ply.string();
+        }
+        if (p.outputs.glb) {
+            fs::path glb = ctx.artefactDir / "solution.glb";
+            render::writeGlb(*field, glb.string(), {r.exposure, r.render.interpolate});
+            artefacts["glb"] = glb.string();
         }
         if (images) {
             Timer tr;

@@ -339,6 +339,8 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
                 outputs.exr = getBoolNode(*n, k, file);
             else if (k == "ply")
                 outputs.ply = getBoolNode(*n, k, file);
+            else if (k == "glb")
+                outputs.glb = getBoolNode(*n, k, file);
             else if (k == "solution")
                 outputs.solution = getBoolNode(*n, k, file);
             else if (k == "history_error")
@@ -359,7 +361,7 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
             }
             else
                 throwInputError(loc(file, n->source()),
-                                "unknown key 'outputs.{}' (expected exr, ply, solution, "
+                                "unknown key 'outputs.{}' (expected exr, ply, glb, solution, "
                                 "history_error, error_map, dir)",
                                 k);
         }

@@ -12,7 +12,7 @@
 //               is "oracle.eps").
 //   [reference] kind = "full-matrix" | "montecarlo" | "none", plus the keys
 //               of that reference ("fm.level", "fm.max_area", "mc.samples"...)
-//   [outputs]   exr, ply, solution, history_error, error_map (bools), dir (string,
+//   [outputs]   exr, ply, glb, solution, history_error, error_map (bools), dir (string,
 //               default "runs", relative to the results store). error_map
 //               needs a reference: it renders the reference with the same
 //               camera and writes reference.png, error.png (16-bit data) and
@@ -62,6 +62,7 @@ namespace hrad::experiments {
 struct OutputOptions {
     bool exr = false;           ///< image.exr + image.png of the solution
     bool ply = false;           ///< solution.ply
+    bool glb = false;           ///< solution.glb (render/gltf_export.h; interpolated with render.interpolate)
     bool solution = false;      ///< solution.hrsol (reference/cache.h saveSolution; hrad render)
     bool historyError = false;  ///< L2 error after every iteration (hr solver with a reference)
     bool errorMap = false;      ///< per-pixel error map against the reference (implies exr)

@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/timer.h"
 #include "scene/builtin.h"
+#include "scene/gltf_loader.h"
 #include "scene/mgf_loader.h"
 #include "scene/obj_loader.h"
 #include "scene/ply_loader.h"
@@ -51,6 +52,17 @@ PlyOptions plyOptions(const Params& params) {
     return ply;
 }
 
+GltfOptions gltfOptions(const Params& params) {
+    GltfOptions gltf;
+    gltf.defaultRho = params.getDouble("gltf.default_rho", gltf.defaultRho, 0.0, 1.0);
+    if (!(gltf.defaultRho < 1.0))
+        throwInputError(params.where("gltf.default_rho"), "setting 'gltf.default_rho' must be < 1");
+    gltf.clampRho = params.getDouble("gltf.clamp_rho", gltf.clampRho, 0.0, 0.999999);
+    gltf.emissionScale = params.getDouble("gltf.emission_scale", gltf.emissionScale, 0.0, 1e30);
+    gltf.maxFaces = size_t(params.getInt("gltf.max_faces", int64_t(gltf.maxFaces), 1, int64_t(1) << 40));
+    return gltf;
+}
+
 }  // namespace
 
 // The format registry: a new loader adds its files in scene/ and one line here.
@@ -62,6 +74,8 @@ const std::vector<SceneFormat>& sceneFormats() {
          [](const std::string& path, const Params& p) { return loadMgf(path, mgfOptions(p)); }},
         {"ply", {".ply"}, [](const Params& p) { (void)plyOptions(p); },
          [](const std::string& path, const Params& p) { return loadPly(path, plyOptions(p)); }},
+        {"gltf", {".gltf", ".glb"}, [](const Params& p) { (void)gltfOptions(p); },
+         [](const std::string& path, const Params& p) { return loadGltf(path, gltfOptions(p)); }},
     };
     return formats;
 }

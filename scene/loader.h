@@ -5,6 +5,7 @@
 //   *.obj                         OBJ/MTL (tinyobjloader): Kd -> rho, Ke -> E
 //   *.mgf                         Ward's Materials and Geometry Format
 //   *.ply                         PLY, ASCII or binary, optional colours as rho
+//   *.gltf, *.glb                 glTF 2.0 (tinygltf), see scene/gltf_loader.h
 //
 // Settings (Params keys, all optional):
 //   mgf.resolution   int    16     segments around sph/cyl/cone/ring/torus
@@ -20,6 +21,10 @@
 //   mgf.default_sides int   1      `sides` of MGF materials that do not state it
 //                                  (the MGF spec says 2; RenderPark forces 1)
 //   obj.two_sided    bool   false  every OBJ material is two-sided
+//   gltf.default_rho double 0.5    grey reflectance of glTF primitives without material
+//   gltf.clamp_rho   double 0.99   glTF reflectance channels >= 1 become this (0: error)
+//   gltf.emission_scale double 1   multiplies glTF emission (E = pi * emissive)
+//   gltf.max_faces   int    2e7    most triangles a glTF scene may yield after instancing
 //   two_sided        string "auto" "auto": materials say which surfaces are two-
 //                                  sided (MGF sides 2, ...); "all": every
 //                                  surface; "none": ignore the flags (one-sided)

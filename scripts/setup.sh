@@ -9,6 +9,7 @@ PACKAGES=(
   libembree-dev libglm-dev libopenexr-dev libtbb-dev libeigen3-dev
   libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libfmt-dev libspdlog-dev
   libtinyobjloader-dev libsqlite3-dev sqlite3 libpng-dev zlib1g-dev
+  libtinygltf-dev libstb-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-matplotlib python3-numpy python3-pandas
   clang libclang-rt-14-dev

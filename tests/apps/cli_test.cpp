@@ -307,3 +307,27 @@ TEST(Cli, ForeignAndCorruptStoresExitTwo) {
     EXPECT_EQ(r.code, 2) << r.output;
     EXPECT_NE(r.output.find("no such results store"), std::string::npos) << r.output;
 }
+
+// Issue 12: glTF out (--glb on solve and render) and glTF bad input (exit 2).
+TEST(Cli, GlbOutputAndBadGltfInput) {
+    auto dir = hrad::test::tempDir("cli_glb");
+    Result r = run("solve cornell --eps 1e-2 --glb --no-ply --no-progress --width 40 --height 30 -o " +
+                   (dir / "solve").string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_GT(std::filesystem::file_size(dir / "solve" / "solution.glb"), 1000u);
+    EXPECT_EQ(fileBytes(dir / "solve" / "solution.glb").rfind("glTF", 0), 0u);
+    Result again = run("render cornell " + (dir / "solve" / "solution.hrsol").string() +
+                       " --glb --interpolate --width 40 --height 30 -o " + (dir / "again").string());
+    ASSERT_EQ(again.code, 0) << again.output;
+    EXPECT_GT(std::filesystem::file_size(dir / "again" / "solution.glb"), 1000u);
+
+    auto json = hrad::test::writeFile(dir / "bad.gltf", "{\n  \"asset\": {\"version\": \"2.0\"},\n  \"nodes\": [,]\n}\n");
+    Result bad = run("info " + json.string());
+    EXPECT_EQ(bad.code, 2) << bad.output;
+    EXPECT_NE(bad.output.find("bad.gltf:3: error"), std::string::npos) << bad.output;
+    auto glb = hrad::test::writeFile(dir / "cut.glb", std::string("glTF\x02\0\0\0\xe8\x03\0\0", 12));
+    Result cut = run("info " + glb.string());
+    EXPECT_EQ(cut.code, 2) << cut.output;
+    EXPECT_NE(cut.output.find("truncated GLB"), std::string::npos) << cut.output;
+    EXPECT_NE(cut.output.find("byte offset 12"), std::string::npos) << cut.output;
+}
