@@ -608,7 +608,7 @@ int runSlurm(const Study& study, const SlurmOptions& o) {
     fs::create_directories(r.scriptDir);
     fs::create_directories(r.dir / "logs");
     fs::create_directories(r.dir / "shards");
-    fs::create_directories(r.cache);
+    if (!o.dryRun) fs::create_directories(r.cache);
     fs::create_directories(r.store.parent_path());
     struct File {
         const char* name;
