@@ -40,6 +40,11 @@ int runSweepCommand(const SweepCliOptions& o) {
             throwInputError({"command line (--slurm)", 0, 0},
                             "--slurm writes its own --shard, --points-file and --references-only "
                             "jobs; do not combine them");
+        if (o.noCache || o.maxSeconds > 0 || !o.maxMemory.empty() || o.jobs != 1)
+            throwInputError({"command line (--slurm)", 0, 0},
+                            "--no-cache, --max-seconds, --max-memory and --jobs do not reach the "
+                            "Slurm jobs: set [limits] in the study, and [slurm] cpus / tasks "
+                            "(or --slurm-set) for the jobs");
         experiments::validateStudy(study);
         experiments::SlurmOptions so;
         so.store = store;

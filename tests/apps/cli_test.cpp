@@ -333,6 +333,9 @@ TEST(Cli, SweepSlurmDryRunStatusAndBadSlurmSettings) {
     // Misuse and bad settings: exit 2 naming the option or the study line.
     r = run("sweep " + study.string() + " --slurm --dry-run --shard 0/2 --store " + store);
     EXPECT_EQ(r.code, 2) << r.output;
+    r = run("sweep " + study.string() + " --slurm --dry-run --max-seconds 60 --store " + store);
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("[limits]"), std::string::npos) << r.output;
     r = run("sweep " + study.string() + " --slurm --dry-run --slurm-set mem=lots --store " + store);
     EXPECT_EQ(r.code, 2) << r.output;
     EXPECT_NE(r.output.find("--slurm-set mem=lots"), std::string::npos) << r.output;
