@@ -1,9 +1,13 @@
-// `hrad sweep`: experiments::runSweep with the command-line options.
+// `hrad sweep`: experiments::runSweep with the command-line options; with
+// --status the store's finished / failed / missing points; with --slurm the
+// Slurm pipeline (experiments/slurm.h).
 #include <filesystem>
+#include <fstream>
 
 #include <fmt/format.h>
 
 #include "apps/commands.h"
+#include "experiments/slurm.h"
 #include "experiments/sweep.h"
 
 namespace hrad::app {
@@ -15,6 +19,48 @@ int runSweepCommand(const SweepCliOptions& o) {
     if (o.maxPoints > 0) {
         study.limits.maxPoints = uint64_t(o.maxPoints);
         study.limits.maxPointsWhere = SourceLocation{"command line (--max-points)", 0, 0};
+    }
+    fs::path store = o.store.empty()
+                         ? fs::path(o.study).parent_path() / "results" / (study.name + ".sqlite")
+                         : fs::path(o.store);
+    if (o.status) {
+        experiments::checkPointCount(study);
+        experiments::StoreStatus st = experiments::storeStatus(study, store);
+        std::string text = experiments::describeStatus(study, st) + fmt::format("store: {}\n", store.string());
+        fmt::print("{}", text);
+        if (!o.report.empty()) {
+            std::ofstream out(o.report, std::ios::binary | std::ios::trunc);
+            out << text;
+            if (!out) throw Error(fmt::format("cannot write the report {}", o.report));
+        }
+        return !st.missing.empty() ? 4 : !st.failed.empty() ? 3 : 0;
+    }
+    if (o.slurm) {
+        if (!o.shard.empty() || !o.pointsFile.empty() || o.referencesOnly)
+            throwInputError({"command line (--slurm)", 0, 0},
+                            "--slurm writes its own --shard, --points-file and --references-only "
+                            "jobs; do not combine them");
+        if (o.noCache || o.maxSeconds > 0 || !o.maxMemory.empty() || o.jobs != 1)
+            throwInputError({"command line (--slurm)", 0, 0},
+                            "--no-cache, --max-seconds, --max-memory and --jobs do not reach the "
+                            "Slurm jobs: set [limits] in the study, and [slurm] cpus / tasks "
+                            "(or --slurm-set) for the jobs");
+        experiments::validateStudy(study);
+        experiments::SlurmOptions so;
+        so.store = store;
+        so.dir = o.slurmDir;
+        so.cacheDir = o.cacheDir;
+        for (const std::string& kv : o.slurmSets) {
+            auto eq = kv.find('=');
+            if (eq == std::string::npos || eq == 0)
+                throwInputError({"command line (--slurm-set)", 0, 0}, "expected KEY=VALUE, got '{}'", kv);
+            so.overrides.setFromText(kv.substr(0, eq), kv.substr(eq + 1),
+                                     SourceLocation{"command line (--slurm-set " + kv + ")", 0, 0});
+        }
+        so.dryRun = o.dryRun;
+        so.resume = o.resume;
+        so.retryFailed = o.retryFailed;
+        return experiments::runSlurm(study, so);
     }
     if (o.dryRun) {
         // Streams: each point is built, validated and printed in turn, so a
@@ -30,9 +76,7 @@ int runSweepCommand(const SweepCliOptions& o) {
     }
     experiments::validateStudy(study);
     experiments::SweepOptions so;
-    so.store = o.store.empty()
-                   ? fs::path(o.study).parent_path() / "results" / (study.name + ".sqlite")
-                   : fs::path(o.store);
+    so.store = store;
     so.jobs = o.jobs;
     if (!o.shard.empty()) std::tie(so.shardIndex, so.shardCount) = experiments::parseShard(o.shard);
     so.resume = o.resume;
@@ -43,7 +87,15 @@ int runSweepCommand(const SweepCliOptions& o) {
     so.progress = o.progress;
     so.cacheDir = o.cacheDir;
     so.useCache = !o.noCache;
+    if (!o.pointsFile.empty()) so.pointList = experiments::readPointList(o.pointsFile, study);
+    so.referencesOnly = o.referencesOnly;
     experiments::SweepReport r = experiments::runSweep(study, so);
+    if (o.referencesOnly) {
+        fmt::print("study '{}': {} distinct reference(s) of {} point(s), {} failed\ncache: {}\n",
+                   study.name, r.references, r.selected, r.referencesFailed,
+                   so.cacheDir.empty() ? "(default)" : so.cacheDir);
+        return r.referencesFailed > 0 ? 3 : 0;
+    }
     fmt::print("study '{}': {} point(s), {} in this shard, {} skipped (already done), {} finished, "
                "{} failed\nstore: {}\n",
                study.name, r.points, r.selected, r.skipped, r.finished, r.failed, so.store.string());

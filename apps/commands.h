@@ -44,6 +44,14 @@ struct SweepCliOptions {
     std::string cacheDir;
     bool noCache = false;
     int64_t maxPoints = 0;  ///< sweep.max_points override (0: the study's or the default)
+    // Slurm pipeline and its parts (experiments/slurm.h)
+    bool slurm = false;                  ///< write (and submit) the sbatch pipeline
+    std::string slurmDir;                ///< "" = [slurm] dir or <store>.slurm
+    std::vector<std::string> slurmSets;  ///< key=value over the study's [slurm] table
+    bool referencesOnly = false;         ///< compute the references into the cache only
+    std::string pointsFile;              ///< run only these point indices
+    bool status = false;                 ///< report finished / failed / missing points
+    std::string report;                  ///< --status also writes its report here
 };
 
 struct ReferenceCliOptions {

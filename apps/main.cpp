@@ -121,6 +121,19 @@ int main(int argc, char** argv) {
     sweep->add_option("--cache", sw.cacheDir, "reference cache folder (default $HRAD_CACHE or ~/.cache/hrad)");
     sweep->add_flag("--no-cache", sw.noCache, "compute references in every point, never cache");
     sweep->add_flag("--progress", sw.progress, "show the children's progress and logs");
+    sweep->add_flag("--slurm", sw.slurm,
+                    "write the Slurm pipeline (references, points array, merge) and submit it with "
+                    "sbatch; with --dry-run only write it; with --resume only the missing points");
+    sweep->add_option("--slurm-dir", sw.slurmDir, "folder of the Slurm pipeline (default <store>.slurm)");
+    sweep->add_option("--slurm-set", sw.slurmSets, "KEY=VALUE over the study's [slurm] table (repeatable)");
+    sweep->add_flag("--references-only", sw.referencesOnly,
+                    "compute each distinct reference of the points once into the cache, run no point");
+    sweep->add_option("--points-file", sw.pointsFile,
+                      "run only the point indices listed in this file (--shard splits the list)");
+    sweep->add_flag("--status", sw.status,
+                    "report finished, failed and missing points of the store; exit 4 if any is "
+                    "missing, 3 if any failed");
+    sweep->add_option("--report", sw.report, "with --status: also write the report to this file");
 
     // results
     auto* results = app.add_subcommand("results", "results-store tools");

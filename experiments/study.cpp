@@ -13,6 +13,7 @@
 #include <toml++/toml.h>
 
 #include "experiments/runner.h"
+#include "experiments/slurm.h"
 #include "scene/loader.h"
 
 namespace hrad::experiments {
@@ -217,12 +218,12 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
 
     static const std::set<std::string> topKeys = {"name",   "description", "scenes", "solver",
                                                   "reference", "outputs", "limits",  "sweep",
-                                                  "zip"};
+                                                  "zip", "slurm"};
     for (const auto& [k, n] : ordered(root))
         if (!topKeys.count(k))
             throwInputError(loc(file, n->source()),
                             "unknown top-level key '{}' (expected one of: name, description, "
-                            "scenes, solver, reference, outputs, limits, sweep, zip)",
+                            "scenes, solver, reference, outputs, limits, sweep, zip, slurm)",
                             k);
 
     auto stringOf = [&](const toml::node& n, const std::string& key) {
@@ -391,6 +392,30 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
                                 "unknown key 'limits.{}' (expected max_seconds, max_memory_mb, max_points)", k);
             }
         }
+    }
+
+    // ---- [slurm]: how `hrad sweep --slurm` submits (experiments/slurm.h) ---------------
+    // Scalars become Params with their file:line; the list `sbatch` (extra
+    // #SBATCH lines) is kept as one string, one line per entry. The keys,
+    // types and ranges are checked here by slurmSettingsFromParams, so a typo
+    // is reported by every hrad sweep, not only on the cluster.
+    if (const toml::table* t = requireTable("slurm")) {
+        for (const auto& [k, n] : ordered(*t)) {
+            SourceLocation w = loc(file, n->source());
+            if (const toml::array* a = n->as_array()) {
+                std::string lines;
+                for (const toml::node& e : *a) {
+                    auto v = e.as_string();
+                    if (!v) throwInputError(loc(file, e.source()), "'slurm.{}' must be a list of strings", k);
+                    if (!lines.empty()) lines += '\n';
+                    lines += v->get();
+                }
+                study.slurm.set(k, lines, w);
+            } else {
+                study.slurm.set(k, toValue(*n, "slurm." + k, file), w);
+            }
+        }
+        (void)slurmSettingsFromParams(study.slurm);
     }
 
     // ---- axes ------------------------------------------------------------------------

@@ -31,6 +31,11 @@
 //               overridden by --max-seconds / --max-memory; max_points
 //               (integer, default 1,000,000; sweep.max_points, overridden by
 //               --max-points): a study of more points is refused with the count
+//   [slurm]     how `hrad sweep --slurm` writes its sbatch scripts: partition,
+//               account, time, mem, cpus, tasks, max_parallel, sbatch (list
+//               of extra #SBATCH lines), reference_time, reference_mem,
+//               reference_cpus, merge_time, cache, dir, job_name
+//               (experiments/slurm.h). Checked on load, used only by --slurm.
 //   name must be a plain file name (it names runs/<name> and the store), and
 //   [outputs] dir a relative folder inside the store's folder.
 //   [sweep]     key = [v1, v2, ...]: every list is an axis of a Cartesian
@@ -100,6 +105,9 @@ struct Study {
     std::filesystem::path path;  ///< the study file ("" for a study parsed from text)
     std::string text;            ///< the study file's contents (stored with the results)
     Limits limits;
+    /// The [slurm] table (partition, time, mem, cpus, ...; experiments/slurm.h
+    /// SlurmSettings), each value with its file:line. Unused by local sweeps.
+    Params slurm;
     SourceLocation where;        ///< the study file (line of its `scenes` list)
 
     /// Number of points (scenes x the product of the axis lengths), saturated

@@ -7,12 +7,15 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <deque>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <new>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -37,6 +40,56 @@ std::pair<int, int> parseShard(const std::string& text) {
         throwInputError({"command line (--shard)", 0, 0},
                         "--shard expects i/N with 0 <= i < N, got '{}'", text);
     return {i, n};
+}
+
+std::vector<uint64_t> readPointList(const fs::path& file, const Study& study) {
+    std::ifstream in(file, std::ios::binary);
+    if (!in) throwInputError(SourceLocation{file.string(), 0, 0}, "cannot read the point list");
+    // Streamed token by token: memory is bounded by the number of distinct
+    // indices, which is at most the study's point count.
+    std::vector<uint64_t> list;
+    std::set<uint64_t> seen;
+    int line = 1;
+    std::string token;
+    int tokenLine = 1;
+    auto flush = [&]() {
+        if (token.empty()) return;
+        SourceLocation where{file.string(), tokenLine, 0};
+        bool digits = token.size() <= 19 &&
+                      std::all_of(token.begin(), token.end(), [](char c) { return c >= '0' && c <= '9'; });
+        if (!digits) throwInputError(where, "expected a point index (0, 1, 2, ...), got '{}'", token);
+        uint64_t v = std::stoull(token);
+        if (v >= study.pointCount())
+            throwInputError(where, "point index {} is out of range: study '{}' has {} point(s)", v,
+                            study.name, study.pointCount());
+        if (!seen.insert(v).second) throwInputError(where, "point index {} is listed twice", v);
+        list.push_back(v);
+        token.clear();
+    };
+    bool comment = false;
+    for (int c = in.get(); c != EOF; c = in.get()) {
+        if (c == '\n') {
+            flush();
+            comment = false;
+            ++line;
+        } else if (comment) {
+            continue;
+        } else if (c == '#') {
+            flush();
+            comment = true;
+        } else if (c == ' ' || c == '\t' || c == '\r' || c == ',') {
+            flush();
+        } else {
+            if (token.empty()) tokenLine = line;
+            if (token.size() > 32)
+                throwInputError(SourceLocation{file.string(), tokenLine, 0},
+                                "expected a point index, got '{}...'", token);
+            token.push_back(char(c));
+        }
+    }
+    flush();
+    if (list.empty()) throwInputError(SourceLocation{file.string(), 0, 0}, "the point list is empty");
+    return list;
 }
 
 uint64_t parseBytes(const std::string& text) {
@@ -130,27 +183,43 @@ std::string signalName(int sig) {
 
 SweepReport runSweep(const Study& study, const SweepOptions& opt) {
     validateStudy(study);
-
     SweepReport report;
     report.points = study.pointCount();
-    ResultStore store(opt.store);
-    int64_t existing = store.count("runs") + store.count("failures");
-    if (existing > 0 && !opt.resume)
-        throw Error(fmt::format("results store {} already holds {} run(s) and {} failure(s); pass "
-                                "--resume to continue it (finished points are skipped)",
-                                opt.store.string(), store.count("runs"), store.count("failures")));
-    std::string studyHash =
-        store.addStudy(study.name, study.path.empty() ? "" : fs::absolute(study.path).string(), study.text);
-    std::set<std::string> done = store.runKeys();
-    std::set<std::string> failed = store.failureKeys();
-
-    fs::path work = opt.store;
-    work += ".work";
-    fs::create_directories(work);
-    // Result files left by a sweep that was killed: their points were not
-    // committed (the store is the record), so they are rerun; remove them.
-    for (const auto& e : fs::directory_iterator(work))
-        if (e.path().extension() == ".json") fs::remove(e.path());
+    if (opt.referencesOnly && !opt.useCache)
+        throwInputError({"command line (--references-only)", 0, 0},
+                        "--references-only computes references into the cache; it cannot be "
+                        "combined with --no-cache");
+    // References only: no store; the children's result files go to a private
+    // temporary folder (node-local on a cluster, removed at the end).
+    std::unique_ptr<ResultStore> storePtr;
+    std::string studyHash;
+    std::set<std::string> done, failed;
+    fs::path work;
+    if (opt.referencesOnly) {
+        std::string tmpl = (fs::temp_directory_path() / "hrad-references.XXXXXX").string();
+        if (!mkdtemp(tmpl.data()))
+            throw Error(fmt::format("cannot create a temporary folder {}: {}", tmpl, std::strerror(errno)));
+        work = tmpl;
+    } else {
+        storePtr = std::make_unique<ResultStore>(opt.store);
+        ResultStore& st = *storePtr;
+        int64_t existing = st.count("runs") + st.count("failures");
+        if (existing > 0 && !opt.resume)
+            throw Error(fmt::format("results store {} already holds {} run(s) and {} failure(s); pass "
+                                    "--resume to continue it (finished points are skipped)",
+                                    opt.store.string(), st.count("runs"), st.count("failures")));
+        studyHash = st.addStudy(study.name,
+                                study.path.empty() ? "" : fs::absolute(study.path).string(), study.text);
+        done = st.runKeys();
+        failed = st.failureKeys();
+        work = opt.store;
+        work += ".work";
+        fs::create_directories(work);
+        // Result files left by a sweep that was killed: their points were not
+        // committed (the store is the record), so they are rerun; remove them.
+        for (const auto& e : fs::directory_iterator(work))
+            if (e.path().extension() == ".json") fs::remove(e.path());
+    }
     fs::path artefactRoot =
         (opt.store.has_parent_path() ? opt.store.parent_path() : fs::path(".")) /
         (study.pointCount() == 0 ? fs::path("runs") : fs::path(study.point(0).outputs.dir)) / study.name;
@@ -164,9 +233,20 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
     // ---- select this shard's unfinished points ----------------------------------------
     // This shard's points, built once (validateStudy bounded their number by
     // sweep.max_points); tasks point into this list.
+    // With a point list the shard picks list positions, so the N tasks of a
+    // resubmission share its points evenly.
     std::vector<PointSpec> shardPoints;
-    for (uint64_t i = uint64_t(opt.shardIndex); i < study.pointCount(); i += uint64_t(opt.shardCount))
-        shardPoints.push_back(study.point(i));
+    if (!opt.pointList.empty()) {
+        for (size_t p = size_t(opt.shardIndex); p < opt.pointList.size(); p += size_t(opt.shardCount)) {
+            if (opt.pointList[p] >= study.pointCount())
+                throw Error(fmt::format("point index {} out of range (study has {} points)",
+                                        opt.pointList[p], study.pointCount()));
+            shardPoints.push_back(study.point(opt.pointList[p]));
+        }
+    } else {
+        for (uint64_t i = uint64_t(opt.shardIndex); i < study.pointCount(); i += uint64_t(opt.shardCount))
+            shardPoints.push_back(study.point(i));
+    }
     std::vector<Task> todo;
     std::map<std::string, std::vector<const PointSpec*>> byReference;
     for (const PointSpec& p : shardPoints) {
@@ -241,6 +321,18 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
                               {"message", fmt::format("unreadable result: {}", e.what())}};
                 }
                 fs::remove(t.resultFile);
+            } else if (WIFSIGNALED(status) &&
+                       (WTERMSIG(status) == SIGTERM || WTERMSIG(status) == SIGINT ||
+                        WTERMSIG(status) == SIGHUP)) {
+                // Stopped from outside (scancel, a Slurm time limit, Ctrl-C):
+                // not the point's failure. Nothing is recorded, so the point
+                // stays missing and a resumed sweep runs it again; the
+                // parent, sent the same signal, ends too.
+                spdlog::warn("{} #{} stopped by signal {} ({}); not recorded, it reruns on --resume",
+                             t.isReference ? "reference of point" : "point", t.point->index,
+                             WTERMSIG(status), signalName(WTERMSIG(status)));
+                fs::remove(t.resultFile);
+                continue;
             } else if (WIFSIGNALED(status)) {
                 int sig = WTERMSIG(status);
                 if (sig == SIGALRM)
@@ -265,6 +357,7 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
     if (opt.useCache && !byReference.empty()) {
         std::vector<Task> refTasks;
         int n = 0;
+        report.references = byReference.size();
         for (const auto& [refId, pts] : byReference)
             refTasks.push_back(Task{true, pts.front(), refId, work / fmt::format("reference-{}.json", n++)});
         runTasks(refTasks,
@@ -275,12 +368,19 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
                                       d.value("cached", false) ? "cached" : "computed", secs);
                      } else {
                          referenceFailure[t.key] = r.value("message", "?");
+                         ++report.referencesFailed;
                          spdlog::warn("reference {} failed: {}", t.key, referenceFailure[t.key]);
                      }
                  },
                  false);
     }
 
+    if (opt.referencesOnly) {
+        std::error_code ec;
+        fs::remove_all(work, ec);
+        return report;
+    }
+    ResultStore& store = *storePtr;
     // ---- points ---------------------------------------------------------------------
     std::vector<Task> pointTasks;
     auto recordFailure = [&](const Task& t, const std::string& kind, const std::string& message,

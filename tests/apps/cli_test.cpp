@@ -331,3 +331,45 @@ TEST(Cli, GlbOutputAndBadGltfInput) {
     EXPECT_NE(cut.output.find("truncated GLB"), std::string::npos) << cut.output;
     EXPECT_NE(cut.output.find("byte offset 12"), std::string::npos) << cut.output;
 }
+
+TEST(Cli, SweepSlurmDryRunStatusAndBadSlurmSettings) {
+    auto dir = hrad::test::tempDir("cli_sweep_slurm");
+    auto study = hrad::test::writeFile(
+        dir / "s.toml", "scenes = [\"furnace\"]\n[slurm]\ncpus = 2\n[sweep]\n\"oracle.eps\" = [0.5, 0.2]\n");
+    std::string store = (dir / "s.sqlite").string();
+    Result r = run("sweep " + study.string() + " --slurm --dry-run --store " + store +
+                   " --slurm-set max_parallel=1");
+    EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("2 point(s) in 2 array task(s) (1 at once), 0 distinct reference(s)"),
+              std::string::npos) << r.output;
+    EXPECT_TRUE(std::filesystem::exists(dir / "s.sqlite.slurm" / "points.sbatch"));
+    EXPECT_FALSE(std::filesystem::exists(dir / "s.sqlite.slurm" / "references.sbatch"));
+    EXPECT_FALSE(std::filesystem::exists(dir / "s.sqlite.slurm" / "jobs.txt"));
+    // Nothing ran: both points missing, exit 4; the report file is written.
+    r = run("sweep " + study.string() + " --status --store " + store + " --report " + (dir / "r.txt").string());
+    EXPECT_EQ(r.code, 4) << r.output;
+    EXPECT_NE(r.output.find("2 point(s): 0 finished, 0 failed, 2 missing"), std::string::npos) << r.output;
+    EXPECT_TRUE(std::filesystem::exists(dir / "r.txt"));
+    r = run("sweep " + study.string() + " --store " + store);
+    EXPECT_EQ(r.code, 0) << r.output;
+    r = run("sweep " + study.string() + " --status --store " + store);
+    EXPECT_EQ(r.code, 0) << r.output;
+    // Misuse and bad settings: exit 2 naming the option or the study line.
+    r = run("sweep " + study.string() + " --slurm --dry-run --shard 0/2 --store " + store);
+    EXPECT_EQ(r.code, 2) << r.output;
+    r = run("sweep " + study.string() + " --slurm --dry-run --max-seconds 60 --store " + store);
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("[limits]"), std::string::npos) << r.output;
+    r = run("sweep " + study.string() + " --slurm --dry-run --slurm-set mem=lots --store " + store);
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("--slurm-set mem=lots"), std::string::npos) << r.output;
+    auto bad = hrad::test::writeFile(dir / "bad.toml", "scenes = [\"furnace\"]\n[slurm]\npartiton = \"x\"\n");
+    r = run("sweep " + bad.string() + " --dry-run");
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("bad.toml:3"), std::string::npos) << r.output;
+    auto list = hrad::test::writeFile(dir / "p.txt", "0\n5\n");
+    r = run("sweep " + study.string() + " --points-file " + list.string() + " --store " +
+            (dir / "t.sqlite").string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("p.txt:2"), std::string::npos) << r.output;
+}
