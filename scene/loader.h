@@ -5,6 +5,8 @@
 //   *.obj                         OBJ/MTL (tinyobjloader): Kd -> rho, Ke -> E
 //   *.mgf                         Ward's Materials and Geometry Format
 //   *.ply                         PLY, ASCII or binary, optional colours as rho
+//   *.xml                         Mitsuba 3 (and 0.5/0.6) XML (scene/mitsuba_loader.h,
+//                                 settings mitsuba.* listed there)
 //
 // Settings (Params keys, all optional):
 //   mgf.resolution   int    16     segments around sph/cyl/cone/ring/torus
