@@ -222,6 +222,25 @@ TEST(MitsubaLoader, IncludesAndObjMeshesWithTransform) {
     EXPECT_NE(e.find("include cycle"), std::string::npos) << e;
 }
 
+TEST(MitsubaLoader, PlyMeshesAndUnusedAreaEmitters) {
+    auto dir = test::tempDir("mts_ply");
+    test::writeFile(dir / "q.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+                                   "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                                   "end_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n");
+    Scene s = load(dir, std::string(kLight) + R"(  <shape type="ply"><string name="filename" value="q.ply"/>
+    <boolean name="flip_normals" value="true"/>
+    <transform name="to_world"><scale value="3"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.1, 0.2, 0.3"/></bsdf>
+  </shape>
+  <emitter type="area" id="spare"><rgb name="radiance" value="1"/></emitter>
+)");
+    ASSERT_EQ(s.patches.size(), 2u);
+    EXPECT_NEAR(s.patches[1].area, 9.0, 1e-12);
+    EXPECT_NEAR(s.patches[1].normal.z, -1.0, 1e-12);  // flip_normals
+    EXPECT_NEAR(s.patches[1].rho.b, 0.3, 1e-12);      // the XML BSDF, not the PLY's grey
+    EXPECT_TRUE(hasWarning(s, "scene.xml:11: warning: area emitter 'spare' is attached to no shape"));
+}
+
 TEST(MitsubaLoader, BsdfRulesTwoSidedAndClamping) {
     auto dir = test::tempDir("mts_bsdf");
     Scene s = load(dir, std::string(kLight) + R"(  <bsdf type="twosided" id="plastic">
