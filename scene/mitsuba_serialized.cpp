@@ -141,7 +141,7 @@ SerializedMesh readSerialized(const std::string& path, uint64_t shapeIndex, uint
                                      : readLE<uint32_t>(d.data() + at + entry);
         if (next > start && next <= table) end = next;
     }
-    if (start + 4 > end || end > size)
+    if (end > size || start > end || end - start < 4)  // no start + 4: it may wrap
         r.fail(at, fmt::format("mesh offset {} of shape_index {} lies outside the file", start, shapeIndex));
     if (readLE<uint16_t>(d.data() + start) != kFormatId)
         r.fail(start, fmt::format("no serialized mesh header at the offset of shape_index {}", shapeIndex));

@@ -132,6 +132,11 @@ TEST(MitsubaSerialized, TruncatedOrCorruptFilesNameTheByteOffset) {
     std::string wrong = good;
     wrong[0] = 'X';
     expectError(wrong, "not a Mitsuba serialized mesh");
+    // An offset near 2^64 must not wrap around the bounds check (fuzz finding).
+    std::string wrap = rec;
+    put(wrap, uint64_t(0xFFFFFFFFFFFFFFFEull));
+    put(wrap, uint32_t(1));
+    expectError(wrap, "lies outside the file");
     // Index out of range.
     expectError(serializedFile({meshRecord(kQuadPos, {0, 1, 9}, false)}), "names vertex 9");
 
