@@ -159,7 +159,7 @@ const std::vector<std::string> kEmitterTypes = {"area",   "point",    "spot",   
 const std::vector<std::string> kTopTags = {"shape",   "bsdf",   "texture", "emitter", "sensor",
                                            "integrator", "sampler", "film", "rfilter", "medium",
                                            "phase",   "volume", "spectrum", "default", "include",
-                                           "path",    "camera"};
+                                           "path"};
 
 std::string joinNames(const std::vector<std::string>& v) {
     std::string s;
@@ -696,7 +696,7 @@ class Loader {
             if (type != "area")
                 warn(n, fmt::format("'{}' emitter not supported by radiosity (only area emitters on shapes): "
                                     "ignored", type));
-        } else if (tag == "sensor" || tag == "camera") {
+        } else if (tag == "sensor") {
             sensor(n);
         } else if (tag == "medium" || tag == "volume" || tag == "phase") {
             warn(n, fmt::format("participating media are not supported: <{}> ignored", tag));
@@ -922,7 +922,7 @@ class Loader {
         const BsdfInfo* info = nullptr;
         if (bsdfNode) info = &bsdfOf(bsdfNode);
         if (info && info->transparent && !emitterNode) return;
-        uint32_t material = materialFor(s, bsdfNode, info, emitterNode);
+        uint32_t material = materialFor(bsdfNode, info, emitterNode);
 
         bool flip = boolProp(s, "flip_normals", false);
         std::vector<std::vector<Vec3>> polys = geometry(s, type);
@@ -943,7 +943,7 @@ class Loader {
         }
     }
 
-    uint32_t materialFor(const Node& s, const Node& bsdfNode, const BsdfInfo* info, const Node& emitter) {
+    uint32_t materialFor(const Node& bsdfNode, const BsdfInfo* info, const Node& emitter) {
         auto key = std::make_pair(bsdfNode ? bsdfNode.key() : nullptr, emitter ? emitter.key() : nullptr);
         // A nested (anonymous) emitter is per shape; named BSDFs are shared.
         auto it = materials_.find(key);
@@ -977,7 +977,6 @@ class Loader {
         mat.emitsBothSides = false;  // Mitsuba area lights emit from the front
         uint32_t id = scene_.addMaterial(mat);
         materials_.emplace(key, id);
-        (void)s;
         return id;
     }
 
