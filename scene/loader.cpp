@@ -10,6 +10,7 @@
 #include "scene/builtin.h"
 #include "scene/gltf_loader.h"
 #include "scene/mgf_loader.h"
+#include "scene/mitsuba_loader.h"
 #include "scene/obj_loader.h"
 #include "scene/ply_loader.h"
 
@@ -63,6 +64,19 @@ GltfOptions gltfOptions(const Params& params) {
     return gltf;
 }
 
+MitsubaOptions mitsubaOptions(const Params& params) {
+    MitsubaOptions m;
+    m.resolution = int(params.getInt("mitsuba.resolution", m.resolution, 3, 4096));
+    m.clampRho = params.getDouble("mitsuba.clamp_rho", m.clampRho, 0.0, 0.999999);
+    m.defaultRho = params.getDouble("mitsuba.default_rho", m.defaultRho, 0.0, 0.999999);
+    m.textureRho = params.getDouble("mitsuba.texture_rho", m.textureRho, 0.0, 0.999999);
+    m.maxFaces = uint64_t(params.getInt("mitsuba.max_faces", int64_t(m.maxFaces), 1, int64_t(1) << 40));
+    Params sub = params.subset("mitsuba.param");
+    for (const auto& [key, entry] : sub.entries()) m.params[key] = Params::valueToString(entry.value);
+    params.markUsedPrefix("mitsuba.param");
+    return m;
+}
+
 }  // namespace
 
 // The format registry: a new loader adds its files in scene/ and one line here.
@@ -76,6 +90,8 @@ const std::vector<SceneFormat>& sceneFormats() {
          [](const std::string& path, const Params& p) { return loadPly(path, plyOptions(p)); }},
         {"gltf", {".gltf", ".glb"}, [](const Params& p) { (void)gltfOptions(p); },
          [](const std::string& path, const Params& p) { return loadGltf(path, gltfOptions(p)); }},
+        {"mitsuba", {".xml"}, [](const Params& p) { (void)mitsubaOptions(p); },
+         [](const std::string& path, const Params& p) { return loadMitsuba(path, mitsubaOptions(p)); }},
     };
     return formats;
 }

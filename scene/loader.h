@@ -6,6 +6,8 @@
 //   *.mgf                         Ward's Materials and Geometry Format
 //   *.ply                         PLY, ASCII or binary, optional colours as rho
 //   *.gltf, *.glb                 glTF 2.0 (tinygltf), see scene/gltf_loader.h
+//   *.xml                         Mitsuba 3 (and 0.5/0.6) XML (scene/mitsuba_loader.h,
+//                                 settings mitsuba.* listed there)
 //
 // Settings (Params keys, all optional):
 //   mgf.resolution   int    16     segments around sph/cyl/cone/ring/torus

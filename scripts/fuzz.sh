@@ -11,7 +11,7 @@ cd "$(dirname "$0")/.."
 if [ $# -ne 2 ]; then echo "usage: scripts/fuzz.sh TARGET SECONDS" >&2; exit 2; fi
 TARGET="$1"
 SECONDS_PER="$2"
-ALL=(obj mgf ply study hrsol gltf)
+ALL=(obj mgf ply gltf mitsuba study hrsol)
 if [ "$TARGET" = all ]; then
   for t in "${ALL[@]}"; do bash "$0" "$t" "$SECONDS_PER"; done
   exit 0

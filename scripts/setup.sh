@@ -8,7 +8,7 @@ PACKAGES=(
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev
   libembree-dev libglm-dev libopenexr-dev libtbb-dev libeigen3-dev
   libtomlplusplus-dev libcli11-dev nlohmann-json3-dev libfmt-dev libspdlog-dev
-  libtinyobjloader-dev libsqlite3-dev sqlite3 libpng-dev zlib1g-dev
+  libtinyobjloader-dev libsqlite3-dev sqlite3 libpng-dev zlib1g-dev libpugixml-dev
   libtinygltf-dev libstb-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-matplotlib python3-numpy python3-pandas

@@ -1,0 +1,115 @@
+// Mitsuba 3 XML scene loader (pugixml), also reading the Mitsuba 0.5/0.6
+// files of Bitterli's "Rendering Resources" (camelCase names such as
+// `toWorld`, `diffuseReflectance` are read as their Mitsuba 3 snake_case
+// spelling, as Mitsuba 3's upgrade path does).
+//
+// Reference: the Mitsuba 3 documentation, "Scene XML file format" and the
+// plugin reference (shapes, BSDFs, emitters, sensors); Jakob et al.,
+// Mitsuba 3 renderer, 2022.
+//
+// What becomes what:
+//   shapes     obj and ply (through hrad's OBJ and PLY loaders; the XML BSDF,
+//              not the .mtl, gives the material), serialized (.serialized,
+//              scene/mitsuba_serialized.h), rectangle ([-1,1]^2, z = 0),
+//              disk (unit disk, z = 0), cube ([-1,1]^3), sphere (center,
+//              radius), cylinder (p0, p1, radius, open like Mitsuba's), each
+//              with `to_world` and `flip_normals`. Analytic shapes are
+//              tessellated with `mitsuba.resolution` segments around and then
+//              scaled about their centre/axis so that the polygon area equals
+//              the exact area: emitted power pi L A then matches the path
+//              tracer's. `shapegroup` + `instance` (instance transform times
+//              the shape's), `ref`/`id` (forward references allowed, as
+//              cbox-rgb.xml needs), `default` and `$name` substitution in
+//              every attribute (values from `mitsuba.param.NAME` settings win
+//              over `default`), `include` (relative to the including file).
+//   transforms `matrix` (16 or 9 values, row-major), `translate`, `rotate`
+//              (axis + angle in degrees), `scale`, `lookat`, applied in
+//              order (each one left-multiplies). A singular, non-finite or
+//              malformed transform is an error.
+//   materials  reflectance rho, the rule per BSDF (one warning per material
+//              when the rule loses something):
+//                diffuse, roughdiffuse   reflectance (Mitsuba's default 0.5)
+//                plastic, roughplastic,  diffuse_reflectance (default 0.5):
+//                pplastic                the glossy coat is dropped
+//                conductor,              specular_reflectance x F0, F0 the
+//                roughconductor          normal-incidence Fresnel reflectance
+//                                        ((eta-1)^2+k^2)/((eta+1)^2+k^2) of the
+//                                        given eta, k (Born & Wolf, Principles
+//                                        of Optics, sec. 14.2); without eta/k
+//                                        F0 = 1 (Mitsuba's default "none" is a
+//                                        perfect mirror; named metals are not
+//                                        tabulated: warning)
+//                principled(thin)        base_color (default 0.5)
+//                twosided                its (front) nested BSDF, two-sided
+//                mask, bumpmap,          their nested BSDF (opacity and
+//                normalmap               bump ignored)
+//                blendbsdf               (1 - weight) first + weight second
+//                dielectric, thin/rough- transparent: the shape is NOT added
+//                dielectric, null        (a path tracer sees through it; as
+//                                        an opaque patch it would block the
+//                                        light it transmits)
+//                measured, hair, ...     mitsuba.default_rho grey
+//              A shape without BSDF is diffuse 0.5 (Mitsuba's default).
+//              Colours: rgb (linear), srgb (sRGB-decoded), float, spectrum;
+//              texture: the mean of a bitmap (PNG through libpng's sRGB
+//              decoding, OpenEXR as stored; other formats such as JPEG have no
+//              linked decoder and get mitsuba.texture_rho grey), checkerboard
+//              the mean of its two colours; always with a warning. Channels
+//              >= 1 become mitsuba.clamp_rho with a warning (path-tracer
+//              scenes often use 1.0; 0 makes them an error).
+//              `twosided` sets Material::twoSided; emitsBothSides stays false
+//              since Mitsuba area lights emit from the front only.
+//   spectra    "lambda:value, ..." lists (piecewise linear, zero outside) or
+//              one value; CIE 1931 XYZ by the analytic fit of Wyman, Sloan &
+//              Shirley 2013 (JCGT 2(2), eq. 2), 1 nm steps, then linear sRGB
+//              (IEC 61966-2-1 matrix). Emission is normalised by the integral
+//              of y-bar (equal-energy white, as Mitsuba 3's RGB modes do);
+//              reflectance is further divided per channel by the RGB of a
+//              constant-1 spectrum, so that flat spectra stay neutral
+//              greys (Mitsuba weights reflectances by D65 for the same end).
+//   emitters   `area` on any shape: radiance L -> radiosity E = pi L. point,
+//              spot, directional, envmap, constant, projector and area lights
+//              no shape uses: one warning each, naming file:line (ignored).
+//   camera     the first `perspective` (or `thinlens`) sensor: fov with
+//              fov_axis x / y / diagonal / smaller / larger (default x) and the
+//              film's width/height (default 768 x 576) give the vertical fov;
+//              focal_length (default "50mm") uses a 36 x 24 mm film diagonal;
+//              to_world (lookat or matrix) gives eye, target, up, and
+//              Scene::upAxis is the up vector's dominant axis (Y when there
+//              is no sensor).
+// Renderer-only elements (integrator, sampler, film, rfilter) are ignored;
+// media get a warning. An unknown element or plugin type is an error listing
+// the known ones.
+//
+// Settings (Params keys):
+//   mitsuba.resolution  int    24    segments around disk/sphere/cylinder
+//                                    (3..4096; spheres have half as many rings)
+//   mitsuba.clamp_rho   double 0.99  reflectance channels >= 1 become this
+//                                    (< 1) with a warning; 0 = error instead
+//   mitsuba.default_rho double 0.5   grey of BSDFs without a diffuse albedo
+//   mitsuba.texture_rho double 0.5   grey of textures that cannot be read
+//   mitsuba.max_faces   int    2e7   most faces the scene may yield
+//   mitsuba.param.NAME  string       value of $NAME (overrides <default>)
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+
+#include "scene/scene.h"
+
+namespace hrad::scene {
+
+struct MitsubaOptions {
+    int resolution = 24;
+    double clampRho = 0.99;
+    double defaultRho = 0.5;
+    double textureRho = 0.5;
+    uint64_t maxFaces = 20000000;
+    std::map<std::string, std::string> params;  ///< $NAME values from settings
+};
+
+/// Loads a Mitsuba XML scene; throws InputError with FILE:LINE on bad input.
+Scene loadMitsuba(const std::string& path, const MitsubaOptions& options = {});
+
+}  // namespace hrad::scene
