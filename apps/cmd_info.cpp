@@ -4,6 +4,7 @@
 
 #include "apps/commands.h"
 #include "core/memory.h"
+#include "scene/coplanar.h"
 #include "scene/loader.h"
 
 namespace hrad::app {
@@ -28,6 +29,13 @@ int runInfo(const std::string& spec, Params& params) {
     if (st.defaultMaterialFaces)
         fmt::print("default mat.   {} faces had no material\n", st.defaultMaterialFaces);
     if (st.ignoredStatements) fmt::print("ignored        {} statements\n", st.ignoredStatements);
+    {
+        scene::CoplanarOverlaps ov(s);
+        if (!ov.empty())
+            fmt::print("stacked faces  {} pairs of coplanar overlapping faces; {} patches are hidden "
+                       "in part (the emitting, else the smaller, face is in front: scene/coplanar.h)\n",
+                       ov.numPairs(), ov.numHiddenPatches());
+    }
     fmt::print("emitters       {} patches\n", s.numEmitters());
     fmt::print("total area     {:.6g}\n", s.totalArea());
     fmt::print("emitted power  ({:.6g}, {:.6g}, {:.6g})  [E * area, RGB]\n", power.r, power.g,

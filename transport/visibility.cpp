@@ -39,6 +39,7 @@
 #include <string>
 
 #include "core/error.h"
+#include "scene/coplanar.h"
 
 namespace hrad::transport {
 
@@ -47,14 +48,30 @@ namespace {
 constexpr float kSegmentTfar = 1.0f - 1e-5f;
 constexpr size_t kBatch = 256;  // rays per rtcOccluded1M call (stack buffer)
 
+/// Stacked coplanar faces (scene/coplanar.h), as the filters need them.
+struct CoplanarData {
+    const scene::CoplanarOverlaps* overlaps = nullptr;  ///< null: the scene has none
+    const uint32_t* twin = nullptr;  ///< back twin of each front patch (null: no two-sided)
+    const Vec3* normal = nullptr;    ///< plane of every patch: normal and offset
+    const double* offset = nullptr;
+};
+
 /// An intersection context carrying one (patchA, patchB) pair per ray.
 struct QueryContext {
     RTCIntersectContext ctx;  // must be first: Embree hands us &ctx
-    const uint32_t* pairs;    // 2 entries per ray, indexed by the ray's id
+    const uint32_t* pairs;    // 2 entries per ray (front patches), indexed by the ray's id
+    const uint32_t* endpoints = nullptr;  // the same, as given (occlusion with stacked faces)
+    const CoplanarData* coplanar = nullptr;
+    bool nearest = false;     // rtcIntersect1: the nearest hit must be a visible face
 };
 
 /// Filter for both occlusion and intersection: reject hits on the ray's own
-/// patches. geometryUserPtr is the geometry's primID -> patch table.
+/// patches. geometryUserPtr is the geometry's primID -> patch table. With
+/// stacked coplanar faces, an occlusion ray also ignores the faces lying in
+/// the plane of its end points where they overlap them (whether the end
+/// point itself is hidden is decided before the ray is cast), and a nearest-
+/// hit query rejects a hit on a face at a point where another face is in
+/// front of it, so the query returns that face.
 void ignoreEndpointsFilter(const RTCFilterFunctionNArguments* args) {
     const auto* qc = reinterpret_cast<const QueryContext*>(args->context);
     const auto* primToPatch = static_cast<const uint32_t*>(args->geometryUserPtr);
@@ -64,7 +81,33 @@ void ignoreEndpointsFilter(const RTCFilterFunctionNArguments* args) {
         unsigned id = RTCRayN_id(args->ray, N, i);
         unsigned prim = RTCHitN_primID(args->hit, N, i);
         uint32_t patch = primToPatch[prim];
-        if (patch == qc->pairs[2 * id] || patch == qc->pairs[2 * id + 1]) args->valid[i] = 0;
+        if (patch == qc->pairs[2 * id] || patch == qc->pairs[2 * id + 1]) {
+            args->valid[i] = 0;
+            continue;
+        }
+        const CoplanarData* cd = qc->coplanar;
+        if (!cd) continue;
+        const scene::CoplanarOverlaps& ov = *cd->overlaps;
+        uint32_t back = cd->twin ? cd->twin[patch] : UINT32_MAX;
+        if (qc->endpoints) {
+            for (int k = 0; k < 2; ++k) {
+                uint32_t e = qc->endpoints[2 * id + k];
+                if (e != UINT32_MAX && (ov.partners(e, patch) || (back != UINT32_MAX && ov.partners(e, back))))
+                    args->valid[i] = 0;
+            }
+        }
+        if (qc->nearest && args->valid[i] == -1) {
+            Vec3 org(RTCRayN_org_x(args->ray, N, i), RTCRayN_org_y(args->ray, N, i),
+                     RTCRayN_org_z(args->ray, N, i));
+            Vec3 dir(RTCRayN_dir_x(args->ray, N, i), RTCRayN_dir_y(args->ray, N, i),
+                     RTCRayN_dir_z(args->ray, N, i));
+            const Vec3& n = cd->normal[patch];
+            double dn = glm::dot(n, dir);
+            if (dn == 0.0) continue;
+            Vec3 x = org + ((cd->offset[patch] - glm::dot(n, org)) / dn) * dir;
+            uint32_t side = dn > 0.0 && back != UINT32_MAX ? back : patch;
+            if (ov.hidden(side, x)) args->valid[i] = 0;
+        }
     }
 }
 
@@ -92,6 +135,11 @@ struct Visibility::Impl {
     // every patch, and the back twin and normal of every front patch.
     std::vector<uint32_t> front, twin;
     std::vector<Vec3> normal;
+    // Stacked coplanar faces (none: `coplanar.overlaps` is null).
+    scene::CoplanarOverlaps overlaps;
+    std::vector<Vec3> planeNormal;
+    std::vector<double> planeOffset;
+    CoplanarData coplanar;
     unsigned triGeom = RTC_INVALID_GEOMETRY_ID, quadGeom = RTC_INVALID_GEOMETRY_ID;
 
     void check(const char* what) const {
@@ -130,6 +178,19 @@ Visibility::Visibility(const scene::Scene& sc) : impl_(std::make_unique<Impl>())
             m.twin[i] = sc.patches[i].twin;
             m.normal[i] = sc.patches[i].normal;
         }
+    }
+    m.overlaps = scene::CoplanarOverlaps(sc);
+    if (!m.overlaps.empty()) {
+        m.planeNormal.resize(sc.patches.size());
+        m.planeOffset.resize(sc.patches.size());
+        for (uint32_t i = 0; i < sc.patches.size(); ++i) {
+            m.planeNormal[i] = sc.patches[i].normal;
+            m.planeOffset[i] = glm::dot(sc.patches[i].normal, sc.patches[i].v[0]);
+        }
+        m.coplanar.overlaps = &m.overlaps;
+        m.coplanar.twin = m.twin.empty() ? nullptr : m.twin.data();
+        m.coplanar.normal = m.planeNormal.data();
+        m.coplanar.offset = m.planeOffset.data();
     }
     for (uint32_t i = 0; i < sc.patches.size(); ++i)
         if (!sc.patches[i].backSide)
@@ -180,7 +241,9 @@ uint32_t Visibility::frontOf(uint32_t patch) const {
 
 void Visibility::occluded(const Segment* segments, size_t count, uint8_t* out) const {
     alignas(16) RTCRay rays[kBatch];
-    uint32_t pairs[2 * kBatch];
+    uint32_t pairs[2 * kBatch], endpoints[2 * kBatch];
+    const CoplanarData* cd = impl_->coplanar.overlaps ? &impl_->coplanar : nullptr;
+    bool hiddenEnd[kBatch];
     for (size_t base = 0; base < count; base += kBatch) {
         size_t n = std::min(kBatch, count - base);
         for (size_t i = 0; i < n; ++i) {
@@ -200,14 +263,23 @@ void Visibility::occluded(const Segment* segments, size_t count, uint8_t* out) c
             r.flags = 0;
             pairs[2 * i] = frontOf(s.patchA);
             pairs[2 * i + 1] = frontOf(s.patchB);
+            endpoints[2 * i] = s.patchA;
+            endpoints[2 * i + 1] = s.patchB;
+            // An end point inside a face stacked in front of its own face is
+            // hidden: nothing reaches it (scene/coplanar.h).
+            hiddenEnd[i] = cd && ((s.patchA != UINT32_MAX && cd->overlaps->hidden(s.patchA, s.a)) ||
+                                  (s.patchB != UINT32_MAX && cd->overlaps->hidden(s.patchB, s.b)));
+            if (hiddenEnd[i]) r.tfar = -1.0f;  // Embree skips rays with tfar < tnear
         }
         QueryContext qc;
         rtcInitIntersectContext(&qc.ctx);
         qc.ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
         qc.pairs = pairs;
+        qc.endpoints = cd ? endpoints : nullptr;
+        qc.coplanar = cd;
         rtcOccluded1M(impl_->scene, &qc.ctx, rays, unsigned(n), sizeof(RTCRay));
         // An occluded ray has tfar set to -inf.
-        for (size_t i = 0; i < n; ++i) out[base + i] = rays[i].tfar < 0.0f ? 1 : 0;
+        for (size_t i = 0; i < n; ++i) out[base + i] = (hiddenEnd[i] || rays[i].tfar < 0.0f) ? 1 : 0;
     }
 }
 
@@ -240,6 +312,8 @@ RayHit Visibility::intersect(const Vec3& origin, const Vec3& dir, double tmin, d
     QueryContext qc;
     rtcInitIntersectContext(&qc.ctx);
     qc.pairs = pairs;
+    qc.coplanar = impl_->coplanar.overlaps ? &impl_->coplanar : nullptr;
+    qc.nearest = true;
     rtcIntersect1(impl_->scene, &qc.ctx, &rh);
     RayHit out;
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return out;

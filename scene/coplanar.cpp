@@ -1,0 +1,209 @@
+#include "scene/coplanar.h"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+namespace hrad::scene {
+
+namespace {
+
+using Vec2 = glm::dvec2;
+
+/// Polygon of a patch in 2-D (the two axes other than the normal's dominant
+/// one), counter-clockwise.
+std::vector<Vec2> project(const Patch& p, int drop) {
+    std::vector<Vec2> out;
+    for (int k = 0; k < p.numVertices(); ++k) {
+        const Vec3& v = p.v[k];
+        out.push_back(drop == 0 ? Vec2(v.y, v.z) : drop == 1 ? Vec2(v.z, v.x) : Vec2(v.x, v.y));
+    }
+    double a = 0.0;
+    for (size_t i = 0; i < out.size(); ++i) {
+        const Vec2& p0 = out[i];
+        const Vec2& p1 = out[(i + 1) % out.size()];
+        a += p0.x * p1.y - p1.x * p0.y;
+    }
+    if (a < 0) std::reverse(out.begin(), out.end());
+    return out;
+}
+
+double area2(const std::vector<Vec2>& poly) {
+    double a = 0.0;
+    for (size_t i = 0; i < poly.size(); ++i) {
+        const Vec2& p0 = poly[i];
+        const Vec2& p1 = poly[(i + 1) % poly.size()];
+        a += p0.x * p1.y - p1.x * p0.y;
+    }
+    return 0.5 * a;
+}
+
+/// Sutherland-Hodgman: `subject` clipped by the convex counter-clockwise `clip`.
+std::vector<Vec2> clipConvex(std::vector<Vec2> subject, const std::vector<Vec2>& clip) {
+    for (size_t e = 0; e < clip.size() && !subject.empty(); ++e) {
+        const Vec2 a = clip[e], b = clip[(e + 1) % clip.size()];
+        auto side = [&](const Vec2& p) { return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x); };
+        std::vector<Vec2> out;
+        for (size_t i = 0; i < subject.size(); ++i) {
+            const Vec2 p = subject[i], q = subject[(i + 1) % subject.size()];
+            double sp = side(p), sq = side(q);
+            if (sp >= 0) out.push_back(p);
+            if ((sp >= 0) != (sq >= 0)) out.push_back(p + (q - p) * (sp / (sp - sq)));
+        }
+        subject = std::move(out);
+    }
+    return subject;
+}
+
+struct PlaneKey {
+    int32_t nx, ny, nz;
+    int64_t d;
+    bool operator==(const PlaneKey& o) const { return nx == o.nx && ny == o.ny && nz == o.nz && d == o.d; }
+};
+struct PlaneKeyHash {
+    size_t operator()(const PlaneKey& k) const {
+        uint64_t h = uint64_t(int64_t(k.nx)) * 0x9E3779B97F4A7C15ULL;
+        h ^= uint64_t(int64_t(k.ny)) * 0xC2B2AE3D27D4EB4FULL + (h << 6) + (h >> 2);
+        h ^= uint64_t(int64_t(k.nz)) * 0x165667B19E3779F9ULL + (h << 6) + (h >> 2);
+        h ^= uint64_t(k.d) * 0x27D4EB2F165667C5ULL + (h << 6) + (h >> 2);
+        return size_t(h);
+    }
+};
+
+}  // namespace
+
+bool CoplanarOverlaps::inFront(const Patch& g, uint32_t gi, const Patch& p, uint32_t pi) {
+    bool ge = g.isEmitter(), pe = p.isEmitter();
+    if (ge != pe) return ge;
+    if (g.area != p.area) return g.area < p.area;
+    return gi < pi;
+}
+
+CoplanarOverlaps::CoplanarOverlaps(const Scene& scene) {
+    const uint32_t n = uint32_t(scene.patches.size());
+    if (n < 2) return;
+    Bounds3 b = scene.bounds();
+    const double diag = glm::length(b.hi - b.lo);
+    const double tol = std::max(1e-6 * diag, 1e-300);
+    std::unordered_map<PlaneKey, std::vector<uint32_t>, PlaneKeyHash> buckets;
+    std::vector<double> offset(n);
+    for (uint32_t i = 0; i < n; ++i) {
+        const Patch& p = scene.patches[i];
+        offset[i] = glm::dot(p.normal, p.v[0]);
+        PlaneKey k{int32_t(std::lround(p.normal.x * 1000)), int32_t(std::lround(p.normal.y * 1000)),
+                   int32_t(std::lround(p.normal.z * 1000)), int64_t(std::floor(offset[i] / tol))};
+        buckets[k].push_back(i);
+    }
+    std::vector<std::pair<uint32_t, uint32_t>> found;
+    struct Item {
+        uint32_t patch;
+        std::vector<Vec2> poly;
+        Vec2 lo, hi;
+        double area;
+    };
+    for (const auto& [key, members] : buckets) {
+        // This cell and the next offset cell (each pair of cells once).
+        std::vector<uint32_t> cand = members;
+        PlaneKey next = key;
+        next.d += 1;
+        auto it = buckets.find(next);
+        size_t own = cand.size();
+        if (it != buckets.end()) cand.insert(cand.end(), it->second.begin(), it->second.end());
+        if (cand.size() < 2) continue;
+        const Vec3& nrm = scene.patches[cand[0]].normal;
+        Vec3 an = glm::abs(nrm);
+        int drop = an.x >= an.y && an.x >= an.z ? 0 : (an.y >= an.z ? 1 : 2);
+        std::vector<Item> items;
+        items.reserve(cand.size());
+        for (uint32_t c : cand) {
+            Item it2{c, project(scene.patches[c], drop), Vec2(1e300), Vec2(-1e300), 0.0};
+            for (const Vec2& q : it2.poly) {
+                it2.lo = glm::min(it2.lo, q);
+                it2.hi = glm::max(it2.hi, q);
+            }
+            it2.area = area2(it2.poly);
+            items.push_back(std::move(it2));
+        }
+        std::vector<size_t> order(items.size());
+        for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+        std::sort(order.begin(), order.end(), [&](size_t x, size_t y) { return items[x].lo.x < items[y].lo.x; });
+        for (size_t oi = 0; oi < order.size(); ++oi) {
+            const Item& A = items[order[oi]];
+            for (size_t oj = oi + 1; oj < order.size(); ++oj) {
+                const Item& B = items[order[oj]];
+                if (B.lo.x >= A.hi.x) break;
+                // Pairs inside the next cell are found when that cell is visited.
+                if (order[oi] >= own && order[oj] >= own) continue;
+                if (B.lo.y >= A.hi.y || A.lo.y >= B.hi.y) continue;
+                const Patch& pa = scene.patches[A.patch];
+                const Patch& pb = scene.patches[B.patch];
+                if (glm::dot(pa.normal, pb.normal) < 1.0 - 1e-6) continue;
+                if (std::fabs(offset[A.patch] - offset[B.patch]) > tol) continue;
+                double common = std::fabs(area2(clipConvex(A.poly, B.poly)));
+                if (common > 1e-6 * std::min(A.area, B.area))
+                    found.emplace_back(std::min(A.patch, B.patch), std::max(A.patch, B.patch));
+            }
+        }
+    }
+    std::sort(found.begin(), found.end());
+    found.erase(std::unique(found.begin(), found.end()), found.end());
+    pairs_ = found.size();
+    if (found.empty()) return;
+    std::vector<std::vector<uint32_t>> cover(n), partner(n);
+    for (auto [i, j] : found) {
+        const Patch& pi = scene.patches[i];
+        const Patch& pj = scene.patches[j];
+        if (inFront(pi, i, pj, j))
+            cover[j].push_back(i);
+        else
+            cover[i].push_back(j);
+        partner[i].push_back(j);
+        partner[j].push_back(i);
+    }
+    coverOffsets_.assign(size_t(n) + 1, 0);
+    partnerOffsets_.assign(size_t(n) + 1, 0);
+    for (uint32_t p = 0; p < n; ++p) {
+        coverOffsets_[p + 1] = coverOffsets_[p] + cover[p].size();
+        partnerOffsets_[p + 1] = partnerOffsets_[p] + partner[p].size();
+        for (uint32_t g : cover[p]) {
+            const Patch& G = scene.patches[g];
+            Face f;
+            f.v = G.v;
+            f.n = G.numVertices();
+            f.normal = G.normal;
+            covers_.push_back(f);
+        }
+        partners_.insert(partners_.end(), partner[p].begin(), partner[p].end());
+    }
+}
+
+uint64_t CoplanarOverlaps::numHiddenPatches() const {
+    uint64_t k = 0;
+    for (size_t p = 0; p + 1 < coverOffsets_.size(); ++p) k += coverOffsets_[p + 1] > coverOffsets_[p] ? 1 : 0;
+    return k;
+}
+
+bool CoplanarOverlaps::hidden(uint32_t p, const Vec3& x) const {
+    if (p + 1 >= coverOffsets_.size()) return false;
+    for (uint64_t i = coverOffsets_[p]; i < coverOffsets_[p + 1]; ++i) {
+        const Face& f = covers_[i];
+        bool inside = true;
+        for (int k = 0; k < f.n && inside; ++k) {
+            const Vec3& a = f.v[k];
+            const Vec3& b = f.v[(k + 1) % f.n];
+            // Counter-clockwise about the normal: inside is to the left of every edge.
+            inside = glm::dot(glm::cross(b - a, x - a), f.normal) >= 0.0;
+        }
+        if (inside) return true;
+    }
+    return false;
+}
+
+bool CoplanarOverlaps::partners(uint32_t p, uint32_t q) const {
+    if (p + 1 >= partnerOffsets_.size()) return false;
+    for (uint64_t i = partnerOffsets_[p]; i < partnerOffsets_[p + 1]; ++i)
+        if (partners_[i] == q) return true;
+    return false;
+}
+
+}  // namespace hrad::scene

@@ -1,0 +1,63 @@
+// Stacked coplanar faces (scene/coplanar.h): which pairs are found and which
+// face is in front where they overlap.
+#include "scene/coplanar.h"
+
+#include <gtest/gtest.h>
+
+#include "tests/scenes.h"
+
+namespace hrad::scene {
+namespace {
+
+uint32_t quadUp(Scene& s, double x0, double y0, double x1, double y1, double z, uint32_t m) {
+    test::addQuadFacing(s, Vec3(x0, y0, z), Vec3(x1, y0, z), Vec3(x1, y1, z), Vec3(x0, y1, z), m,
+                        Vec3(0.5 * (x0 + x1), 0.5 * (y0 + y1), z + 1));
+    return uint32_t(s.patches.size() - 1);
+}
+
+TEST(CoplanarOverlaps, TilesSharingEdgesAreNotPairs) {
+    Scene s;
+    uint32_t m = s.addMaterial({"m", RGB(0.5), RGB(0.0)});
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) quadUp(s, i, j, i + 1, j + 1, 0.0, m);
+    CoplanarOverlaps ov(s);
+    EXPECT_TRUE(ov.empty());
+    EXPECT_FALSE(ov.hidden(4, Vec3(1.5, 1.5, 0)));
+}
+
+TEST(CoplanarOverlaps, TheSmallerFaceLiesOnTheLargerOne) {
+    Scene s;
+    uint32_t m = s.addMaterial({"m", RGB(0.5), RGB(0.0)});
+    uint32_t table = quadUp(s, 0, 0, 2, 2, 0.7, m);
+    uint32_t box = quadUp(s, 0.5, 0.5, 1.0, 1.0, 0.7, m);
+    uint32_t apart = quadUp(s, 0.5, 0.5, 1.0, 1.0, 0.701, m);  // 1 mm above: not coplanar
+    CoplanarOverlaps ov(s);
+    EXPECT_EQ(ov.numPairs(), 1u);
+    EXPECT_EQ(ov.numHiddenPatches(), 1u);
+    EXPECT_TRUE(ov.partners(table, box));
+    EXPECT_FALSE(ov.partners(table, apart));
+    EXPECT_TRUE(ov.hidden(table, Vec3(0.75, 0.75, 0.7)));   // under the box
+    EXPECT_FALSE(ov.hidden(table, Vec3(1.5, 1.5, 0.7)));    // outside it
+    EXPECT_FALSE(ov.hidden(box, Vec3(0.75, 0.75, 0.7)));    // the box is in front
+}
+
+TEST(CoplanarOverlaps, OppositeFacesAndEmittersFirst) {
+    Scene s;
+    uint32_t m = s.addMaterial({"m", RGB(0.5), RGB(0.0)});
+    uint32_t e = s.addMaterial({"e", RGB(0.0), RGB(1.0)});
+    uint32_t wall = quadUp(s, 0, 0, 1, 1, 0.0, m);
+    // The same polygon facing down (the other side of a wall): not a pair.
+    test::addQuadFacing(s, Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), m,
+                        Vec3(0.5, 0.5, -1));
+    // A larger emitter in the same plane: an emitter is in front of a
+    // non-emitter whatever their sizes.
+    uint32_t lamp = quadUp(s, -1, -1, 2, 2, 0.0, e);
+    CoplanarOverlaps ov(s);
+    EXPECT_EQ(ov.numPairs(), 1u);
+    EXPECT_TRUE(ov.hidden(wall, Vec3(0.5, 0.5, 0)));
+    EXPECT_FALSE(ov.hidden(lamp, Vec3(0.5, 0.5, 0)));
+    EXPECT_FALSE(ov.hidden(1, Vec3(0.5, 0.5, 0)));
+}
+
+}  // namespace
+}  // namespace hrad::scene
