@@ -69,6 +69,7 @@ json metricsJson(const reference::ErrorMetrics& m) {
                 {"l1_reflected_lum", m.l1ReflLum}, {"l2_reflected_lum", m.l2ReflLum},
                 {"l1_nonemitter_lum", m.l1NonEmitLum}, {"l2_nonemitter_lum", m.l2NonEmitLum},
                 {"mean_ratio_nonemitter", m.meanRatioNonEmit},
+                {"dark_reflected_fraction", m.darkReflectedFraction}, {"dark_regions", m.darkRegions},
                 {"regions", m.regions}};
 }
 

@@ -42,6 +42,9 @@ public:
         sm["cluster_model"] = res->clusterModel;
         sm["converged"] = res->converged;
         sm["residual"] = res->history.empty() ? json(nullptr) : json(res->history.back().residual);
+        sm["iteration_error"] = res->history.empty() || !std::isfinite(res->history.back().iterationError)
+                                    ? json(nullptr)
+                                    : json(res->history.back().iterationError);
         sm["link_cap_hit"] = res->linkCapHit;
         sm["memory_budget_hit"] = res->memoryBudgetHit;
         sm["time_limit_hit"] = res->timeLimitHit;
@@ -79,6 +82,8 @@ public:
                                 {"rays", it.rays},
                                 {"form_factors", it.formFactors},
                                 {"residual", it.residual},
+                                {"iteration_error", std::isfinite(it.iterationError) ? json(it.iterationError)
+                                                                                      : json(nullptr)},
                                 {"extrapolation", it.extrapolation},
                                 {"reflected_power", rgbJson(it.reflectedPower)},
                                 {"refine_s", it.refineSeconds},

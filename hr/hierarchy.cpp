@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/rng.h"
+#include "core/timer.h"
 
 namespace hrad::hr {
 
@@ -244,61 +245,60 @@ std::vector<uint32_t> Hierarchy::linkReceivers() const {
     return r;
 }
 
-void Hierarchy::gather() {
-    uint32_t n = numElements();
-    bool oriented = model_ == cluster::ClusterModel::Oriented && numClusters_ > 0;
-    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 256), [&](const auto& range) {
-        for (uint32_t r = range.begin(); r != range.end(); ++r) {
-            RGB sum(0.0);
-            // Fixed summation order within a row: results do not depend on
-            // how the range is split between threads.
-            bool haveCenter = false;
-            Vec3 cr(0.0);
-            for (uint64_t i = linkBegin(r); i < linkEnd(r); ++i) {
-                uint32_t s = links_[i].sender;
-                if (oriented && isCluster(s)) {
-                    // An oriented cluster sends what its surfaces facing the
-                    // receiver carry, not its mean radiosity.
-                    if (!haveCenter) {
-                        cr = center(r);
-                        haveCenter = true;
-                    }
-                    Vec3 d = cr - tree_->node(clusterIndex(s)).centroid;
-                    double len = glm::length(d);
-                    sum += double(links_[i].K) * (len > 0 ? directionalB(s, d / len) : B_[s]);
-                } else {
-                    sum += double(links_[i].K) * B_[s];
-                }
+RGB Hierarchy::gatherRow(uint32_t r) const {
+    const bool oriented = model_ == cluster::ClusterModel::Oriented && numClusters_ > 0;
+    RGB sum(0.0);
+    // Fixed summation order within a row: results do not depend on how rows
+    // are split between threads.
+    bool haveCenter = false;
+    Vec3 cr(0.0);
+    for (uint64_t i = linkBegin(r); i < linkEnd(r); ++i) {
+        uint32_t s = links_[i].sender;
+        if (oriented && isCluster(s)) {
+            // An oriented cluster sends what its surfaces facing the
+            // receiver carry, not its mean radiosity.
+            if (!haveCenter) {
+                cr = center(r);
+                haveCenter = true;
             }
-            if (patch_[r] == kNone)
-                // A cluster gathers irradiance (reflected per surface when
-                // pushed); oriented clusters push link by link instead.
-                gathered_[r] = model_ == cluster::ClusterModel::Isotropic ? sum : RGB(0.0);
-            else
-                gathered_[r] = scene_->patches[patch_[r]].rho * sum;
+            Vec3 d = cr - tree_->node(clusterIndex(s)).centroid;
+            double len = glm::length(d);
+            sum += double(links_[i].K) * (len > 0 ? directionalB(s, d / len) : B_[s]);
+        } else {
+            sum += double(links_[i].K) * B_[s];
         }
+    }
+    if (patch_[r] == kNone)
+        // A cluster gathers irradiance (reflected per surface when pushed);
+        // oriented clusters push link by link instead.
+        return model_ == cluster::ClusterModel::Isotropic ? sum : RGB(0.0);
+    return scene_->patches[patch_[r]].rho * sum;
+}
+
+void Hierarchy::gather() {
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, numElements(), 256), [&](const auto& range) {
+        for (uint32_t r = range.begin(); r != range.end(); ++r) gathered_[r] = gatherRow(r);
     });
 }
 
-void Hierarchy::pushPull() {
+std::vector<RGB> Hierarchy::clusterIrradianceToRoots() const {
     uint32_t np = numPatches();
     uint32_t nc = numClusters_;
+    std::vector<RGB> fromAbove;
+    if (!nc) return fromAbove;
     // Irradiance that clusters hand down to each root patch (radiosity
     // units, before the patch's reflectance).
-    std::vector<RGB> clusterDown;
-    if (nc) {
-        clusterDown.assign(nc, RGB(0.0));
-        // Pre-order: parents before children.
-        for (uint32_t c = 0; c < nc; ++c) {
-            uint32_t parent = parent_[np + c];
-            clusterDown[c] = gathered_[np + c] + (parent == kNone ? RGB(0.0) : clusterDown[parent - np]);
-        }
+    std::vector<RGB> clusterDown(nc, RGB(0.0));
+    // Pre-order: parents before children.
+    for (uint32_t c = 0; c < nc; ++c) {
+        uint32_t parent = parent_[np + c];
+        clusterDown[c] = gathered_[np + c] + (parent == kNone ? RGB(0.0) : clusterDown[parent - np]);
     }
     // What each link into a cluster sends, K times the sender's radiosity
     // towards that cluster, once per link rather than once per patch below
     // it (directionalB evaluates the sender's radiant moments).
     std::vector<glm::vec3> sent;
-    if (nc && model_ == cluster::ClusterModel::Oriented) {
+    if (model_ == cluster::ClusterModel::Oriented) {
         sent.resize(clusterLinkDir_.size());
         tbb::parallel_for(tbb::blocked_range<uint32_t>(np, np + nc, 16), [&](const auto& range) {
             for (uint32_t c = range.begin(); c != range.end(); ++c)
@@ -313,7 +313,6 @@ void Hierarchy::pushPull() {
         });
     }
     auto fromClusters = [&](uint32_t root) {
-        if (!nc) return RGB(0.0);
         const scene::Patch& P = scene_->patches[root];
         RGB h = clusterDown[parent_[root] - np];
         if (model_ == cluster::ClusterModel::Oriented) {
@@ -329,59 +328,107 @@ void Hierarchy::pushPull() {
         }
         return P.rho * h;
     };
-    // What the clusters hand each root patch, computed for all patches before
-    // any B is overwritten: a link into an ancestor cluster may come from a
-    // surface element of another root patch, whose B the traversal below
-    // rewrites (reading it there made the result depend on thread timing).
-    std::vector<RGB> fromAbove;
-    if (nc) {
-        fromAbove.resize(np);
-        tbb::parallel_for(tbb::blocked_range<uint32_t>(0, np, 64), [&](const auto& range) {
-            for (uint32_t root = range.begin(); root != range.end(); ++root)
-                fromAbove[root] = fromClusters(root);
-        });
-    }
-    // Iterative depth-first traversal per root patch: push the accumulated
-    // gathered radiosity down, set leaves, pull averages up on the way back.
-    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, np, 16), [&](const auto& range) {
-        struct Frame {
-            uint32_t e;
-            RGB down;
-            int next;  // next child to visit (0..4)
-        };
-        std::vector<Frame> stack;
-        for (uint32_t root = range.begin(); root != range.end(); ++root) {
-            const RGB& E = scene_->patches[root].emission;
-            stack.clear();
-            stack.push_back({root, gathered_[root] + (nc ? fromAbove[root] : RGB(0.0)), 0});
-            while (!stack.empty()) {
-                Frame& f = stack.back();
-                uint32_t fc = firstChild_[f.e];
-                if (fc == kNone) {
-                    B_[f.e] = E + f.down;
-                    stack.pop_back();
-                    continue;
-                }
-                if (f.next < 4) {
-                    uint32_t c = fc + uint32_t(f.next++);
-                    RGB down = f.down + gathered_[c];
-                    stack.push_back({c, down, 0});
-                    continue;
-                }
-                // Pull: area-weighted average of the children.
-                RGB sum(0.0);
-                double a = 0.0;
-                for (uint32_t c = fc; c < fc + 4; ++c) {
-                    sum += area_[c] * B_[c];
-                    a += area_[c];
-                }
-                B_[f.e] = sum / a;
-                stack.pop_back();
-            }
+    // Computed for all patches before any B is overwritten: a link into an
+    // ancestor cluster may come from a surface element of another root patch,
+    // whose B the push-pull rewrites (reading it there made the result depend
+    // on thread timing).
+    fromAbove.resize(np);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, np, 64), [&](const auto& range) {
+        for (uint32_t root = range.begin(); root != range.end(); ++root) fromAbove[root] = fromClusters(root);
+    });
+    return fromAbove;
+}
+
+void Hierarchy::pushPullRoot(uint32_t root, const RGB& fromAbove, std::vector<PushFrame>& stack) {
+    // Iterative depth-first traversal: push the accumulated gathered
+    // radiosity down, set leaves, pull averages up on the way back.
+    const RGB& E = scene_->patches[root].emission;
+    stack.clear();
+    stack.push_back({root, gathered_[root] + fromAbove, 0});
+    while (!stack.empty()) {
+        PushFrame& f = stack.back();
+        uint32_t fc = firstChild_[f.e];
+        if (fc == kNone) {
+            B_[f.e] = E + f.down;
+            stack.pop_back();
+            continue;
         }
+        if (f.next < 4) {
+            uint32_t c = fc + uint32_t(f.next++);
+            RGB down = f.down + gathered_[c];
+            stack.push_back({c, down, 0});
+            continue;
+        }
+        // Pull: area-weighted average of the children.
+        RGB sum(0.0);
+        double a = 0.0;
+        for (uint32_t c = fc; c < fc + 4; ++c) {
+            sum += area_[c] * B_[c];
+            a += area_[c];
+        }
+        B_[f.e] = sum / a;
+        stack.pop_back();
+    }
+}
+
+void Hierarchy::pushPull() {
+    const uint32_t np = numPatches();
+    std::vector<RGB> fromAbove = clusterIrradianceToRoots();
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, np, 16), [&](const auto& range) {
+        std::vector<PushFrame> stack;
+        for (uint32_t root = range.begin(); root != range.end(); ++root)
+            pushPullRoot(root, fromAbove.empty() ? RGB(0.0) : fromAbove[root], stack);
     });
     // Pull through the clusters, children before parents.
+    if (numClusters_) pullClusters();
+}
+
+void Hierarchy::sweep(int blocks, double* gatherSeconds, double* pushPullSeconds) {
+    const uint32_t np = numPatches(), nc = numClusters_;
+    double tg = 0.0, tp = 0.0;
+    Timer t;
+    // Cluster rows gather from the radiosities of the previous sweep.
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(np, np + nc, 64), [&](const auto& range) {
+        for (uint32_t r = range.begin(); r != range.end(); ++r) gathered_[r] = gatherRow(r);
+    });
+    tg += t.seconds();
+    t.reset();
+    std::vector<RGB> fromAbove = clusterIrradianceToRoots();
+    tp += t.seconds();
+    const uint32_t nb = uint32_t(std::clamp<int64_t>(blocks, 1, std::max<uint32_t>(np, 1)));
+    std::vector<uint32_t> rows, stack;
+    for (uint32_t b = 0; b < nb; ++b) {
+        const uint32_t lo = uint32_t(uint64_t(np) * b / nb), hi = uint32_t(uint64_t(np) * (b + 1) / nb);
+        t.reset();
+        // The rows of this block: every element below its root patches.
+        rows.clear();
+        for (uint32_t root = lo; root < hi; ++root) {
+            stack.assign(1, root);
+            while (!stack.empty()) {
+                uint32_t e = stack.back();
+                stack.pop_back();
+                rows.push_back(e);
+                if (firstChild_[e] != kNone)
+                    for (uint32_t c = 0; c < 4; ++c) stack.push_back(firstChild_[e] + c);
+            }
+        }
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, rows.size(), 256), [&](const auto& range) {
+            for (size_t i = range.begin(); i != range.end(); ++i) gathered_[rows[i]] = gatherRow(rows[i]);
+        });
+        tg += t.seconds();
+        t.reset();
+        tbb::parallel_for(tbb::blocked_range<uint32_t>(lo, hi, 16), [&](const auto& range) {
+            std::vector<PushFrame> frames;
+            for (uint32_t root = range.begin(); root != range.end(); ++root)
+                pushPullRoot(root, fromAbove.empty() ? RGB(0.0) : fromAbove[root], frames);
+        });
+        tp += t.seconds();
+    }
+    t.reset();
     if (nc) pullClusters();
+    tp += t.seconds();
+    if (gatherSeconds) *gatherSeconds = tg;
+    if (pushPullSeconds) *pushPullSeconds = tp;
 }
 
 void Hierarchy::extrapolateLeaves(const std::vector<RGB>& previous, const RGB& factor) {

@@ -160,6 +160,16 @@ class Hierarchy {
     /// see cluster/transfer.h), and clusters pull the area-weighted average
     /// (and maxB()) of their children.
     void pushPull();
+    /// One block Gauss-Seidel sweep in place of gather() + pushPull()
+    /// (hr.iteration = gauss-seidel, HrSolver): cluster rows gather first,
+    /// from the previous radiosities; then the root patches, in index order
+    /// split into `blocks` contiguous blocks, gather and push-pull block after
+    /// block, so each block gathers from the radiosities the blocks before it
+    /// have just computed. Within a block all rows gather before any B is
+    /// rewritten (parallel, and the result is the same for any thread count);
+    /// clusters pull at the end. With one block it is gather() + pushPull().
+    /// `gatherSeconds` and `pushPullSeconds` receive the time of each phase.
+    void sweep(int blocks, double* gatherSeconds = nullptr, double* pushPullSeconds = nullptr);
     /// Moves every leaf's radiosity along the change from `previous` (the
     /// B of the same elements one iteration earlier), per channel:
     /// B += factor_c (B - previous), then pulls the averages up again
@@ -187,6 +197,19 @@ class Hierarchy {
     RGB maxB(uint32_t e) const { return isCluster(e) ? maxB_[clusterIndex(e)] : B_[e]; }
 
   private:
+    struct PushFrame {
+        uint32_t e;
+        RGB down;
+        int next;  ///< next child to visit (0..4)
+    };
+    /// What gather() stores for receiver r (a row of K times B).
+    RGB gatherRow(uint32_t r) const;
+    /// Irradiance the clusters hand each root patch after their rows have
+    /// gathered (reflectance applied); empty without clusters.
+    std::vector<RGB> clusterIrradianceToRoots() const;
+    /// Push-pull below one root patch: leaves get E + gathered on the path
+    /// (plus `fromAbove`), inner elements the area average of their children.
+    void pushPullRoot(uint32_t root, const RGB& fromAbove, std::vector<PushFrame>& stack);
     void prepareOrientedDirections();
     /// Bottom-up over clusters: area-weighted mean B and, for the oriented
     /// model, the radiosity-weighted normal moments used by directionalB().

@@ -83,6 +83,9 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.cluster = cluster::ClusterSettings::fromParams(p);
     s.receiverEps = p.getDouble("hr.receiver_eps", -1.0, -1.0, 1.0);
     s.extrapolate = p.getBool("hr.extrapolate", s.extrapolate);
+    s.gaussSeidel = p.getEnum("hr.iteration", s.gaussSeidel ? "gauss-seidel" : "jacobi",
+                              {"jacobi", "gauss-seidel"}) == "gauss-seidel";
+    s.gsBlocks = int(p.getInt("hr.gs_blocks", s.gsBlocks, 0, 1 << 30));
     s.clusterLink = cluster::ClusterLinkSettings::fromParams(p);
     // Validate the oracle settings now (unknown keys included), so a bad
     // setting fails before any work is done.
@@ -97,8 +100,9 @@ std::string HrSettings::describe() const {
     std::string sched = fmt::format("{}", fmt::join(epsSchedule, ","));
     return fmt::format(
         "hr(oracle={}, eps_schedule=[{}], min_area={}, min_area_rel={}, max_level={}, "
-        "max_iterations={}, tolerance={}, {}, cluster_model={}, {}, {})",
-        oracle, sched, minArea, minAreaRel, maxLevel, maxIterations, tolerance, ff.describe(),
+        "max_iterations={}, tolerance={}, iteration={}, {}, cluster_model={}, {}, {})",
+        oracle, sched, minArea, minAreaRel, maxLevel, maxIterations, tolerance,
+        gaussSeidel ? fmt::format("gauss-seidel/{}", gsBlocks) : std::string("jacobi"), ff.describe(),
         cluster::clusterModelName(clusterModel), cluster.describe(), clusterLink.describe());
 }
 
@@ -645,6 +649,10 @@ HrResult HrSolver::solve(bool progress) {
     // the last change of reflected power and its ratio, per channel.
     std::vector<RGB> previousB;
     RGB lastChange(0.0), lastRatio(0.0);
+    // Geometric-tail estimate (see solver.h "Stopping"): the previous change
+    // of reflected power, and whether it came from a plain iteration.
+    RGB tailLastChange(0.0);
+    bool tailLastClean = false;
     int quietIterations = 0, sinceExtrapolation = 2;
     res.converged = false;
     for (size_t stage = 0; stage < stages.size(); ++stage) {
@@ -661,12 +669,17 @@ HrResult HrSolver::solve(bool progress) {
             Timer tr;
             rec.refinedLinks = refine(h, *oracle, stages[stage], res, rec);
             rec.refineSeconds = tr.seconds();
-            Timer tg;
-            h.gather();
-            rec.gatherSeconds = tg.seconds();
-            Timer tp;
-            h.pushPull();
-            rec.pushPullSeconds = tp.seconds();
+            if (s_.gaussSeidel) {
+                h.sweep(s_.gsBlocks > 0 ? s_.gsBlocks : int(std::min<uint32_t>(h.numPatches(), 1u << 30)),
+                        &rec.gatherSeconds, &rec.pushPullSeconds);
+            } else {
+                Timer tg;
+                h.gather();
+                rec.gatherSeconds = tg.seconds();
+                Timer tp;
+                h.pushPull();
+                rec.pushPullSeconds = tp.seconds();
+            }
             RGB reflected = h.reflectedPower();
             if (s_.extrapolate) {
                 RGB change = reflected - lastReflected, ratio(0.0), factor(0.0);
@@ -698,6 +711,23 @@ HrResult HrSolver::solve(bool progress) {
             }
             rec.reflectedPower = reflected;
             rec.residual = relativeChange(reflected, lastReflected);
+            {
+                RGB change = reflected - lastReflected;
+                bool clean = rec.refinedLinks == 0 && rec.extrapolation == 0.0;
+                double worst = 0.0;
+                for (int c = 0; c < 3 && clean && tailLastClean; ++c) {
+                    double scale = std::fabs(reflected[c]);
+                    if (!(std::fabs(change[c]) > 1e-13 * scale)) continue;  // settled
+                    double q = tailLastChange[c] != 0.0 ? change[c] / tailLastChange[c] : 0.0;
+                    double tail = q >= 1.0 ? std::numeric_limits<double>::infinity()
+                                  : q > 0.0 ? std::fabs(change[c]) * q / (1.0 - q)
+                                            : std::fabs(change[c]);
+                    worst = std::max(worst, scale > 0 ? tail / scale : tail);
+                }
+                rec.iterationError = clean && tailLastClean ? worst : std::numeric_limits<double>::infinity();
+                tailLastChange = change;
+                tailLastClean = clean;
+            }
             lastReflected = reflected;
             rec.links = h.numLinks();
             rec.elements = h.numElements();
@@ -717,7 +747,8 @@ HrResult HrSolver::solve(bool progress) {
                     rec.refineSeconds + rec.gatherSeconds + rec.pushPullSeconds);
             if (hook_) hook_(h, rec);
             res.history.push_back(rec);
-            if (rec.refinedLinks == 0 && it + 1 >= s_.minIterations && rec.residual < s_.tolerance) {
+            if (rec.refinedLinks == 0 && it + 1 >= s_.minIterations && rec.residual < s_.tolerance &&
+                rec.iterationError < s_.tolerance) {
                 stageConverged = true;
                 break;
             }

@@ -21,9 +21,10 @@ std::string ErrorMetrics::describe() const {
     return fmt::format(
         "reflected L1={:.4g} L2={:.4g}  non-emitters L1={:.4g} L2={:.4g} mean ratio={:.4f}  "
         "all regions: lum L1={:.4g} L2={:.4g} Linf={:.4g}  rgb L1={:.4g} L2={:.4g} "
-        "Linf={:.4g}  ({} regions, area {:.4g})",
+        "Linf={:.4g}  ({} regions, area {:.4g}; {} dark in the reference, holding {:.3g} of the "
+        "reflected power)",
         l1ReflLum, l2ReflLum, l1NonEmitLum, l2NonEmitLum, meanRatioNonEmit, l1Lum, l2Lum,
-        linfLum, l1Rgb, l2Rgb, linfRgb, regions, refArea);
+        linfLum, l1Rgb, l2Rgb, linfRgb, regions, refArea, darkRegions, darkReflectedFraction);
 }
 
 ErrorMetrics computeError(const scene::RadiosityField& solution,
@@ -37,6 +38,7 @@ ErrorMetrics computeError(const scene::RadiosityField& solution,
     double dRgb1 = 0, rRgb1 = 0, dRgb2 = 0, rRgb2 = 0, dRgbMax = 0, rRgbMax = 0;
     double reflLum1 = 0, reflLum2 = 0;                        // reflected denominators
     double neD1 = 0, neR1 = 0, neD2 = 0, neR2 = 0, neS = 0, neR = 0;  // non-emitters
+    double darkPower = 0, reflectedPower = 0;  // solution's reflected power, on dark regions
     ErrorMetrics m;
     for (uint32_t p = 0; p < scene.patches.size(); ++p) {
         const double E = luminance(scene.patches[p].emission);
@@ -54,6 +56,13 @@ ErrorMetrics computeError(const scene::RadiosityField& solution,
             rLum2 += A * rl * rl;
             dLumMax = std::max(dLumMax, dl);
             rLumMax = std::max(rLumMax, rl);
+            const RGB Erg = scene.patches[p].emission;
+            double sr = luminance(S) - E;
+            reflectedPower += A * sr;
+            if (maxComponent(glm::abs(R - Erg)) == 0.0) {
+                darkPower += A * sr;
+                ++m.darkRegions;
+            }
             double rr = std::fabs(luminance(R) - E);
             reflLum1 += A * rr;
             reflLum2 += A * rr * rr;
@@ -83,6 +92,7 @@ ErrorMetrics computeError(const scene::RadiosityField& solution,
     m.l1NonEmitLum = ratio(neD1, neR1);
     m.l2NonEmitLum = ratio(std::sqrt(neD2), std::sqrt(neR2));
     m.meanRatioNonEmit = neR > 0 ? neS / neR : 1.0;
+    m.darkReflectedFraction = reflectedPower > 0 ? darkPower / reflectedPower : 0.0;
     m.l1Rgb = ratio(dRgb1, rRgb1);
     m.l2Rgb = ratio(std::sqrt(dRgb2), std::sqrt(rRgb2));
     m.linfRgb = ratio(dRgbMax, rRgbMax);

@@ -23,7 +23,12 @@
 //                 radiosity (the numerator is unchanged, S - R = (S-E) - (R-E));
 //   non-emitter   L1, L2 over the regions of patches with E = 0 only, and the
 //                 mean ratio sum_k A_k S_k / sum_k A_k R_k over them: the
-//                 systematic darkness (< 1) or brightness of the lit surfaces.
+//                 systematic darkness (< 1) or brightness of the lit surfaces;
+//   dark          the fraction of the solution's reflected power,
+//                 sum A (S - E) (luminance), that lies on regions whose reference
+//                 has no reflected light at all (R = E exactly: a Monte Carlo
+//                 reference scores exactly 0 where no path reaches a light, so
+//                 this is light leaking into closed cavities), and their number.
 #pragma once
 
 #include <cstddef>
@@ -40,6 +45,8 @@ struct ErrorMetrics {
     double l1ReflLum = 0.0, l2ReflLum = 0.0;  ///< relative to the reflected part R - E
     double l1NonEmitLum = 0.0, l2NonEmitLum = 0.0;  ///< over non-emitting regions only
     double meanRatioNonEmit = 1.0;  ///< sum A S / sum A R over non-emitting regions
+    double darkReflectedFraction = 0.0;  ///< reflected power on regions the reference has dark
+    size_t darkRegions = 0;              ///< regions whose reference reflected radiosity is 0
     size_t regions = 0;    ///< reference elements compared
     double refArea = 0.0;  ///< sum of their areas
 

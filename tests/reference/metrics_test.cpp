@@ -114,6 +114,25 @@ TEST(Metrics, RegionsAreAreaWeighted) {
     EXPECT_NEAR(e.refArea, 4.0, 1e-12);
 }
 
+TEST(Metrics, ReflectedPowerOnRegionsTheReferenceHasDark) {
+    // Unit square, E = 1. Reference at level 1: 1, 1, 3, 5 (two quarters
+    // without reflected light, R = E); solution level 0 with 2.5: each quarter
+    // holds A (S - E) = 0.25 * 1.5 of reflected power, half of it on the two
+    // dark quarters.
+    scene::Scene s = unitSquare();
+    scene::UniformField ref(s, scene::uniformLevels(s, 1, 0));
+    const double r[4] = {1, 1, 3, 5};
+    for (size_t i = 0; i < 4; ++i) ref.value(i) = RGB(r[i]);
+    scene::UniformField sol(s, scene::uniformLevels(s, 0, 0));
+    sol.value(0) = RGB(2.5);
+    ErrorMetrics e = computeError(sol, ref);
+    EXPECT_EQ(e.darkRegions, 2u);
+    EXPECT_NEAR(e.darkReflectedFraction, 0.5, 1e-12);
+    // A reference value only close to E is not dark.
+    ref.value(0) = RGB(1.0 + 1e-9);
+    EXPECT_EQ(computeError(sol, ref).darkRegions, 1u);
+}
+
 TEST(Metrics, MismatchedScenesThrow) {
     scene::Scene a = unitSquare(), b = test::furnaceBox();
     scene::UniformField fa(a, {0}), fb(b, scene::uniformLevels(b, 0, 0));
