@@ -14,7 +14,7 @@ namespace {
 
 const char* kUsage =
     "valid built-in scenes: cornell, furnace[:rho[:E[:side]]], plates:parallel:W:H:D, "
-    "plates:perpendicular:W:H:L, office:N";
+    "plates:perpendicular:W:H:L, plates:occluded:W:H:D:S:Z (0 < Z < D), office:N";
 
 std::vector<std::string> split(const std::string& s, char sep) {
     std::vector<std::string> out;
@@ -186,6 +186,31 @@ Scene makeParallelPlates(double w, double h, double d) {
     return s;
 }
 
+// The parallel plates of makeParallelPlates (receiver patch 0, sender patch
+// 1) with an S x S square occluder (patch 2) parallel to both, centred over
+// the receiver's centre at height Z (0 < Z < D): [W/2 - S/2, W/2 + S/2] x
+// [H/2 - S/2, H/2 + S/2] x {Z}. It faces the receiver and is black (rho = 0,
+// E = 0), so it only removes light: B1 = rho F12 B2 + ... with F12 the
+// occluded form factor. Made to isolate the hemicube's third failing, that
+// visibility is decided from the sample points only (Cohen & Wallace 1993
+// ch. 4): from a point x of the receiver the occluder's shadow on the sender
+// plane is the square of side S D / Z centred at x + (D / Z)(c - x), c the
+// occluder's centre. A small occluder close to the receiver (S >= W Z / D and
+// S >= H Z / D) hides the whole sender from the receiver's centre, so a
+// hemicube at the centre gives F = 0 at every resolution, while the shadow
+// moves off the sender for points a short way from the centre and the true
+// area-averaged F stays well above 0.
+Scene makeOccludedPlates(double w, double h, double d, double side, double z) {
+    HRAD_CHECK_MSG(z > 0 && z < d, "occluder height {} must lie in (0, {})", z, d);
+    Scene s = makeParallelPlates(w, h, d);
+    uint32_t black = s.addMaterial({"occluder", RGB(0.0), RGB(0.0)});
+    double x0 = 0.5 * (w - side), y0 = 0.5 * (h - side);
+    quadFacing(s, Vec3(x0, y0, z), Vec3(x0 + side, y0, z), Vec3(x0 + side, y0 + side, z),
+               Vec3(x0, y0 + side, z), Vec3(0, 0, -1), black);
+    finish(s, fmt::format("plates:occluded:{}:{}:{}:{}:{}", w, h, d, side, z));
+    return s;
+}
+
 // Two rectangles sharing the edge x in [0, L] on the x axis, at a right angle:
 // the sender (emitter, E = 1) lies in y = 0, z in [0, W], facing +y...
 // precisely: sender [0,L] x {0} x [0,W] facing +y; receiver [0,L] x [0,H] x {0}
@@ -333,6 +358,20 @@ Scene makeBuiltin(const std::string& spec) {
         double e = parts.size() > 2 ? parseArg(spec, parts[2], "E") : 1.0;
         double side = parts.size() > 3 ? parsePositive(spec, parts[3], "side") : 1.0;
         Scene s = makeFurnace(rho, e, side);
+        s.name = spec;
+        return s;
+    }
+    if (head == "plates" && parts.size() > 1 && parts[1] == "occluded") {
+        if (parts.size() != 7) throwInputError(where, "malformed plates:occluded scene; {}", kUsage);
+        double w = parsePositive(spec, parts[2], "W");
+        double h = parsePositive(spec, parts[3], "H");
+        double d = parsePositive(spec, parts[4], "D");
+        double side = parsePositive(spec, parts[5], "S");
+        double z = parsePositive(spec, parts[6], "Z");
+        if (!(z < d))
+            throwInputError(where, "built-in scene '{}': occluder height Z must be < D, got Z = {}, D = {}",
+                            spec, z, d);
+        Scene s = makeOccludedPlates(w, h, d, side, z);
         s.name = spec;
         return s;
     }

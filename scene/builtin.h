@@ -7,6 +7,9 @@
 //   plates:parallel:W:H:D          two opposed W x H rectangles at distance D
 //   plates:perpendicular:W:H:L     two rectangles (widths W and H) sharing an
 //                                  edge of length L at a right angle
+//   plates:occluded:W:H:D:S:Z      plates:parallel:W:H:D plus a black S x S
+//                                  square occluder at height Z (0 < Z < D)
+//                                  centred over the receiver, facing it
 //   office:N                       N x N grid of furnished rooms with doors
 //
 // Every built-in sets stats.inputFaces to its patch count and source "builtin".
@@ -30,6 +33,7 @@ Scene makeCornellBox();
 Scene makeFurnace(double rho = 0.5, double emission = 1.0, double side = 1.0);
 Scene makeParallelPlates(double width, double height, double distance);
 Scene makePerpendicularPlates(double width, double height, double length);
+Scene makeOccludedPlates(double width, double height, double distance, double side, double z);
 Scene makeOffice(int n);
 
 }  // namespace hrad::scene

@@ -1,6 +1,7 @@
 // Scene loading entry point: built-in names and files chosen by extension.
 //
 //   cornell, furnace, plates:parallel:W:H:D, plates:perpendicular:W:H:L,
+//   plates:occluded:W:H:D:S:Z,
 //   office:N                      built-in procedural scenes (scene/builtin.h)
 //   *.obj                         OBJ/MTL (tinyobjloader): Kd -> rho, Ke -> E
 //   *.mgf                         Ward's Materials and Geometry Format

@@ -126,6 +126,29 @@ TEST(Builtin, PerpendicularPlatesShareAnEdge) {
     EXPECT_THROW(loadScene("plates:diagonal:1:2:3"), InputError);
 }
 
+TEST(Builtin, OccludedPlatesAddACentredBlackOccluder) {
+    Scene s = loadScene("plates:occluded:2:3:1:0.2:0.1");
+    ASSERT_EQ(s.patches.size(), 3u);
+    Scene p = loadScene("plates:parallel:2:3:1");
+    for (uint32_t i = 0; i < 2; ++i) {  // receiver and sender as in plates:parallel
+        EXPECT_EQ(s.patches[i].normal, p.patches[i].normal);
+        EXPECT_EQ(s.patches[i].centroid(), p.patches[i].centroid());
+        EXPECT_EQ(s.patches[i].area, p.patches[i].area);
+    }
+    const Patch& o = s.patches[2];
+    EXPECT_NEAR(o.area, 0.04, 1e-12);
+    EXPECT_NEAR(o.centroid().x, 1.0, 1e-12);
+    EXPECT_NEAR(o.centroid().y, 1.5, 1e-12);
+    EXPECT_NEAR(o.centroid().z, 0.1, 1e-12);
+    EXPECT_NEAR(o.normal.z, -1.0, 1e-12);  // faces the receiver
+    EXPECT_EQ(o.rho, RGB(0.0));
+    EXPECT_EQ(o.emission, RGB(0.0));
+    EXPECT_EQ(s.name, "plates:occluded:2:3:1:0.2:0.1");
+    EXPECT_THROW(loadScene("plates:occluded:1:1:1:0.2"), InputError);
+    EXPECT_THROW(loadScene("plates:occluded:1:1:1:0.2:1"), InputError);  // Z must be < D
+    EXPECT_THROW(loadScene("plates:occluded:1:1:1:0:0.5"), InputError);
+}
+
 TEST(Builtin, OfficePatchCountScalesWithRooms) {
     Scene one = loadScene("office:1");
     Scene four = loadScene("office:4");
