@@ -87,6 +87,8 @@ HrSettings HrSettings::fromParams(const Params& p) {
                               {"jacobi", "gauss-seidel"}) == "gauss-seidel";
     s.gsBlocks = int(p.getInt("hr.gs_blocks", s.gsBlocks, 0, 1 << 30));
     s.clusterLink = cluster::ClusterLinkSettings::fromParams(p);
+    s.openPartialReceivers = p.getEnum("cluster.partial_receivers", s.openPartialReceivers ? "open" : "keep",
+                                       {"open", "keep"}) == "open";
     // Validate the oracle settings now (unknown keys included), so a bad
     // setting fails before any work is done.
     Params probe = s.oracleParams;
@@ -395,6 +397,9 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
     std::vector<uint8_t> decision;
     std::vector<uint8_t> mark;
     const bool bounds = oracle.needsBounds();
+    // The eps of the checks added to the oracle's decisions (the stage's eps
+    // when the schedule sets one, else the oracle's own).
+    const double checkEps = std::isnan(eps) ? oracle.powerEps() : eps;
     // The receiver check for oracles that do not judge the aggregate
     // themselves (guardEps > 0).
     double guardEps = 0.0;
@@ -467,11 +472,27 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                     // A sampled near cluster link the oracle accepts must also
                     // be known well enough: the power it may carry wrongly
                     // (its error bound) within the oracle's eps share.
-                    if (d == Decision::Accept && (l.flags & Link::kSampled) && eps > 0 &&
+                    if (d == Decision::Accept && (l.flags & Link::kSampled) && checkEps > 0 &&
                         maxComponent(e.receiverRho * e.senderB) * e.F *
                                 (l.uncertainty / 100.0) * e.receiverArea >
-                            eps * e.emittedPower)
+                            checkEps * e.emittedPower)
                         d = forcedDecision(h, r, s);
+                    // A partially visible (or all-blocked) link into a
+                    // cluster hands its light to every surface of the
+                    // cluster that faces the sender, seen or not: up to the
+                    // unseen fraction of its power lands on the wrong
+                    // surfaces (closed cavities, the far side of a table).
+                    // That power must be within eps too, else the receiving
+                    // cluster is opened (cluster.partial_receivers = open).
+                    if (d == Decision::Accept && s_.openPartialReceivers && e.receiverIsCluster &&
+                        checkEps > 0 && (l.flags & (Link::kPartial | Link::kUncertain))) {
+                        double unseen = (l.flags & Link::kUncertain) ? 1.0 : 1.0 - e.visibility;
+                        double misplaced = maxComponent(e.receiverRho * e.senderB) *
+                                           (e.visibility > 0 ? e.F / e.visibility : e.F) * unseen *
+                                           e.receiverArea;
+                        if (misplaced > checkEps * e.emittedPower)
+                            d = oracles::constrain(Decision::RefineReceiver, e);
+                    }
                     decision[i] = uint8_t(d);
                 }
             });

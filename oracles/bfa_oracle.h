@@ -30,6 +30,7 @@ class PowerOracle final : public Oracle {
     explicit PowerOracle(Settings s) : s_(s) {}
     Decision decide(const LinkEstimate& e) const override;
     std::string name() const override { return "bfa"; }
+    double powerEps() const override { return s_.eps; }
     std::string describe() const override;
     /// The transported power the decision is based on (max channel).
     double transportedPower(const LinkEstimate& e) const;

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -92,6 +93,11 @@ class Oracle {
     /// receiver judged.
     virtual bool needsReceiverError() const { return false; }
     virtual std::string name() const = 0;
+    /// The fraction of the emitted power this oracle's eps stands for, for
+    /// the checks the solver adds to every oracle's decision (power a near
+    /// sampled link or a partially visible cluster link may misplace); NaN
+    /// for an oracle without a power threshold (ff, uniform).
+    virtual double powerEps() const { return std::numeric_limits<double>::quiet_NaN(); }
     /// One line with every setting, written next to each result.
     virtual std::string describe() const = 0;
 };
@@ -136,6 +142,7 @@ class VariationOracle : public Oracle {
     Decision decide(const LinkEstimate& e) const final;
     bool needsBounds() const final { return true; }
     bool needsReceiverError() const final { return true; }
+    double powerEps() const final { return s_.eps; }
     std::string describe() const final;
     /// The radiosity error dB of the link at its receiver (max channel, with
     /// importance), from the link's own form-factor range: used for links
