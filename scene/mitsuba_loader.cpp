@@ -20,6 +20,8 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <pugixml.hpp>
+// Debian libstb-dev: the implementation is in libstb.so (no STB_IMAGE_IMPLEMENTATION here).
+#include <stb/stb_image.h>
 
 #include "core/error.h"
 #include "scene/mitsuba_serialized.h"
@@ -529,7 +531,7 @@ class Loader {
         std::string why;
         if (ext == ".png") mean = pngMean(file, raw, why);
         else if (ext == ".exr") mean = exrMean(file, why);
-        else why = "no decoder for '" + ext + "' is linked";
+        else mean = stbMean(file, raw, why);  // JPEG, BMP, TGA, GIF, PSD, PIC, PNM, HDR
         if (!mean) {
             notes.push_back(fmt::format("{} texture '{}': {} -> grey {} (mitsuba.texture_rho)", name,
                                         fs::path(file).filename().string(), why, opt_.textureRho));
@@ -573,6 +575,70 @@ class Loader {
             for (size_t i = 0; i < n; ++i) sum[i % 3] += px[i] / 65535.0;
         }
         return n ? sum / double(n / 3) : RGB(0.0);
+    }
+
+    /// The mean of an image stb_image reads (JPEG, BMP, TGA, GIF, PSD, PIC,
+    /// PNM; Radiance HDR). Like Mitsuba's bitmap texture: 8- and 16-bit
+    /// images are sRGB-encoded unless raw = true, and are decoded to linear
+    /// RGB per texel before averaging (the mean of the encoded values would
+    /// be darker: the transfer function is convex); HDR is linear. Grey
+    /// images count as r = g = b; alpha is ignored (as PNG above).
+    static std::optional<RGB> stbMean(const std::string& file, bool raw, std::string& why) {
+        std::FILE* f = std::fopen(file.c_str(), "rb");
+        if (!f) {
+            why = "cannot open";
+            return std::nullopt;
+        }
+        std::unique_ptr<std::FILE, int (*)(std::FILE*)> guard(f, &std::fclose);
+        // The header alone first: a few bytes may claim 65535 x 65535 texels,
+        // which stbi_load would allocate. Same bound as PNG and OpenEXR.
+        int w = 0, h = 0, comp = 0;
+        if (!stbi_info_from_file(f, &w, &h, &comp)) {
+            const char* r = stbi_failure_reason();
+            why = std::string("unreadable image (stb_image: ") + (r ? r : "unknown format") + ")";
+            return std::nullopt;
+        }
+        if (w <= 0 || h <= 0 || uint64_t(w) * uint64_t(h) > (uint64_t(1) << 27)) {
+            why = fmt::format("image of {} x {} texels is outside 1 .. 2^27 texels", w, h);
+            return std::nullopt;
+        }
+        const bool hdr = stbi_is_hdr_from_file(f) != 0;
+        const bool wide = !hdr && stbi_is_16_bit_from_file(f) != 0;
+        const size_t n = size_t(w) * size_t(h);
+        Vec3 sum(0.0);
+        auto failed = [&] {
+            const char* r = stbi_failure_reason();
+            why = std::string("unreadable image (stb_image: ") + (r ? r : "decoding failed") + ")";
+            return std::nullopt;
+        };
+        int dw = 0, dh = 0, dc = 0;
+        if (hdr) {
+            // stbi_loadf would apply its own 2.2 gamma to LDR files; HDR
+            // (Radiance RGBE) is returned as stored: linear.
+            std::unique_ptr<float, void (*)(void*)> px(stbi_loadf_from_file(f, &dw, &dh, &dc, 3), &stbi_image_free);
+            if (!px || dw != w || dh != h) return failed();
+            for (size_t i = 0; i < 3 * n; ++i) sum[int(i % 3)] += double(px.get()[i]);
+        } else if (wide) {
+            std::unique_ptr<uint16_t, void (*)(void*)> px(stbi_load_from_file_16(f, &dw, &dh, &dc, 3),
+                                                          &stbi_image_free);
+            if (!px || dw != w || dh != h) return failed();
+            for (size_t i = 0; i < 3 * n; ++i) {
+                double v = px.get()[i] / 65535.0;
+                sum[int(i % 3)] += raw ? v : srgbToLinear(v);
+            }
+        } else {
+            std::unique_ptr<stbi_uc, void (*)(void*)> px(stbi_load_from_file(f, &dw, &dh, &dc, 3), &stbi_image_free);
+            if (!px || dw != w || dh != h) return failed();
+            double lut[256];
+            for (int k = 0; k < 256; ++k) lut[k] = raw ? k / 255.0 : srgbToLinear(k / 255.0);
+            for (size_t i = 0; i < 3 * n; ++i) sum[int(i % 3)] += lut[px.get()[i]];
+        }
+        RGB mean = sum / double(n);
+        if (!std::isfinite(mean.r) || !std::isfinite(mean.g) || !std::isfinite(mean.b)) {
+            why = "non-finite texel values";
+            return std::nullopt;
+        }
+        return mean;
     }
 
     static std::optional<RGB> exrMean(const std::string& file, std::string& why) {
