@@ -786,12 +786,18 @@ class Loader {
                                 type));
             return;
         }
+        // Mitsuba's default film is 768 x 576 (hdrfilm); its size is the
+        // default image size of hrad solve/render and fixes the aspect the
+        // fov_axis conversion below uses.
         double w = 768, h = 576;
+        SourceLocation filmWhere = loc(s);
         if (pugi::xml_node c = s.n.child("film")) {
             Node film{c, s.f};
             w = floatProp(film, "width", w);
             h = floatProp(film, "height", h);
-            if (!(w >= 1 && h >= 1)) fail(film, "film width and height must be >= 1");
+            if (!(w >= 1 && h >= 1 && w <= 32768 && h <= 32768) || w != std::floor(w) || h != std::floor(h))
+                fail(film, "film width and height must be integers in 1 .. 32768, not {} x {}", w, h);
+            filmWhere = loc(film);
         }
         double tanHalf;  // tan of half the fov along the axis it is given for
         std::string axis = stringProp(s, "fov_axis", "x");
@@ -807,6 +813,7 @@ class Loader {
             tanHalf = std::sqrt(36.0 * 36.0 + 24.0 * 24.0) / (2 * v[0]);
             axis = "diagonal";
         }
+        const std::string axisGiven = axis;
         double tanY;
         if (axis == "smaller") axis = w < h ? "x" : "y";
         if (axis == "larger") axis = w < h ? "y" : "x";
@@ -822,6 +829,14 @@ class Loader {
         cam.target = cam.eye + dir;
         cam.up = up;
         cam.fovYDegrees = glm::degrees(2 * std::atan(tanY));
+        cam.filmWidth = int(w);
+        cam.filmHeight = int(h);
+        cam.fovAxis = axisGiven == "x"          ? FovAxis::X
+                      : axisGiven == "y"        ? FovAxis::Y
+                      : axisGiven == "diagonal" ? FovAxis::Diagonal
+                      : axisGiven == "smaller"  ? FovAxis::Smaller
+                                                : FovAxis::Larger;
+        cam.filmWhere = filmWhere;
         scene_.camera = cam;
         Vec3 a = glm::abs(up);
         scene_.upAxis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);

@@ -78,11 +78,15 @@
 //   camera     the first `perspective` (or `thinlens`) sensor: fov with
 //              fov_axis x / y / diagonal / smaller / larger (default x) and the
 //              film's width/height (default 768 x 576) give the vertical fov;
+//              the film size becomes Camera::filmWidth/filmHeight (the default
+//              image size of hrad solve/render) and the axis Camera::fovAxis
+//              (an image of another aspect keeps the fov along that axis);
 //              focal_length (default "50mm") uses a 36 x 24 mm film diagonal;
 //              to_world (lookat or matrix) gives eye, target, up, and
 //              Scene::upAxis is the up vector's dominant axis (Y when there
 //              is no sensor).
-// Renderer-only elements (integrator, sampler, film, rfilter) are ignored;
+// Renderer-only elements (integrator, sampler, rfilter; of the film all but
+// width and height) are ignored;
 // media get a warning. An unknown element or plugin type is an error listing
 // the known ones.
 //
