@@ -211,6 +211,8 @@ class Loader {
     std::set<const void*> usedEmitters_;
     std::set<std::string> warnedOnce_;
     bool haveCamera_ = false;
+    /// (file, raw) -> the texture's mean, or why it could not be read.
+    std::map<std::pair<std::string, bool>, std::pair<std::optional<RGB>, std::string>> textureCache_;
     uint64_t faces_ = 0;
 
     // --- locations, warnings, errors -------------------------------------
@@ -527,11 +529,15 @@ class Loader {
                                         opt_.textureRho));
             return grey;
         }
-        std::optional<RGB> mean;
-        std::string why;
-        if (ext == ".png") mean = pngMean(file, raw, why);
-        else if (ext == ".exr") mean = exrMean(file, why);
-        else mean = stbMean(file, raw, why);  // JPEG, BMP, TGA, GIF, PSD, PIC, PNM, HDR
+        // One decode per file and encoding: materials often share a texture
+        // (the bathroom's wood.jpg, 910 x 2048, serves two).
+        auto& [mean, why] = textureCache_[{fs::weakly_canonical(file, ec).string(), raw}];
+        if (!mean && why.empty()) {
+            if (ext == ".png") mean = pngMean(file, raw, why);
+            else if (ext == ".exr") mean = exrMean(file, why);
+            else mean = stbMean(file, raw, why);  // JPEG, BMP, TGA, GIF, PSD, PIC, PNM, HDR
+            if (!mean && why.empty()) why = "unreadable";
+        }
         if (!mean) {
             notes.push_back(fmt::format("{} texture '{}': {} -> grey {} (mitsuba.texture_rho)", name,
                                         fs::path(file).filename().string(), why, opt_.textureRho));
