@@ -1098,6 +1098,7 @@ class Loader {
                 if (w.find("no material") == std::string::npos && w.find("default") == std::string::npos)
                     scene_.stats.warnings.push_back(w);
             scene_.stats.droppedDegenerate += sub.stats.droppedDegenerate;
+            scene_.stats.triangulatedFaces += sub.stats.triangulatedFaces;  // e.g. a non-planar quad
             polys.reserve(sub.patches.size());
             for (const Patch& p : sub.patches)
                 polys.emplace_back(p.v.begin(), p.v.begin() + p.numVertices());

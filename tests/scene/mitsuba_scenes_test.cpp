@@ -57,6 +57,8 @@ TEST(MitsubaScenes, CornellBoxAgreesWithBuiltin) {
     EXPECT_EQ(builtin.patches.size(), 17u);
     EXPECT_EQ(rgb.patches.size(), 32u);
     EXPECT_EQ(spectral.patches.size(), 32u);
+    EXPECT_EQ(builtin.stats.triangulatedFaces, 1u);  // the red wall, in both
+    EXPECT_EQ(rgb.stats.triangulatedFaces, 1u);
     // Area: the Mitsuba box has exactly those three extra faces more: block
     // bottoms 27,633 + 27,626.5 mm^2 (shoelace on the published corners) and
     // the 13,650 mm^2 light-sized ceiling quad, 68,909.5 mm^2 in all.
