@@ -46,6 +46,11 @@ int runInfo(const std::string& spec, Params& params) {
         fmt::print("camera         eye ({:.4g}, {:.4g}, {:.4g}) target ({:.4g}, {:.4g}, {:.4g}) fov {:.4g}\n",
                    s.camera->eye.x, s.camera->eye.y, s.camera->eye.z, s.camera->target.x,
                    s.camera->target.y, s.camera->target.z, s.camera->fovYDegrees);
+    if (s.camera && s.camera->filmWidth > 0) {
+        static const char* kAxis[] = {"x", "y", "diagonal", "smaller", "larger"};
+        fmt::print("film           {} x {} (fov axis {}; the default image size)\n", s.camera->filmWidth,
+                   s.camera->filmHeight, kAxis[int(s.camera->fovAxis)]);
+    }
     fmt::print("load time      {:.3f} s\n", st.loadSeconds);
     fmt::print("peak RSS       {}\n", formatBytes(peakRssBytes()));
 

@@ -23,6 +23,7 @@ int runRender(const RenderCliOptions& opt, Params& params) {
     Timer t;
     scene::Scene sc = scene::loadScene(opt.scene, params);
     render::RenderSettings rs = render::RenderSettings::fromParams(params, "render");
+    rs.adoptFilm(sc);  // the scene's film size where --width/--height are unset
     rs.showProgress = true;  // final gather / path tracing take a while
     double exposure = params.getDouble("render.exposure", 0.0, 0.0, 1e300);
     params.reportUnused();
@@ -38,7 +39,7 @@ int runRender(const RenderCliOptions& opt, Params& params) {
                  rs.width, rs.height, t.seconds());
     fmt::print("camera eye ({}, {}, {}) target ({}, {}, {}) up ({}, {}, {}) fov {}\n", cam.eye.x,
                cam.eye.y, cam.eye.z, cam.target.x, cam.target.y, cam.target.z, cam.up.x, cam.up.y,
-               cam.up.z, cam.fovYDegrees);
+               cam.up.z, cam.fovYDegreesFor(rs.width, rs.height));
     fmt::print("wrote {}\nwrote {}\n", exr.string(), png.string());
     if (opt.writeGlb) {
         fs::path glb = fs::path(opt.outDir) / "solution.glb";

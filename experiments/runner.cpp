@@ -89,11 +89,25 @@ struct Resolved {
     // solution's image: the pixel reference for final gather (issue 14).
     bool errorVsPathTraced = false;
     int pathTracedSpp = 256;
+    SourceLocation pathTracedWhere;
 
     std::string refKind = "none";
     std::optional<reference::FullMatrixSettings> refFm;
     std::optional<reference::MonteCarloSettings> refMc;
 };
+
+/// The path-traced reference image costs width x height x reference_spp
+/// samples; checked when the settings are read and again once the scene's
+/// film has set the image size (RenderSettings::adoptFilm).
+void checkPathTracedBudget(const Resolved& r) {
+    if (!r.errorVsPathTraced) return;
+    int64_t samples = int64_t(r.render.width) * r.render.height * r.pathTracedSpp;
+    if (samples > r.render.maxSamples)
+        throwInputError(r.pathTracedWhere,
+                        "path-traced reference: {}x{} pixels x {} spp = {} samples, more than "
+                        "render.max_samples = {}",
+                        r.render.width, r.render.height, r.pathTracedSpp, samples, r.render.maxSamples);
+}
 
 Resolved resolve(const PointSpec& p) {
     Resolved r;
@@ -115,13 +129,8 @@ Resolved resolve(const PointSpec& p) {
                             "render.error_reference = \"path-traced\" the error is per pixel");
         r.errorOnRegions = false;
         r.pathTracedSpp = int(s.getInt("render.reference_spp", 256, 1, 65536));
-        int64_t samples = int64_t(r.render.width) * r.render.height * r.pathTracedSpp;
-        if (samples > r.render.maxSamples)
-            throwInputError(s.where("render.reference_spp"),
-                            "path-traced reference: {}x{} pixels x {} spp = {} samples, more than "
-                            "render.max_samples = {}",
-                            r.render.width, r.render.height, r.pathTracedSpp, samples,
-                            r.render.maxSamples);
+        r.pathTracedWhere = s.where("render.reference_spp");
+        checkPathTracedBudget(r);
     }
 
     const Params& ref = p.reference;
@@ -285,6 +294,10 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     scene::Scene sc = scene::loadScene(p.scene, p.settings);
     requireSolvable(sc, p.settings);
     double loadSeconds = tLoad.seconds();
+    // The scene's film (Mitsuba sensor) sets the image size the user left
+    // unset; checked now, before solving.
+    r.render.adoptFilm(sc);
+    checkPathTracedBudget(r);
     p.settings.reportUnused();
     summary["settings"] = paramsJson(p.settings);
     summary["reference_settings"] = paramsJson(p.reference);
@@ -438,7 +451,8 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
             summary["camera"] = json{{"eye", json::array({cam.eye.x, cam.eye.y, cam.eye.z})},
                                      {"target", json::array({cam.target.x, cam.target.y, cam.target.z})},
                                      {"up", json::array({cam.up.x, cam.up.y, cam.up.z})},
-                                     {"fov_y_degrees", cam.fovYDegrees},
+                                     {"fov_y_degrees", cam.fovYDegreesFor(r.render.width, r.render.height)},
+                                     {"image_size", json::array({r.render.width, r.render.height})},
                                      {"explicit", r.render.camera.has_value()}};
             // With an error map, the reference (and, for regions, the
             // solution's averages over the reference's regions: what the

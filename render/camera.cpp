@@ -181,7 +181,9 @@ CameraFrame::CameraFrame(const scene::Camera& camera, int w, int h) : width(w), 
     }
     right = glm::normalize(r);
     up = glm::cross(right, forward);
-    tanHalfY = std::tan(0.5 * camera.fovYDegrees * kPi / 180.0);
+    // The scene file's fov holds along its axis at this image's aspect
+    // (scene::Camera::fovYDegreesFor; plain fovYDegrees without a film).
+    tanHalfY = std::tan(0.5 * camera.fovYDegreesFor(w, h) * kPi / 180.0);
     aspect = double(w) / double(h);
 }
 

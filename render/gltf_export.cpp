@@ -195,6 +195,8 @@ GltfCounts writeGlb(const scene::RadiosityField& field, const std::string& path,
         tinygltf::Camera cam;
         cam.type = "perspective";
         cam.perspective.yfov = c.fovYDegrees * std::numbers::pi / 180.0;
+        // A scene file's film (Mitsuba): yfov holds at its aspect (§5.13).
+        if (c.filmWidth > 0 && c.filmHeight > 0) cam.perspective.aspectRatio = double(c.filmWidth) / c.filmHeight;
         cam.perspective.znear = std::max(1e-6, 1e-4 * sc.bounds().diagonal());
         // tinygltf writes zfar even when 0 (which glTF forbids): a far plane well
         // beyond the scene seen from the eye.

@@ -29,8 +29,12 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
     RenderSettings s;
     s.width = int(params.getInt(key("width"), s.width, 1, 32768));
     s.height = int(params.getInt(key("height"), s.height, 1, 32768));
+    s.widthSet = params.has(key("width"));
+    s.heightSet = params.has(key("height"));
     s.spp = int(params.getInt(key("spp"), s.spp, 1, 65536));
     s.maxSamples = params.getInt(key("max_samples"), s.maxSamples, 1, int64_t(1) << 40);
+    if (params.has(key("max_samples"))) s.budgetWhere = params.where(key("max_samples"));
+    else if (params.has(key("spp"))) s.budgetWhere = params.where(key("spp"));
     // Checked before any image is allocated or ray cast: the cost of a render
     // is width x height x spp primary rays.
     int64_t samples = int64_t(s.width) * s.height * s.spp;
@@ -94,6 +98,28 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
                                 k, eyeKey, targetKey);
     }
     return s;
+}
+
+void RenderSettings::adoptFilm(const scene::Scene& scene) {
+    if (camera || !scene.camera || scene.camera->filmWidth <= 0 || scene.camera->filmHeight <= 0) return;
+    if (widthSet && heightSet) return;
+    const scene::Camera& c = *scene.camera;
+    const double aspect = double(c.filmWidth) / c.filmHeight;
+    if (!widthSet && !heightSet) {
+        width = c.filmWidth;
+        height = c.filmHeight;
+    } else if (widthSet) {
+        height = int(std::clamp(std::lround(width / aspect), 1L, 32768L));
+    } else {
+        width = int(std::clamp(std::lround(height * aspect), 1L, 32768L));
+    }
+    int64_t samples = int64_t(width) * height * spp;
+    if (samples > maxSamples)
+        throwInputError(budgetWhere.known() ? budgetWhere : c.filmWhere,
+                        "{}x{} pixels (from the scene's {}x{} film) x {} spp = {} samples, more than "
+                        "render.max_samples = {}; set --width/--height (render.width/height), lower "
+                        "render.spp or raise render.max_samples",
+                        width, height, c.filmWidth, c.filmHeight, spp, samples, maxSamples);
 }
 
 std::string RenderSettings::describe() const {

@@ -21,6 +21,12 @@
 // Settings (Params keys below a prefix, "render" by default):
 //   width        int     512     image width in pixels
 //   height       int     512     image height in pixels
+//                                Precedence (RenderSettings::adoptFilm): both
+//                                set: as set; when the scene's own camera is
+//                                used and has a film (Mitsuba sensor):
+//                                neither set: the film's size, one set: the
+//                                other from the film's aspect (rounded);
+//                                otherwise the 512 default for what is unset
 //   spp          int     1       samples per pixel: 1 = pixel centre; a square
 //                                k*k = stratified jitter; otherwise uniform
 //                                jitter; seeded by the pixel (deterministic)
@@ -69,8 +75,16 @@ struct RenderSettings {
     int64_t maxSamples = int64_t(1) << 26;  ///< render.max_samples: width x height x spp bound
     bool backFacesBlack = true;
     std::optional<scene::Camera> camera;  ///< render.eye/target/up/fov when set
+    bool widthSet = false, heightSet = false;  ///< render.width / render.height given
+    SourceLocation budgetWhere;                ///< where spp or max_samples was set, for errors
 
     static RenderSettings fromParams(const Params& params, const std::string& prefix = "render");
+    /// Takes the image size from the scene camera's film (Mitsuba sensors)
+    /// where the user set none, by the precedence above; no change with an
+    /// explicit camera (render.eye) or a camera without a film. Checks
+    /// width x height x spp against max_samples again: a film too large for
+    /// the budget is an error at the film's file:line.
+    void adoptFilm(const scene::Scene& scene);
     std::string describe() const;
 };
 

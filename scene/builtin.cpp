@@ -88,6 +88,16 @@ void finish(Scene& s, const std::string& name) {
     s.stats.inputFaces = s.patches.size();
 }
 
+/// A camera without a film: the image size is the renderer's.
+Camera pinhole(Vec3 eye, Vec3 target, Vec3 up, double fovYDegrees) {
+    Camera c;
+    c.eye = eye;
+    c.target = target;
+    c.up = up;
+    c.fovYDegrees = fovYDegrees;
+    return c;
+}
+
 }  // namespace
 
 const std::vector<std::string>& builtinNames() {
@@ -140,8 +150,8 @@ Scene makeCornellBox() {
     face({{472.0, 0.0, 406.0}, {472.0, 330.0, 406.0}, {314.0, 330.0, 456.0}, {314.0, 0.0, 456.0}}, white);
     face({{314.0, 0.0, 456.0}, {314.0, 330.0, 456.0}, {265.0, 330.0, 296.0}, {265.0, 0.0, 296.0}}, white);
     face({{265.0, 0.0, 296.0}, {265.0, 330.0, 296.0}, {423.0, 330.0, 247.0}, {423.0, 0.0, 247.0}}, white);
-    s.camera = Camera{Vec3(278.0, 273.0, -800.0), Vec3(278.0, 273.0, 0.0), Vec3(0.0, 1.0, 0.0),
-                      2.0 * std::atan(12.5 / 35.0) * 180.0 / kPi};
+    s.camera = pinhole(Vec3(278.0, 273.0, -800.0), Vec3(278.0, 273.0, 0.0), Vec3(0.0, 1.0, 0.0),
+                      2.0 * std::atan(12.5 / 35.0) * 180.0 / kPi);
     finish(s, "cornell");
     return s;
 }
@@ -163,8 +173,8 @@ Scene makeFurnace(double rho, double emission, double side) {
             inward[axis] = hi ? -1.0 : 1.0;
             quadFacing(s, o, o + a, o + a + b, o + b, inward, m);
         }
-    s.camera = Camera{Vec3(0.5 * side, 0.5 * side, 0.05 * side), Vec3(0.5 * side, 0.5 * side, side),
-                      Vec3(0.0, 1.0, 0.0), 90.0};
+    s.camera = pinhole(Vec3(0.5 * side, 0.5 * side, 0.05 * side), Vec3(0.5 * side, 0.5 * side, side),
+                      Vec3(0.0, 1.0, 0.0), 90.0);
     finish(s, fmt::format("furnace:{}:{}:{}", rho, emission, side));
     return s;
 }
@@ -180,8 +190,8 @@ Scene makeParallelPlates(double w, double h, double d) {
     uint32_t receiver = s.addMaterial({"receiver", RGB(0.5), RGB(0.0)});
     quadFacing(s, Vec3(0, 0, 0), Vec3(w, 0, 0), Vec3(w, h, 0), Vec3(0, h, 0), Vec3(0, 0, 1), receiver);
     quadFacing(s, Vec3(0, 0, d), Vec3(w, 0, d), Vec3(w, h, d), Vec3(0, h, d), Vec3(0, 0, -1), emitter);
-    s.camera = Camera{Vec3(0.5 * w, -1.5 * std::max(w, h), 0.5 * d), Vec3(0.5 * w, 0.5 * h, 0.5 * d),
-                      Vec3(0, 0, 1), 45.0};
+    s.camera = pinhole(Vec3(0.5 * w, -1.5 * std::max(w, h), 0.5 * d), Vec3(0.5 * w, 0.5 * h, 0.5 * d),
+                      Vec3(0, 0, 1), 45.0);
     finish(s, fmt::format("plates:parallel:{}:{}:{}", w, h, d));
     return s;
 }
@@ -222,7 +232,7 @@ Scene makePerpendicularPlates(double w, double h, double l) {
     quadFacing(s, Vec3(0, 0, 0), Vec3(l, 0, 0), Vec3(l, 0, w), Vec3(0, 0, w), Vec3(0, 1, 0), emitter);
     quadFacing(s, Vec3(0, 0, 0), Vec3(l, 0, 0), Vec3(l, h, 0), Vec3(0, h, 0), Vec3(0, 0, 1), receiver);
     double r = std::max({w, h, l});
-    s.camera = Camera{Vec3(0.5 * l, 1.5 * r, 1.5 * r), Vec3(0.5 * l, 0.0, 0.0), Vec3(0, 1, 0), 50.0};
+    s.camera = pinhole(Vec3(0.5 * l, 1.5 * r, 1.5 * r), Vec3(0.5 * l, 0.0, 0.0), Vec3(0, 1, 0), 50.0);
     finish(s, fmt::format("plates:perpendicular:{}:{}:{}", w, h, l));
     return s;
 }
@@ -339,7 +349,7 @@ Scene makeOffice(int n) {
                 }
             }
         }
-    s.camera = Camera{Vec3(3.6, 1.6, 3.6), Vec3(0.5, 1.0, 0.5), Vec3(0, 1, 0), 60.0};
+    s.camera = pinhole(Vec3(3.6, 1.6, 3.6), Vec3(0.5, 1.0, 0.5), Vec3(0, 1, 0), 60.0);
     finish(s, fmt::format("office:{}", n));
     return s;
 }

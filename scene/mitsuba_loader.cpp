@@ -20,6 +20,8 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <pugixml.hpp>
+// Debian libstb-dev: the implementation is in libstb.so (no STB_IMAGE_IMPLEMENTATION here).
+#include <stb/stb_image.h>
 
 #include "core/error.h"
 #include "scene/mitsuba_serialized.h"
@@ -209,6 +211,8 @@ class Loader {
     std::set<const void*> usedEmitters_;
     std::set<std::string> warnedOnce_;
     bool haveCamera_ = false;
+    /// (file, raw) -> the texture's mean, or why it could not be read.
+    std::map<std::pair<std::string, bool>, std::pair<std::optional<RGB>, std::string>> textureCache_;
     uint64_t faces_ = 0;
 
     // --- locations, warnings, errors -------------------------------------
@@ -525,11 +529,15 @@ class Loader {
                                         opt_.textureRho));
             return grey;
         }
-        std::optional<RGB> mean;
-        std::string why;
-        if (ext == ".png") mean = pngMean(file, raw, why);
-        else if (ext == ".exr") mean = exrMean(file, why);
-        else why = "no decoder for '" + ext + "' is linked";
+        // One decode per file and encoding: materials often share a texture
+        // (the bathroom's wood.jpg, 910 x 2048, serves two).
+        auto& [mean, why] = textureCache_[{fs::weakly_canonical(file, ec).string(), raw}];
+        if (!mean && why.empty()) {
+            if (ext == ".png") mean = pngMean(file, raw, why);
+            else if (ext == ".exr") mean = exrMean(file, why);
+            else mean = stbMean(file, raw, why);  // JPEG, BMP, TGA, GIF, PSD, PIC, PNM, HDR
+            if (!mean && why.empty()) why = "unreadable";
+        }
         if (!mean) {
             notes.push_back(fmt::format("{} texture '{}': {} -> grey {} (mitsuba.texture_rho)", name,
                                         fs::path(file).filename().string(), why, opt_.textureRho));
@@ -573,6 +581,70 @@ class Loader {
             for (size_t i = 0; i < n; ++i) sum[i % 3] += px[i] / 65535.0;
         }
         return n ? sum / double(n / 3) : RGB(0.0);
+    }
+
+    /// The mean of an image stb_image reads (JPEG, BMP, TGA, GIF, PSD, PIC,
+    /// PNM; Radiance HDR). Like Mitsuba's bitmap texture: 8- and 16-bit
+    /// images are sRGB-encoded unless raw = true, and are decoded to linear
+    /// RGB per texel before averaging (the mean of the encoded values would
+    /// be darker: the transfer function is convex); HDR is linear. Grey
+    /// images count as r = g = b; alpha is ignored (as PNG above).
+    static std::optional<RGB> stbMean(const std::string& file, bool raw, std::string& why) {
+        std::FILE* f = std::fopen(file.c_str(), "rb");
+        if (!f) {
+            why = "cannot open";
+            return std::nullopt;
+        }
+        std::unique_ptr<std::FILE, int (*)(std::FILE*)> guard(f, &std::fclose);
+        // The header alone first: a few bytes may claim 65535 x 65535 texels,
+        // which stbi_load would allocate. Same bound as PNG and OpenEXR.
+        int w = 0, h = 0, comp = 0;
+        if (!stbi_info_from_file(f, &w, &h, &comp)) {
+            const char* r = stbi_failure_reason();
+            why = std::string("unreadable image (stb_image: ") + (r ? r : "unknown format") + ")";
+            return std::nullopt;
+        }
+        if (w <= 0 || h <= 0 || uint64_t(w) * uint64_t(h) > (uint64_t(1) << 27)) {
+            why = fmt::format("image of {} x {} texels is outside 1 .. 2^27 texels", w, h);
+            return std::nullopt;
+        }
+        const bool hdr = stbi_is_hdr_from_file(f) != 0;
+        const bool wide = !hdr && stbi_is_16_bit_from_file(f) != 0;
+        const size_t n = size_t(w) * size_t(h);
+        Vec3 sum(0.0);
+        auto failed = [&] {
+            const char* r = stbi_failure_reason();
+            why = std::string("unreadable image (stb_image: ") + (r ? r : "decoding failed") + ")";
+            return std::nullopt;
+        };
+        int dw = 0, dh = 0, dc = 0;
+        if (hdr) {
+            // stbi_loadf would apply its own 2.2 gamma to LDR files; HDR
+            // (Radiance RGBE) is returned as stored: linear.
+            std::unique_ptr<float, void (*)(void*)> px(stbi_loadf_from_file(f, &dw, &dh, &dc, 3), &stbi_image_free);
+            if (!px || dw != w || dh != h) return failed();
+            for (size_t i = 0; i < 3 * n; ++i) sum[int(i % 3)] += double(px.get()[i]);
+        } else if (wide) {
+            std::unique_ptr<uint16_t, void (*)(void*)> px(stbi_load_from_file_16(f, &dw, &dh, &dc, 3),
+                                                          &stbi_image_free);
+            if (!px || dw != w || dh != h) return failed();
+            for (size_t i = 0; i < 3 * n; ++i) {
+                double v = px.get()[i] / 65535.0;
+                sum[int(i % 3)] += raw ? v : srgbToLinear(v);
+            }
+        } else {
+            std::unique_ptr<stbi_uc, void (*)(void*)> px(stbi_load_from_file(f, &dw, &dh, &dc, 3), &stbi_image_free);
+            if (!px || dw != w || dh != h) return failed();
+            double lut[256];
+            for (int k = 0; k < 256; ++k) lut[k] = raw ? k / 255.0 : srgbToLinear(k / 255.0);
+            for (size_t i = 0; i < 3 * n; ++i) sum[int(i % 3)] += lut[px.get()[i]];
+        }
+        RGB mean = sum / double(n);
+        if (!std::isfinite(mean.r) || !std::isfinite(mean.g) || !std::isfinite(mean.b)) {
+            why = "non-finite texel values";
+            return std::nullopt;
+        }
+        return mean;
     }
 
     static std::optional<RGB> exrMean(const std::string& file, std::string& why) {
@@ -720,12 +792,18 @@ class Loader {
                                 type));
             return;
         }
+        // Mitsuba's default film is 768 x 576 (hdrfilm); its size is the
+        // default image size of hrad solve/render and fixes the aspect the
+        // fov_axis conversion below uses.
         double w = 768, h = 576;
+        SourceLocation filmWhere = loc(s);
         if (pugi::xml_node c = s.n.child("film")) {
             Node film{c, s.f};
             w = floatProp(film, "width", w);
             h = floatProp(film, "height", h);
-            if (!(w >= 1 && h >= 1)) fail(film, "film width and height must be >= 1");
+            if (!(w >= 1 && h >= 1 && w <= 32768 && h <= 32768) || w != std::floor(w) || h != std::floor(h))
+                fail(film, "film width and height must be integers in 1 .. 32768, not {} x {}", w, h);
+            filmWhere = loc(film);
         }
         double tanHalf;  // tan of half the fov along the axis it is given for
         std::string axis = stringProp(s, "fov_axis", "x");
@@ -741,6 +819,7 @@ class Loader {
             tanHalf = std::sqrt(36.0 * 36.0 + 24.0 * 24.0) / (2 * v[0]);
             axis = "diagonal";
         }
+        const std::string axisGiven = axis;
         double tanY;
         if (axis == "smaller") axis = w < h ? "x" : "y";
         if (axis == "larger") axis = w < h ? "y" : "x";
@@ -756,6 +835,14 @@ class Loader {
         cam.target = cam.eye + dir;
         cam.up = up;
         cam.fovYDegrees = glm::degrees(2 * std::atan(tanY));
+        cam.filmWidth = int(w);
+        cam.filmHeight = int(h);
+        cam.fovAxis = axisGiven == "x"          ? FovAxis::X
+                      : axisGiven == "y"        ? FovAxis::Y
+                      : axisGiven == "diagonal" ? FovAxis::Diagonal
+                      : axisGiven == "smaller"  ? FovAxis::Smaller
+                                                : FovAxis::Larger;
+        cam.filmWhere = filmWhere;
         scene_.camera = cam;
         Vec3 a = glm::abs(up);
         scene_.upAxis = a.x >= a.y && a.x >= a.z ? 0 : (a.y >= a.z ? 1 : 2);
@@ -1011,6 +1098,7 @@ class Loader {
                 if (w.find("no material") == std::string::npos && w.find("default") == std::string::npos)
                     scene_.stats.warnings.push_back(w);
             scene_.stats.droppedDegenerate += sub.stats.droppedDegenerate;
+            scene_.stats.triangulatedFaces += sub.stats.triangulatedFaces;  // e.g. a non-planar quad
             polys.reserve(sub.patches.size());
             for (const Patch& p : sub.patches)
                 polys.emplace_back(p.v.begin(), p.v.begin() + p.numVertices());

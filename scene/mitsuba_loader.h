@@ -51,10 +51,15 @@
 //                measured, hair, ...     mitsuba.default_rho grey
 //              A shape without BSDF is diffuse 0.5 (Mitsuba's default).
 //              Colours: rgb (linear), srgb (sRGB-decoded), float, spectrum;
-//              texture: the mean of a bitmap (PNG through libpng's sRGB
-//              decoding, OpenEXR as stored; other formats such as JPEG have no
-//              linked decoder and get mitsuba.texture_rho grey), checkerboard
-//              the mean of its two colours; always with a warning. Channels
+//              texture: the mean of a bitmap over its texels, in linear RGB
+//              (PNG through libpng's sRGB decoding; OpenEXR as stored; JPEG,
+//              BMP, TGA, GIF, PSD, PNM through stb_image, 8/16-bit values
+//              sRGB-decoded per texel as Mitsuba's bitmap does, Radiance HDR as
+//              stored; `raw` = true skips the sRGB decoding; alpha ignored),
+//              checkerboard the mean of its two colours; always with a
+//              warning. A bitmap that is missing, unreadable or larger than
+//              2^27 texels (checked from its header before decoding) gets
+//              mitsuba.texture_rho grey with a warning naming the file. Channels
 //              >= 1 become mitsuba.clamp_rho with a warning (path-tracer
 //              scenes often use 1.0; 0 makes them an error).
 //              `twosided` sets Material::twoSided; emitsBothSides stays false
@@ -73,11 +78,15 @@
 //   camera     the first `perspective` (or `thinlens`) sensor: fov with
 //              fov_axis x / y / diagonal / smaller / larger (default x) and the
 //              film's width/height (default 768 x 576) give the vertical fov;
+//              the film size becomes Camera::filmWidth/filmHeight (the default
+//              image size of hrad solve/render) and the axis Camera::fovAxis
+//              (an image of another aspect keeps the fov along that axis);
 //              focal_length (default "50mm") uses a 36 x 24 mm film diagonal;
 //              to_world (lookat or matrix) gives eye, target, up, and
 //              Scene::upAxis is the up vector's dominant axis (Y when there
 //              is no sensor).
-// Renderer-only elements (integrator, sampler, film, rfilter) are ignored;
+// Renderer-only elements (integrator, sampler, rfilter; of the film all but
+// width and height) are ignored;
 // media get a warning. An unknown element or plugin type is an error listing
 // the known ones.
 //
@@ -87,7 +96,9 @@
 //   mitsuba.clamp_rho   double 0.99  reflectance channels >= 1 become this
 //                                    (< 1) with a warning; 0 = error instead
 //   mitsuba.default_rho double 0.5   grey of BSDFs without a diffuse albedo
-//   mitsuba.texture_rho double 0.5   grey of textures that cannot be read
+//   mitsuba.texture_rho double 0.5   grey of textures that cannot be read or
+//                                    are not evaluated (e.g. bitmap-driven
+//                                    procedural types other than checkerboard)
 //   mitsuba.max_faces   int    2e7   most faces the scene may yield
 //   mitsuba.param.NAME  string       value of $NAME (overrides <default>)
 #pragma once

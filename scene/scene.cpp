@@ -18,6 +18,29 @@ bool degenerate(double area, double maxEdge2) {
 }
 }  // namespace
 
+double Camera::fovYDegreesFor(int width, int height) const {
+    if (filmWidth <= 0 || filmHeight <= 0 || width <= 0 || height <= 0) return fovYDegrees;
+    const double filmAspect = double(filmWidth) / filmHeight, aspect = double(width) / height;
+    if (fovAxis == FovAxis::Y || filmAspect == aspect) return fovYDegrees;
+    // tan(fov/2) along an axis, on an image of aspect a = w/h, from the
+    // vertical one: x: tanY a; y: tanY; diagonal: tanY sqrt(a^2 + 1) (the
+    // image plane at distance 1 is 2 tanY a by 2 tanY). Smaller/larger pick
+    // x or y by the image's own shape (Mitsuba resolves them on its film).
+    auto axisFor = [&](double a) {
+        if (fovAxis == FovAxis::Smaller) return a < 1 ? FovAxis::X : FovAxis::Y;
+        if (fovAxis == FovAxis::Larger) return a < 1 ? FovAxis::Y : FovAxis::X;
+        return fovAxis;
+    };
+    auto factor = [](FovAxis axis, double a) {
+        return axis == FovAxis::X ? a : axis == FovAxis::Diagonal ? std::sqrt(a * a + 1) : 1.0;
+    };
+    constexpr double kDeg = 3.14159265358979323846 / 180.0;
+    const double tanFilmY = std::tan(0.5 * fovYDegrees * kDeg);
+    const double tanAxis = tanFilmY * factor(axisFor(filmAspect), filmAspect);
+    const double tanY = tanAxis / factor(axisFor(aspect), aspect);
+    return 2.0 * std::atan(tanY) / kDeg;
+}
+
 uint32_t Scene::addMaterial(Material m) {
     materials.push_back(std::move(m));
     return static_cast<uint32_t>(materials.size() - 1);

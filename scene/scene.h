@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "core/error.h"
 #include "core/types.h"
 
 namespace hrad::scene {
@@ -67,11 +68,38 @@ struct Patch {
     Vec3 centroid() const;
 };
 
+/// The image axis a scene file's field of view is measured along (Mitsuba's
+/// fov_axis): x (horizontal), y (vertical), the diagonal, or whichever of x
+/// and y is the smaller / larger dimension of the image.
+enum class FovAxis { X, Y, Diagonal, Smaller, Larger };
+
 struct Camera {
     Vec3 eye{0.0, 0.0, 1.0};
     Vec3 target{0.0, 0.0, 0.0};
     Vec3 up{0.0, 1.0, 0.0};
-    double fovYDegrees = 40.0;  ///< vertical field of view
+    /// Vertical field of view in degrees; for a camera with a film, at the
+    /// film's aspect (filmWidth / filmHeight).
+    double fovYDegrees = 40.0;
+    /// The film of the scene file's sensor in pixels (Mitsuba's
+    /// hdrfilm/ldrfilm width and height; 768 x 576, Mitsuba's default, for a
+    /// sensor without a film); 0 x 0 for a camera without one (built-in
+    /// scenes, glTF, automatic and explicit cameras). It is the default image
+    /// size of `hrad solve` and `hrad render` (render/render.h).
+    int filmWidth = 0, filmHeight = 0;
+    /// With a film: the axis along which the scene file gave the field of
+    /// view. An image of another aspect than the film's keeps the fov along
+    /// this axis (what Mitsuba renders when the film size is changed), so a
+    /// 16:9 scene rendered square with fov_axis x keeps its horizontal fov.
+    FovAxis fovAxis = FovAxis::Y;
+    /// Where the film (or the sensor, without a film) is in the scene file,
+    /// for errors about the image size it implies.
+    SourceLocation filmWhere;
+
+    /// Vertical field of view (degrees) of an image of width x height
+    /// pixels: fovYDegrees when the camera has no film or the aspect is the
+    /// film's; otherwise the fov along fovAxis (resolved on the film's
+    /// aspect) carried over to the image's aspect.
+    double fovYDegreesFor(int width, int height) const;
 };
 
 struct Bounds3 {

@@ -121,6 +121,49 @@ TEST(Cli, ExplicitCameraIsUsedAndRecorded) {
     EXPECT_NE(bad.output.find("render.fov"), std::string::npos) << bad.output;
 }
 
+/// Width and height from a PNG's IHDR chunk (big-endian at bytes 16 and 20).
+static std::pair<int, int> pngSize(const std::filesystem::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    unsigned char b[24] = {};
+    in.read(reinterpret_cast<char*>(b), 24);
+    auto be = [&](int o) { return (b[o] << 24) | (b[o + 1] << 16) | (b[o + 2] << 8) | b[o + 3]; };
+    return {be(16), be(20)};
+}
+
+// A Mitsuba sensor's film is the default image size of hrad solve and
+// hrad render; --width alone keeps the film's aspect; both options win.
+TEST(Cli, MitsubaFilmSetsTheImageSize) {
+    auto dir = hrad::test::tempDir("cli_film");
+    auto scene = hrad::test::writeFile(dir / "film.xml", R"(<scene version="3.0.0">
+  <shape type="rectangle"><transform name="to_world"><scale value="2"/></transform></shape>
+  <shape type="rectangle"><boolean name="flip_normals" value="true"/>
+    <transform name="to_world"><scale value="0.3"/><translate value="0, 0, 1"/></transform>
+    <emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
+  <sensor type="perspective"><float name="fov" value="70"/><string name="fov_axis" value="y"/>
+    <transform name="to_world"><lookat origin="0, -3, 0.5" target="0, 0, 0" up="0, 0, 1"/></transform>
+    <film type="hdrfilm"><integer name="width" value="40"/><integer name="height" value="20"/></film>
+  </sensor>
+</scene>
+)");
+    Result r = run("solve " + scene.string() + " --eps 1e-2 --no-ply --no-progress -o " + (dir / "a").string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_EQ(pngSize(dir / "a" / "image.png"), (std::pair{40, 20}));
+    nlohmann::json s;
+    std::ifstream(dir / "a" / "summary.json") >> s;
+    EXPECT_EQ(s["camera"]["image_size"][0].get<int>(), 40);
+    EXPECT_NEAR(s["camera"]["fov_y_degrees"].get<double>(), 70.0, 1e-9);  // fov_axis y at the film's aspect
+    r = run("solve " + scene.string() + " --eps 1e-2 --no-ply --no-progress --width 80 -o " + (dir / "b").string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_EQ(pngSize(dir / "b" / "image.png"), (std::pair{80, 40}));
+    r = run("render " + scene.string() + " " + (dir / "a" / "solution.hrsol").string() + " --width 30 --height 30 -o " +
+            (dir / "c").string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_EQ(pngSize(dir / "c" / "image.png"), (std::pair{30, 30}));
+    r = run("render " + scene.string() + " " + (dir / "a" / "solution.hrsol").string() + " -o " + (dir / "d").string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_EQ(pngSize(dir / "d" / "image.png"), (std::pair{40, 20}));
+}
+
 static std::string fileBytes(const std::filesystem::path& p) {
     std::ifstream in(p, std::ios::binary);
     return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());

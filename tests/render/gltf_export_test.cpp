@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <numbers>
 
 #include <glm/gtc/type_ptr.hpp>
 #include <glm/mat4x4.hpp>
@@ -208,6 +209,21 @@ TEST(GltfExport, ZUpSceneStandsUpright) {
     glm::dvec4 up = glm::make_mat4(root.matrix.data()) * glm::dvec4(0, 0, 1, 0);
     EXPECT_NEAR(up.y, 1.0, 1e-12);
     EXPECT_NEAR(std::abs(up.x) + std::abs(up.z), 0.0, 1e-12);
+}
+
+TEST(GltfExport, CameraWithAFilmWritesItsAspectRatio) {
+    auto dir = test::tempDir("gltf_film");
+    scene::Scene s = scene::loadScene("furnace");
+    scene::UniformField f(s, scene::uniformLevels(s, 0, 0));
+    writeGlb(f, (dir / "nofilm.glb").string());
+    EXPECT_EQ(readBack((dir / "nofilm.glb").string()).cameras.at(0).perspective.aspectRatio, 0.0);  // absent
+    s.camera->filmWidth = 200;
+    s.camera->filmHeight = 100;
+    scene::UniformField g(s, scene::uniformLevels(s, 0, 0));
+    writeGlb(g, (dir / "film.glb").string());
+    tinygltf::Model m = readBack((dir / "film.glb").string());
+    EXPECT_NEAR(m.cameras.at(0).perspective.aspectRatio, 2.0, 1e-12);
+    EXPECT_NEAR(m.cameras.at(0).perspective.yfov, s.camera->fovYDegrees * std::numbers::pi / 180.0, 1e-12);
 }
 
 TEST(GltfExport, UnwritablePathIsAnInputError) {

@@ -1,9 +1,12 @@
 // Mitsuba 3 XML loading (scene/mitsuba_loader.h): small scenes written into a
 // temporary folder.
 #include <png.h>
+#include <stb/stb_image_write.h>  // Debian libstb-dev; implementation in libstb
 
 #include <cmath>
+#include <cstring>
 #include <numbers>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -323,7 +326,7 @@ TEST(MitsubaLoader, TextureMeans) {
     img.format = PNG_FORMAT_RGB;
     const uint8_t px[6] = {255, 0, 0, 0, 0, 0};
     ASSERT_TRUE(png_image_write_to_file(&img, (dir / "t.png").c_str(), 0, px, 0, nullptr));
-    test::writeFile(dir / "t.jpg", "not decoded");
+    test::writeFile(dir / "t.jpg", "not an image");
     Scene s = load(dir, std::string(kLight) + R"(  <shape type="rectangle"><transform name="to_world"><translate z="1"/></transform>
     <bsdf type="diffuse"><texture name="reflectance" type="bitmap"><string name="filename" value="t.png"/></texture></bsdf>
   </shape>
@@ -341,7 +344,82 @@ TEST(MitsubaLoader, TextureMeans) {
     EXPECT_NEAR(s.patches[2].rho.g, 0.4, 1e-12);
     EXPECT_NEAR(s.patches[3].rho.b, 0.5, 1e-12);  // mitsuba.texture_rho
     EXPECT_TRUE(hasWarning(s, "t.png' -> its mean"));
-    EXPECT_TRUE(hasWarning(s, "no decoder for '.jpg'"));
+    EXPECT_TRUE(hasWarning(s, "t.jpg': unreadable image (stb_image:"));
+}
+
+/// A 16 x 16 JPEG (stb_image_write, quality 100, no chroma subsampling at
+/// that quality): the left half sRGB `a`, the right half `b`. The halves are
+/// whole 8 x 8 blocks, so each block is flat and survives the DCT up to the
+/// rounding of its DC term and the YCbCr conversion (about one code).
+std::vector<uint8_t> jpegHalves(const uint8_t a[3], const uint8_t b[3]) {
+    std::vector<uint8_t> px(16 * 16 * 3);
+    for (int y = 0; y < 16; ++y)
+        for (int x = 0; x < 16; ++x)
+            for (int c = 0; c < 3; ++c) px[size_t((y * 16 + x) * 3 + c)] = x < 8 ? a[c] : b[c];
+    std::vector<uint8_t> out;
+    auto append = [](void* ctx, void* data, int size) {
+        auto* o = static_cast<std::vector<uint8_t>*>(ctx);
+        o->insert(o->end(), static_cast<uint8_t*>(data), static_cast<uint8_t*>(data) + size);
+    };
+    EXPECT_TRUE(stbi_write_jpg_to_func(append, &out, 16, 16, 3, px.data(), 100));
+    return out;
+}
+
+double srgbDecode(double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); }
+
+TEST(MitsubaLoader, JpegTextureMeanIsSrgbDecodedUnlessRaw) {
+    auto dir = test::tempDir("mts_jpeg");
+    const uint8_t a[3] = {200, 100, 50}, b[3] = {20, 180, 240};
+    std::vector<uint8_t> jpg = jpegHalves(a, b);
+    test::writeFile(dir / "halves.jpg", std::string(jpg.begin(), jpg.end()));
+    // The same bytes with a start-of-frame header claiming 65535 x 65535
+    // texels: refused from the header (stbi_info), before any allocation.
+    std::vector<uint8_t> huge = jpg;
+    bool patched = false;
+    for (size_t i = 0; i + 8 < huge.size() && !patched; ++i)
+        if (huge[i] == 0xFF && (huge[i + 1] == 0xC0 || huge[i + 1] == 0xC2)) {
+            for (size_t k = 5; k < 9; ++k) huge[i + k] = 0xFF;  // height, width (big-endian)
+            patched = true;
+        }
+    ASSERT_TRUE(patched);
+    test::writeFile(dir / "huge.jpg", std::string(huge.begin(), huge.end()));
+    // Truncated inside the header: stb_image cannot read it.
+    test::writeFile(dir / "cut.jpg", std::string(jpg.begin(), jpg.begin() + 20));
+    Scene s = load(dir, std::string(kLight) + R"(  <shape type="rectangle"><transform name="to_world"><translate z="1"/></transform>
+    <bsdf type="diffuse" id="srgb"><texture name="reflectance" type="bitmap"><string name="filename" value="halves.jpg"/></texture></bsdf>
+  </shape>
+  <shape type="rectangle"><transform name="to_world"><translate z="2"/></transform>
+    <bsdf type="diffuse" id="raw"><texture name="reflectance" type="bitmap"><string name="filename" value="halves.jpg"/>
+      <boolean name="raw" value="true"/></texture></bsdf>
+  </shape>
+  <shape type="rectangle"><transform name="to_world"><translate z="3"/></transform>
+    <bsdf type="diffuse" id="huge"><texture name="reflectance" type="bitmap"><string name="filename" value="huge.jpg"/></texture></bsdf>
+  </shape>
+  <shape type="rectangle"><transform name="to_world"><translate z="4"/></transform>
+    <bsdf type="diffuse" id="cut"><texture name="reflectance" type="bitmap"><string name="filename" value="cut.jpg"/></texture></bsdf>
+  </shape>
+)", [] {
+        Params p;
+        p.set("mitsuba.texture_rho", 0.3);
+        return p;
+    }());
+    ASSERT_EQ(s.patches.size(), 5u);
+    for (int c = 0; c < 3; ++c) {
+        double lin = 0.5 * (srgbDecode(a[c] / 255.0) + srgbDecode(b[c] / 255.0));
+        double raw = 0.5 * (a[c] + b[c]) / 255.0;
+        // Tolerance: one 8-bit code is at most 0.0092 in linear units (the
+        // slope of the sRGB curve at 1 is 2.4 / 1.055 / 255), and JPEG's
+        // rounding of a flat block is about one code.
+        EXPECT_NEAR(s.patches[1].rho[c], lin, 0.01) << "channel " << c;
+        EXPECT_NEAR(s.patches[2].rho[c], raw, 1.5 / 255) << "channel " << c;
+        EXPECT_NEAR(s.patches[3].rho[c], 0.3, 1e-12);  // mitsuba.texture_rho
+        EXPECT_NEAR(s.patches[4].rho[c], 0.3, 1e-12);
+    }
+    // The halves are far apart in the two encodings, so the test tells them apart.
+    EXPECT_GT(std::fabs(s.patches[1].rho.r - s.patches[2].rho.r), 0.1);
+    EXPECT_TRUE(hasWarning(s, "halves.jpg' -> its mean"));
+    EXPECT_TRUE(hasWarning(s, "huge.jpg': image of 65535 x 65535 texels"));
+    EXPECT_TRUE(hasWarning(s, "cut.jpg': unreadable image"));
 }
 
 TEST(MitsubaLoader, UnsupportedEmittersWarnWithFileAndLine) {
