@@ -87,6 +87,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.clusterLink = cluster::ClusterLinkSettings::fromParams(p);
     s.basisDegree = scene::basisDegree(p.getEnum("hr.basis", "constant", scene::basisNames()));
     s.basisPoints = int(p.getInt("hr.basis_points", 0, 0, 16));
+    s.basisNearLevels = int(p.getInt("hr.basis_near_levels", s.basisNearLevels, 0, 4));
     // Validate the oracle settings now (unknown keys included), so a bad
     // setting fails before any work is done.
     Params probe = s.oracleParams;
@@ -103,8 +104,9 @@ std::string HrSettings::describe() const {
         "max_iterations={}, tolerance={}, {}, cluster_model={}, {}, {})",
         oracle, sched, minArea, minAreaRel, maxLevel, maxIterations, tolerance, ff.describe(),
         cluster::clusterModelName(clusterModel), cluster.describe(), clusterLink.describe()) +
-           (basisDegree > 0 ? fmt::format(" basis={} basis_points={}", scene::basisName(basisDegree),
-                                          basisPoints > 0 ? basisPoints : basisDegree + 2)
+           (basisDegree > 0 ? fmt::format(" basis={} basis_points={} basis_near_levels={}",
+                                          scene::basisName(basisDegree),
+                                          basisPoints > 0 ? basisPoints : basisDegree + 2, basisNearLevels)
                             : std::string());
 }
 
@@ -122,7 +124,7 @@ HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visib
         basis_ = std::make_unique<scene::BasisSet>(s_.basisDegree);
         coupling_ = std::make_unique<transport::CouplingEngine>(
             scene, &visibility, engine_, *basis_,
-            s_.basisPoints > 0 ? s_.basisPoints : s_.basisDegree + 2);
+            s_.basisPoints > 0 ? s_.basisPoints : s_.basisDegree + 2, s_.basisNearLevels);
     }
 }
 

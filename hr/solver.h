@@ -64,6 +64,8 @@
 //                                       today's solver, bit for bit
 //   hr.basis_points    int     0       quadrature points per axis on each element for the
 //                                       coupling coefficients (0: degree + 2)
+//   hr.basis_near_levels int   1       near pairs use that rule on each of 4^k sub-elements
+//                                       of both elements (transport/coupling.h)
 //   cluster.model      string  "auto"  none | isotropic | oriented (cluster/transfer.h), or
 //                                       auto: none up to 2,000 patches, oriented above (the
 //                                       choice is logged and recorded in the result); with
@@ -143,6 +145,8 @@ struct HrSettings {
     /// hr.basis_points: quadrature points per axis of the coupling
     /// coefficients (0: degree + 2).
     int basisPoints = 0;
+    /// hr.basis_near_levels (transport/coupling.h).
+    int basisNearLevels = 1;
 
     /// Reads the keys above (marks "oracle.*" used only after the oracle has
     /// read them: see HrSolver). Throws InputError on bad values or an unknown
