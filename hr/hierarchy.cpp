@@ -667,6 +667,17 @@ RGB HierarchyField::average(uint32_t patch, ElementKey key) const {
     return c[0];
 }
 
+RGB HierarchyField::leafPoint(uint32_t patch, ElementKey key, const RGB& leafValue, double a,
+                              double b) const {
+    if (h_->basisSize() == 1) return leafValue;
+    uint32_t e = patch;
+    int L = scene::keyLevel(key);
+    for (int l = 0; l < L && !h_->isLeaf(e); ++l)
+        e = h_->firstChild(e) + uint32_t(scene::keyChildAt(key, l));
+    HRAD_CHECK(h_->key(e) == key);
+    return h_->evaluate(e, a, b);
+}
+
 void HierarchyField::forEachLeaf(uint32_t patch,
                                  const std::function<void(ElementKey, const RGB&)>& fn) const {
     std::vector<uint32_t> stack{patch};

@@ -294,6 +294,9 @@ class HierarchyField final : public scene::RadiosityField {
     RGB average(uint32_t patch, scene::ElementKey key) const override;
     void forEachLeaf(uint32_t patch,
                      const std::function<void(scene::ElementKey, const RGB&)>& fn) const override;
+    /// The leaf's polynomial at (a, b) (the leaf value for the constant basis).
+    RGB leafPoint(uint32_t patch, scene::ElementKey key, const RGB& leafValue, double a,
+                  double b) const override;
 
   private:
     const Hierarchy* h_;

@@ -155,6 +155,16 @@ TEST(BasisHierarchy, LinearFieldIsReproducedExactlyByDegreeOneAndUp) {
                 RGB got = field.at(0, u, v);
                 for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], f(u, v, c), 1e-12) << degree;
             }
+            // The exports' corner values (RadiosityField::leafPoint).
+            field.forEachLeaf(0, [&](scene::ElementKey key, const RGB& value) {
+                scene::Domain d = scene::keyDomain(kind, key);
+                for (int i = 0; i < (kind == scene::PatchKind::Quad ? 4 : 3); ++i) {
+                    Vec2 lc = scene::cornerLocal(kind, i);
+                    Vec2 uv = scene::domainParam(d, lc.x, lc.y);
+                    RGB got = field.leafPoint(0, key, value, lc.x, lc.y);
+                    for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], f(uv.x, uv.y, c), 1e-12) << degree;
+                }
+            });
             // Means over regions at levels 0..5 (below the leaves too).
             for (int k = 0; k < 50; ++k) {
                 scene::ElementKey key = scene::keyAt(kind, 0.3 * rng.nextDouble(), 0.3 * rng.nextDouble(), k % 6);
