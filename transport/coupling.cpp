@@ -170,4 +170,37 @@ uint32_t CouplingEngine::compute(const ElementRef& r, const ElementRef& s, doubl
     return cast;
 }
 
+double CouplingEngine::projectionResidual(const ElementRef& r, const ElementRef& s) const {
+    const scene::Patch& pr = scene_->patches[r.patch];
+    const bool isQuad = pr.kind == scene::PatchKind::Quad;
+    const scene::QuadratureRule& q = isQuad ? quad_ : tri_;
+    const scene::Basis& br = basis_->of(pr.kind);
+    const int nb = br.size();
+    double K0[scene::kMaxBasisSize] = {}, phi[scene::kMaxBasisSize];
+    for (size_t i = 0; i < q.size(); ++i) {
+        Vec3 x = scene::elementPoint(pr, r.dom, q.points[i].x, q.points[i].y);
+        double F = ff_->pointToElement(x, pr.normal, s);
+        br.eval(q.points[i].x, q.points[i].y, phi);
+        for (int a = 0; a < nb; ++a) K0[a] += q.weights[i] * phi[a] * F;
+    }
+    static constexpr double kQuad[9][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}, {0.5, 0},
+                                           {1, 0.5}, {0.5, 1}, {0, 0.5}, {0.5, 0.5}};
+    static constexpr double kTri[7][2] = {{0, 0}, {1, 0}, {0, 1}, {0.5, 0}, {0.5, 0.5}, {0, 0.5},
+                                          {1.0 / 3.0, 1.0 / 3.0}};
+    const int n = isQuad ? 9 : 7;
+    const double c = isQuad ? 0.5 : 1.0 / 3.0;
+    double worst = 0.0;
+    for (int k = 0; k < n; ++k) {
+        double a = isQuad ? kQuad[k][0] : kTri[k][0], b = isQuad ? kQuad[k][1] : kTri[k][1];
+        a = c + 0.95 * (a - c);
+        b = c + 0.95 * (b - c);
+        Vec3 x = scene::elementPoint(pr, r.dom, a, b);
+        br.eval(a, b, phi);
+        double P = 0.0;
+        for (int m = 0; m < nb; ++m) P += phi[m] * K0[m];
+        worst = std::max(worst, std::fabs(P - ff_->pointToElement(x, pr.normal, s)));
+    }
+    return worst;
+}
+
 }  // namespace hrad::transport

@@ -70,6 +70,16 @@ class CouplingEngine {
     uint32_t compute(const ElementRef& r, const ElementRef& s, double visibility, bool partial,
                      float* out) const;
 
+    /// How badly the basis represents the link's transfer over the receiver:
+    /// max over check points x_k of |P(x_k) - F(x_k)|, where F(x) is the
+    /// unoccluded point-to-element form factor F_{dA(x) -> s} and P its
+    /// Galerkin projection onto the receiver's basis (P(x) = sum_a phi_a(x)
+    /// K^{a0} with the column-0 rule of compute(), without visibility). The
+    /// check points are the receiver's corners, edge midpoints and centroid,
+    /// moved 5 % towards the centroid (a corner on the sender's edge has no
+    /// finite contour integral). Geometry only: no rays.
+    double projectionResidual(const ElementRef& r, const ElementRef& s) const;
+
   private:
     const scene::Scene* scene_;
     const Visibility* vis_;
