@@ -589,7 +589,9 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         if (s_.memoryBudget > 0) {
             uint64_t marked = 0;
             for (uint8_t m : mark) marked += m;
-            uint64_t perLink = sizeof(Link) + sizeof(uint32_t) + (aggregate ? sizeof(KernelSamples) : 0);
+            uint64_t perLink = sizeof(Link) + sizeof(uint32_t) + (aggregate ? sizeof(KernelSamples) : 0) +
+                               (coupling_ ? sizeof(uint32_t) + sizeof(float) * uint64_t(h.basisSize() * h.basisSize())
+                                          : 0);
             uint64_t perElement = h.numElements() ? h.elementBytes() / h.numElements() : 64;
             uint64_t estimate = h.elementBytes() + h.linkBytes() +
                                 (finalLinks.size() + n + newCount) * perLink +
