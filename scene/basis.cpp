@@ -118,7 +118,8 @@ Basis::Basis(PatchKind kind, int degree) : kind_(kind), degree_(degree), size_(b
                 for (int j = 0; j < size_; ++j) {
                     int ei, ej;
                     exponents(j, ei, ej);
-                    v[m] += mono_[size_t(k)][size_t(j)] * ipow(q.points[m].x, ei) * ipow(q.points[m].y, ej);
+                    v[m] += mono_[size_t(k)][size_t(j)] * ipow(q.points[m].x, ei) *
+                            ipow(q.points[m].y, ej);
                 }
         };
         auto dot = [&](const std::vector<double>& a, const std::vector<double>& b) {
@@ -133,7 +134,8 @@ Basis::Basis(PatchKind kind, int degree) : kind_(kind), degree_(degree), size_(b
                     values(k, vk);
                     values(l, vl);
                     double c = dot(vk, vl);
-                    for (int j = 0; j < size_; ++j) mono_[size_t(k)][size_t(j)] -= c * mono_[size_t(l)][size_t(j)];
+                    for (int j = 0; j < size_; ++j)
+                        mono_[size_t(k)][size_t(j)] -= c * mono_[size_t(l)][size_t(j)];
                 }
             values(k, vk);
             double nrm = std::sqrt(dot(vk, vk));
@@ -151,7 +153,8 @@ Basis::Basis(PatchKind kind, int degree) : kind_(kind), degree_(degree), size_(b
             eval(pp.x, pp.y, fp);
             eval(q.points[m].x, q.points[m].y, fc);
             for (int a = 0; a < size_; ++a)
-                for (int b = 0; b < size_; ++b) T[size_t(a * size_ + b)] += q.weights[m] * fp[a] * fc[b];
+                for (int b = 0; b < size_; ++b)
+                    T[size_t(a * size_ + b)] += q.weights[m] * fp[a] * fc[b];
         }
     }
 }

@@ -105,7 +105,8 @@ class Basis {
 
 /// The bases of one degree for both patch kinds.
 struct BasisSet {
-    explicit BasisSet(int degree) : quad(PatchKind::Quad, degree), tri(PatchKind::Triangle, degree) {}
+    explicit BasisSet(int degree)
+        : quad(PatchKind::Quad, degree), tri(PatchKind::Triangle, degree) {}
     const Basis& of(PatchKind k) const { return k == PatchKind::Quad ? quad : tri; }
     int degree() const { return quad.degree(); }
     int size() const { return quad.size(); }

@@ -23,8 +23,9 @@ constexpr int kBatch = 64;
 
 /// The rule `base` repeated on each of the 4^levels quadtree sub-elements of
 /// the reference domain (weights scaled to keep the total 1).
-scene::QuadratureRule compositeRule(scene::PatchKind kind, const scene::QuadratureRule& base, int levels,
-                                    std::vector<uint32_t>& cellOf, std::vector<Vec2>& centres) {
+scene::QuadratureRule compositeRule(scene::PatchKind kind, const scene::QuadratureRule& base,
+                                    int levels, std::vector<uint32_t>& cellOf,
+                                    std::vector<Vec2>& centres) {
     std::vector<scene::Domain> cells{scene::Domain{}};
     for (int l = 0; l < levels; ++l) {
         std::vector<scene::Domain> next;
@@ -60,11 +61,16 @@ double elementRadius(const scene::Patch& p, const scene::Domain& d, const Vec3& 
 CouplingEngine::CouplingEngine(const scene::Scene& scene, const Visibility* visibility,
                                const FormFactorEngine& ff, const scene::BasisSet& basis, int points,
                                int nearLevels)
-    : scene_(&scene), vis_(visibility), ff_(&ff), basis_(&basis),
+    : scene_(&scene),
+      vis_(visibility),
+      ff_(&ff),
+      basis_(&basis),
       quad_(scene::referenceRule(scene::PatchKind::Quad, points)),
       tri_(scene::referenceRule(scene::PatchKind::Triangle, points)),
-      nearQuad_(compositeRule(scene::PatchKind::Quad, quad_, nearLevels, nearCellQuad_, cellCentreQuad_)),
-      nearTri_(compositeRule(scene::PatchKind::Triangle, tri_, nearLevels, nearCellTri_, cellCentreTri_)) {
+      nearQuad_(
+          compositeRule(scene::PatchKind::Quad, quad_, nearLevels, nearCellQuad_, cellCentreQuad_)),
+      nearTri_(compositeRule(scene::PatchKind::Triangle, tri_, nearLevels, nearCellTri_,
+                             cellCentreTri_)) {
     HRAD_CHECK(points >= 1 && nearLevels >= 0);
 }
 
@@ -76,9 +82,10 @@ uint32_t CouplingEngine::compute(const ElementRef& r, const ElementRef& s, doubl
     const scene::Patch& pr = scene_->patches[r.patch];
     const scene::Patch& ps = scene_->patches[s.patch];
     Vec3 cr = scene::elementCentroid(pr, r.dom), cs = scene::elementCentroid(ps, s.dom);
-    const bool near = glm::length(cr - cs) <
-                      1.5 * (elementRadius(pr, r.dom, cr) + elementRadius(ps, s.dom, cs));
-    const bool isQuadR = pr.kind == scene::PatchKind::Quad, isQuadS = ps.kind == scene::PatchKind::Quad;
+    const bool near =
+        glm::length(cr - cs) < 1.5 * (elementRadius(pr, r.dom, cr) + elementRadius(ps, s.dom, cs));
+    const bool isQuadR = pr.kind == scene::PatchKind::Quad,
+               isQuadS = ps.kind == scene::PatchKind::Quad;
     // The column b = 0 always uses the base rule on the receiver: the same
     // points for every sender, so that the exact point form factors to all
     // senders sum to one at each of them and sum_s K^{a0} = delta_a0 in a
@@ -86,7 +93,8 @@ uint32_t CouplingEngine::compute(const ElementRef& r, const ElementRef& s, doubl
     // composite rules on near pairs.
     const scene::QuadratureRule& q0 = isQuadR ? quad_ : tri_;
     const scene::QuadratureRule& qr = near ? (isQuadR ? nearQuad_ : nearTri_) : q0;
-    const scene::QuadratureRule& qs = near ? (isQuadS ? nearQuad_ : nearTri_) : (isQuadS ? quad_ : tri_);
+    const scene::QuadratureRule& qs =
+        near ? (isQuadS ? nearQuad_ : nearTri_) : (isQuadS ? quad_ : tri_);
     const scene::Basis& br = basis_->of(pr.kind);
     const scene::Basis& bs = basis_->of(ps.kind);
     const size_t ns = qs.size();
@@ -149,7 +157,8 @@ uint32_t CouplingEngine::compute(const ElementRef& r, const ElementRef& s, doubl
                 if (rays && occ[cellOf[k]]) continue;
                 open += g;
                 if (pass == 1)
-                    for (int b = 1; b < nb; ++b) inner[size_t(b)] += g * phiS[k * size_t(nb) + size_t(b)];
+                    for (int b = 1; b < nb; ++b)
+                        inner[size_t(b)] += g * phiS[k * size_t(nb) + size_t(b)];
             }
             if (pass == 0) {
                 // The exact point-to-element form factor, times the
@@ -183,10 +192,10 @@ double CouplingEngine::projectionResidual(const ElementRef& r, const ElementRef&
         br.eval(q.points[i].x, q.points[i].y, phi);
         for (int a = 0; a < nb; ++a) K0[a] += q.weights[i] * phi[a] * F;
     }
-    static constexpr double kQuad[9][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}, {0.5, 0},
+    static constexpr double kQuad[9][2] = {{0, 0},   {1, 0},   {1, 1},   {0, 1},    {0.5, 0},
                                            {1, 0.5}, {0.5, 1}, {0, 0.5}, {0.5, 0.5}};
-    static constexpr double kTri[7][2] = {{0, 0}, {1, 0}, {0, 1}, {0.5, 0}, {0.5, 0.5}, {0, 0.5},
-                                          {1.0 / 3.0, 1.0 / 3.0}};
+    static constexpr double kTri[7][2] = {
+        {0, 0}, {1, 0}, {0, 1}, {0.5, 0}, {0.5, 0.5}, {0, 0.5}, {1.0 / 3.0, 1.0 / 3.0}};
     const int n = isQuad ? 9 : 7;
     const double c = isQuad ? 0.5 : 1.0 / 3.0;
     double worst = 0.0;

@@ -58,7 +58,8 @@ double furnaceWorst(const scene::Scene& s, const HrSettings& st, double rho, uin
     double worst = 0.0;
     const Hierarchy& h = *r.hierarchy;
     for (uint32_t e = 0; e < h.numElements(); ++e)
-        if (h.isLeaf(e)) worst = std::max(worst, maxComponent(glm::abs(h.B(e) - RGB(exact))) / exact);
+        if (h.isLeaf(e))
+            worst = std::max(worst, maxComponent(glm::abs(h.B(e) - RGB(exact))) / exact);
     Pcg32 rng(3);
     for (uint32_t p = 0; p < s.patches.size(); ++p)
         for (int k = 0; k < 50; ++k) {
@@ -67,7 +68,8 @@ double furnaceWorst(const scene::Scene& s, const HrSettings& st, double rho, uin
                 u = 1 - u;
                 v = 1 - v;
             }
-            worst = std::max(worst, maxComponent(glm::abs(r.field->at(p, u, v) - RGB(exact))) / exact);
+            worst =
+                std::max(worst, maxComponent(glm::abs(r.field->at(p, u, v) - RGB(exact))) / exact);
         }
     if (links) *links = h.numLinks();
     return worst;
@@ -84,10 +86,13 @@ class FurnaceAllBases : public ::testing::TestWithParam<std::string> {};
 // basis. Tolerance 1e-5: the coupling coefficients are stored as floats.
 TEST_P(FurnaceAllBases, QuadsAndTrianglesAreExact) {
     for (double rho : {0.5, 0.9}) {
-        EXPECT_LT(furnaceWorst(test::furnaceBox(1.0, rho), basisSettings("uniform", 0, GetParam()), rho, nullptr),
+        EXPECT_LT(furnaceWorst(test::furnaceBox(1.0, rho), basisSettings("uniform", 0, GetParam()),
+                               rho, nullptr),
                   1e-5)
             << "quads rho " << rho;
-        EXPECT_LT(furnaceWorst(triangleFurnace(rho), basisSettings("uniform", 0, GetParam()), rho, nullptr), 1e-5)
+        EXPECT_LT(furnaceWorst(triangleFurnace(rho), basisSettings("uniform", 0, GetParam()), rho,
+                               nullptr),
+                  1e-5)
             << "triangles rho " << rho;
     }
 }
@@ -103,10 +108,12 @@ TEST_P(FurnaceAllBases, QuadsAndTrianglesAreExact) {
 // linear has 0.028 on the constant's 2,352 links.
 TEST_P(FurnaceAllBases, BfaIsNoWorseThanConstant) {
     uint64_t lc = 0, lb = 0;
-    double c = furnaceWorst(test::furnaceBox(1.0, 0.5), basisSettings("bfa", 1e-3, "constant"), 0.5, &lc);
-    double b = furnaceWorst(test::furnaceBox(1.0, 0.5), basisSettings("bfa", 1e-3, GetParam()), 0.5, &lb);
-    std::cout << GetParam() << ": worst " << b << " (" << lb << " links), constant " << c << " (" << lc
-              << " links)\n";
+    double c =
+        furnaceWorst(test::furnaceBox(1.0, 0.5), basisSettings("bfa", 1e-3, "constant"), 0.5, &lc);
+    double b =
+        furnaceWorst(test::furnaceBox(1.0, 0.5), basisSettings("bfa", 1e-3, GetParam()), 0.5, &lb);
+    std::cout << GetParam() << ": worst " << b << " (" << lb << " links), constant " << c << " ("
+              << lc << " links)\n";
     EXPECT_LE(b, c * 1.0001);
 }
 
@@ -140,7 +147,8 @@ TEST(BasisHierarchy, LinearFieldIsReproducedExactlyByDegreeOneAndUp) {
             for (size_t k = 0; k < q.size(); ++k) {
                 b.eval(q.points[k].x, q.points[k].y, phi);
                 for (int a = 0; a < b.size(); ++a)
-                    for (int c = 0; c < 3; ++c) coef[a][c] += q.weights[k] * phi[a] * f(q.points[k].x, q.points[k].y, c);
+                    for (int c = 0; c < 3; ++c)
+                        coef[a][c] += q.weights[k] * phi[a] * f(q.points[k].x, q.points[k].y, c);
             }
             // Refine irregularly: the root, child 1, child 1's child 3.
             h.subdivide(0);
@@ -167,12 +175,14 @@ TEST(BasisHierarchy, LinearFieldIsReproducedExactlyByDegreeOneAndUp) {
                     Vec2 lc = scene::cornerLocal(kind, i);
                     Vec2 uv = scene::domainParam(d, lc.x, lc.y);
                     RGB got = field.leafPoint(0, key, value, lc.x, lc.y);
-                    for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], f(uv.x, uv.y, c), 1e-12) << degree;
+                    for (int c = 0; c < 3; ++c)
+                        EXPECT_NEAR(got[c], f(uv.x, uv.y, c), 1e-12) << degree;
                 }
             });
             // Means over regions at levels 0..5 (below the leaves too).
             for (int k = 0; k < 50; ++k) {
-                scene::ElementKey key = scene::keyAt(kind, 0.3 * rng.nextDouble(), 0.3 * rng.nextDouble(), k % 6);
+                scene::ElementKey key =
+                    scene::keyAt(kind, 0.3 * rng.nextDouble(), 0.3 * rng.nextDouble(), k % 6);
                 scene::Domain d = scene::keyDomain(kind, key);
                 // The mean of a linear function over a domain is its value at
                 // the centroid: (1/2, 1/2) on quads, (1/3, 1/3) on triangles.
@@ -207,8 +217,10 @@ TEST(Coupling, IsReciprocalAndK00IsTheFormFactor) {
             const int n = basis.size();
             // Elements: patch 0 root, patch 1's child 2 (unequal areas).
             transport::ElementRef r{0, scene::Domain{}, 1};
-            transport::ElementRef e{1, scene::childDomain(s.patches[1].kind, scene::Domain{}, 2), 2};
-            double Ar = scene::elementArea(s.patches[0], r.dom), Ae = scene::elementArea(s.patches[1], e.dom);
+            transport::ElementRef e{1, scene::childDomain(s.patches[1].kind, scene::Domain{}, 2),
+                                    2};
+            double Ar = scene::elementArea(s.patches[0], r.dom),
+                   Ae = scene::elementArea(s.patches[1], e.dom);
             std::vector<float> Kre(size_t(n * n)), Ker(size_t(n * n));
             ce.compute(r, e, 1.0, false, Kre.data());
             ce.compute(e, r, 1.0, false, Ker.data());
@@ -217,14 +229,16 @@ TEST(Coupling, IsReciprocalAndK00IsTheFormFactor) {
             double worst0 = 0;
             for (int a = 0; a < n; ++a)
                 for (int b = 0; b < n; ++b) {
-                    double x = Ar * double(Kre[size_t(a * n + b)]), y = Ae * double(Ker[size_t(b * n + a)]);
+                    double x = Ar * double(Kre[size_t(a * n + b)]),
+                           y = Ae * double(Ker[size_t(b * n + a)]);
                     if (a > 0 && b > 0)
                         EXPECT_NEAR(x, y, 1e-6 * big) << spec << " " << a << "," << b;
                     else
                         worst0 = std::max(worst0, std::fabs(x - y) / big);
                 }
-            std::cout << spec << " degree " << degree << ": K00 " << Kre[0] << ", reciprocity of row/column 0 within "
-                      << worst0 << " of the largest coefficient\n";
+            std::cout << spec << " degree " << degree << ": K00 " << Kre[0]
+                      << ", reciprocity of row/column 0 within " << worst0
+                      << " of the largest coefficient\n";
             EXPECT_LT(worst0, 1e-3) << spec;
             double F = ff.compute(r, e).F;
             EXPECT_NEAR(Kre[0], F, 1e-4 * F) << spec;
@@ -265,7 +279,8 @@ TEST(BasisSolver, BfaRefinesLessForHigherDegrees) {
     }
     HrSettings off = basisSettings("bfa", 1e-3, "linear");
     off.oracleParams.set("basis_residual", false);
-    uint64_t constantLinks = HrSolver(s, vis, basisSettings("bfa", 1e-3, "constant")).solve().hierarchy->numLinks();
+    uint64_t constantLinks =
+        HrSolver(s, vis, basisSettings("bfa", 1e-3, "constant")).solve().hierarchy->numLinks();
     uint64_t offLinks = HrSolver(s, vis, off).solve().hierarchy->numLinks();
     // Not equal: the radiosities B_s the rule multiplies differ a little.
     EXPECT_NEAR(double(offLinks), double(constantLinks), 0.02 * double(constantLinks));
@@ -285,7 +300,7 @@ TEST(BfaOracle, UsesTheBasisResidualWhenGiven) {
     e.emittedPower = 1.0;
     e.receiverCanSubdivide = e.senderCanSubdivide = true;
     EXPECT_NE(o->decide(e), oracles::Decision::Accept);  // 0.25 > 1e-3
-    e.basisResidualF = 1e-3;                              // 5e-4 <= 1e-3
+    e.basisResidualF = 1e-3;                             // 5e-4 <= 1e-3
     EXPECT_EQ(o->decide(e), oracles::Decision::Accept);
     Params q;
     q.set("eps", 1e-3);

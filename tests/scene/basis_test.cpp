@@ -1,11 +1,12 @@
 // Polynomial bases (scene/basis.h): orthonormality, exact quadrature and the
 // two-scale relations, for quads and triangles and every degree.
+#include "scene/basis.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "core/rng.h"
-#include "scene/basis.h"
 #include "scene/element.h"
 
 using namespace hrad;
@@ -17,7 +18,8 @@ struct Case {
     int degree;
 };
 std::string caseName(const ::testing::TestParamInfo<Case>& i) {
-    return std::string(i.param.kind == PatchKind::Quad ? "quad_" : "tri_") + basisName(i.param.degree);
+    return std::string(i.param.kind == PatchKind::Quad ? "quad_" : "tri_") +
+           basisName(i.param.degree);
 }
 }  // namespace
 
@@ -33,10 +35,12 @@ TEST_P(Bases, AreOrthonormalWithConstantFirst) {
         b.eval(q.points[m].x, q.points[m].y, f);
         EXPECT_NEAR(f[0], 1.0, 1e-13);
         for (int i = 0; i < b.size(); ++i)
-            for (int j = 0; j < b.size(); ++j) G[size_t(i * b.size() + j)] += q.weights[m] * f[i] * f[j];
+            for (int j = 0; j < b.size(); ++j)
+                G[size_t(i * b.size() + j)] += q.weights[m] * f[i] * f[j];
     }
     for (int i = 0; i < b.size(); ++i)
-        for (int j = 0; j < b.size(); ++j) EXPECT_NEAR(G[size_t(i * b.size() + j)], i == j ? 1.0 : 0.0, 1e-12);
+        for (int j = 0; j < b.size(); ++j)
+            EXPECT_NEAR(G[size_t(i * b.size() + j)], i == j ? 1.0 : 0.0, 1e-12);
 }
 
 // Push (restriction to the children) then pull (projection back) is the
@@ -54,7 +58,8 @@ TEST_P(Bases, TwoScaleRelationsAreExact) {
         const auto& T = b.twoScale(c);
         std::vector<double> child(size_t(n), 0.0);
         for (int i = 0; i < n; ++i)
-            for (int j = 0; j < n; ++j) child[size_t(j)] += T[size_t(i * n + j)] * parent[size_t(i)];
+            for (int j = 0; j < n; ++j)
+                child[size_t(j)] += T[size_t(i * n + j)] * parent[size_t(i)];
         for (int k = 0; k < 20; ++k) {
             double x = rng.nextDouble(), y = rng.nextDouble();
             if (b.kind() == PatchKind::Triangle && x + y > 1) {
@@ -72,7 +77,8 @@ TEST_P(Bases, TwoScaleRelationsAreExact) {
             EXPECT_NEAR(vp, vc, 1e-12);
         }
         for (int i = 0; i < n; ++i)
-            for (int j = 0; j < n; ++j) back[size_t(i)] += 0.25 * T[size_t(i * n + j)] * child[size_t(j)];
+            for (int j = 0; j < n; ++j)
+                back[size_t(i)] += 0.25 * T[size_t(i * n + j)] * child[size_t(j)];
     }
     for (int i = 0; i < n; ++i) EXPECT_NEAR(back[size_t(i)], parent[size_t(i)], 1e-12);
 }
@@ -95,14 +101,20 @@ TEST_P(Bases, ChildMapMatchesElementLayout) {
 INSTANTIATE_TEST_SUITE_P(AllDegrees, Bases,
                          ::testing::Values(Case{PatchKind::Quad, 0}, Case{PatchKind::Quad, 1},
                                            Case{PatchKind::Quad, 2}, Case{PatchKind::Quad, 3},
-                                           Case{PatchKind::Triangle, 0}, Case{PatchKind::Triangle, 1},
-                                           Case{PatchKind::Triangle, 2}, Case{PatchKind::Triangle, 3}),
+                                           Case{PatchKind::Triangle, 0},
+                                           Case{PatchKind::Triangle, 1},
+                                           Case{PatchKind::Triangle, 2},
+                                           Case{PatchKind::Triangle, 3}),
                          caseName);
 
 TEST(Quadrature, TriangleRuleIntegratesMonomialsExactly) {
     // Normalised: 2 * integral a^i b^j over the triangle = 2 i! j! / (i+j+2)!.
     QuadratureRule q = referenceRule(PatchKind::Triangle, 4);
-    auto fact = [](int n) { double f = 1; for (int k = 2; k <= n; ++k) f *= k; return f; };
+    auto fact = [](int n) {
+        double f = 1;
+        for (int k = 2; k <= n; ++k) f *= k;
+        return f;
+    };
     for (int i = 0; i <= 3; ++i)
         for (int j = 0; i + j <= 6; ++j) {
             double s = 0;
