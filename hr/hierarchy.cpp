@@ -16,8 +16,13 @@ namespace hrad::hr {
 using scene::ElementKey;
 
 Hierarchy::Hierarchy(const scene::Scene& scene, const cluster::ClusterTree* tree,
-                     cluster::ClusterModel model)
+                     cluster::ClusterModel model, int basisDegree)
     : scene_(&scene), tree_(tree), model_(model) {
+    HRAD_CHECK(basisDegree >= 0 && basisDegree <= scene::kMaxBasisDegree);
+    if (basisDegree > 0) {
+        basis_ = std::make_unique<scene::BasisSet>(basisDegree);
+        nb_ = basis_->size();
+    }
     if (model_ == cluster::ClusterModel::None) tree_ = nullptr;
     if (!tree_) model_ = cluster::ClusterModel::None;
     uint32_t k = uint32_t(scene.patches.size());
@@ -30,6 +35,8 @@ Hierarchy::Hierarchy(const scene::Scene& scene, const cluster::ClusterTree* tree
     area_.resize(n);
     B_.assign(n, RGB(0.0));
     gathered_.assign(n, RGB(0.0));
+    hi_.assign(size_t(n) * size_t(nb_ - 1), RGB(0.0));
+    gatheredHi_.assign(size_t(n) * size_t(nb_ - 1), RGB(0.0));
     for (uint32_t i = 0; i < k; ++i) {
         patch_[i] = i;
         key_[i] = scene::kRootKey;
@@ -175,6 +182,46 @@ void Hierarchy::subdivide(uint32_t e) {
         B_.push_back(B_[e]);
         gathered_.push_back(RGB(0.0));
     }
+    if (nb_ > 1) {
+        // Children start with the parent's polynomial restricted to them
+        // (exact two-scale push), as constant children inherit B.
+        const size_t m = size_t(nb_ - 1);
+        hi_.resize(hi_.size() + 4 * m, RGB(0.0));
+        gatheredHi_.resize(gatheredHi_.size() + 4 * m, RGB(0.0));
+        const scene::Basis& b = basis_->of(p.kind);
+        RGB par[scene::kMaxBasisSize];
+        par[0] = B_[e];
+        for (size_t a = 1; a < size_t(nb_); ++a) par[a] = hi_[size_t(e) * m + a - 1];
+        for (int c = 0; c < 4; ++c) {
+            const auto& T = b.twoScale(c);
+            for (int j = 0; j < nb_; ++j) {
+                RGB v(0.0);
+                for (int a = 0; a < nb_; ++a) v += T[size_t(a * nb_ + j)] * par[a];
+                if (j == 0)
+                    B_[first + uint32_t(c)] = v;
+                else
+                    hi_[size_t(first + uint32_t(c)) * m + size_t(j - 1)] = v;
+            }
+        }
+    }
+}
+
+RGB Hierarchy::evaluate(uint32_t e, double a, double b) const {
+    if (nb_ == 1) return B_[e];
+    double phi[scene::kMaxBasisSize];
+    basis_->of(scene_->patches[patch_[e]].kind).eval(a, b, phi);
+    RGB v = B_[e];
+    const RGB* h = hi(e);
+    for (int k = 1; k < nb_; ++k) v += phi[k] * h[k - 1];
+    return v;
+}
+
+void Hierarchy::setCoupling(std::vector<uint32_t>&& index, std::vector<float>&& data) {
+    HRAD_CHECK(index.empty() || index.size() == links_.size());
+    couplingIndex_ = std::move(index);
+    couplingData_ = std::move(data);
+    couplingIndex_.shrink_to_fit();
+    couplingData_.shrink_to_fit();
 }
 
 uint32_t Hierarchy::numLeaves() const {
@@ -215,6 +262,9 @@ void Hierarchy::setLinks(const std::vector<uint32_t>& receivers, std::vector<Lin
     links_.shrink_to_fit();
     links.clear();
     links.shrink_to_fit();
+    // The coupling matrices belonged to the old links (the solver sets new ones).
+    couplingIndex_.clear();
+    couplingData_.clear();
     prepareOrientedDirections();
 }
 
@@ -245,16 +295,32 @@ std::vector<uint32_t> Hierarchy::linkReceivers() const {
     return r;
 }
 
-RGB Hierarchy::gatherRow(uint32_t r) const {
+void Hierarchy::gatherRow(uint32_t r) {
     const bool oriented = model_ == cluster::ClusterModel::Oriented && numClusters_ > 0;
     RGB sum(0.0);
+    // Higher coefficients gathered over coupling matrices (degree > 0).
+    RGB sumHi[scene::kMaxBasisSize];
+    for (int a = 1; a < nb_; ++a) sumHi[a] = RGB(0.0);
     // Fixed summation order within a row: results do not depend on how rows
     // are split between threads.
     bool haveCenter = false;
     Vec3 cr(0.0);
     for (uint64_t i = linkBegin(r); i < linkEnd(r); ++i) {
         uint32_t s = links_[i].sender;
-        if (oriented && isCluster(s)) {
+        const float* K = nb_ > 1 ? coupling(i) : nullptr;
+        if (K) {
+            // c^r_a += sum_b K^{ab} c^s_b (transport/coupling.h).
+            const RGB* hs = hi(s);
+            for (int a = 0; a < nb_; ++a) {
+                const float* row = K + a * nb_;
+                RGB v = double(row[0]) * B_[s];
+                for (int b = 1; b < nb_; ++b) v += double(row[b]) * hs[b - 1];
+                if (a == 0)
+                    sum += v;
+                else
+                    sumHi[a] += v;
+            }
+        } else if (oriented && isCluster(s)) {
             // An oriented cluster sends what its surfaces facing the
             // receiver carry, not its mean radiosity.
             if (!haveCenter) {
@@ -268,16 +334,20 @@ RGB Hierarchy::gatherRow(uint32_t r) const {
             sum += double(links_[i].K) * B_[s];
         }
     }
-    if (patch_[r] == kNone)
+    if (patch_[r] == kNone) {
         // A cluster gathers irradiance (reflected per surface when pushed);
         // oriented clusters push link by link instead.
-        return model_ == cluster::ClusterModel::Isotropic ? sum : RGB(0.0);
-    return scene_->patches[patch_[r]].rho * sum;
+        gathered_[r] = model_ == cluster::ClusterModel::Isotropic ? sum : RGB(0.0);
+        return;
+    }
+    const RGB& rho = scene_->patches[patch_[r]].rho;
+    gathered_[r] = rho * sum;
+    for (int a = 1; a < nb_; ++a) gatheredHi_[size_t(r) * size_t(nb_ - 1) + size_t(a - 1)] = rho * sumHi[a];
 }
 
 void Hierarchy::gather() {
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, numElements(), 256), [&](const auto& range) {
-        for (uint32_t r = range.begin(); r != range.end(); ++r) gathered_[r] = gatherRow(r);
+        for (uint32_t r = range.begin(); r != range.end(); ++r) gatherRow(r);
     });
 }
 
@@ -374,6 +444,12 @@ void Hierarchy::pushPullRoot(uint32_t root, const RGB& fromAbove, std::vector<Pu
 void Hierarchy::pushPull() {
     const uint32_t np = numPatches();
     std::vector<RGB> fromAbove = clusterIrradianceToRoots();
+    if (nb_ > 1) {
+        if (fromAbove.empty()) fromAbove.assign(np, RGB(0.0));
+        pushPullPolynomial(fromAbove);
+        if (numClusters_) pullClusters();
+        return;
+    }
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, np, 16), [&](const auto& range) {
         std::vector<PushFrame> stack;
         for (uint32_t root = range.begin(); root != range.end(); ++root)
@@ -384,12 +460,13 @@ void Hierarchy::pushPull() {
 }
 
 void Hierarchy::sweep(int blocks, double* gatherSeconds, double* pushPullSeconds) {
+    HRAD_CHECK(nb_ == 1);  // HrSettings refuses gauss-seidel with a polynomial basis
     const uint32_t np = numPatches(), nc = numClusters_;
     double tg = 0.0, tp = 0.0;
     Timer t;
     // Cluster rows gather from the radiosities of the previous sweep.
     tbb::parallel_for(tbb::blocked_range<uint32_t>(np, np + nc, 64), [&](const auto& range) {
-        for (uint32_t r = range.begin(); r != range.end(); ++r) gathered_[r] = gatherRow(r);
+        for (uint32_t r = range.begin(); r != range.end(); ++r) gatherRow(r);
     });
     tg += t.seconds();
     t.reset();
@@ -413,7 +490,7 @@ void Hierarchy::sweep(int blocks, double* gatherSeconds, double* pushPullSeconds
             }
         }
         tbb::parallel_for(tbb::blocked_range<size_t>(0, rows.size(), 256), [&](const auto& range) {
-            for (size_t i = range.begin(); i != range.end(); ++i) gathered_[rows[i]] = gatherRow(rows[i]);
+            for (size_t i = range.begin(); i != range.end(); ++i) gatherRow(rows[i]);
         });
         tg += t.seconds();
         t.reset();
@@ -429,6 +506,103 @@ void Hierarchy::sweep(int blocks, double* gatherSeconds, double* pushPullSeconds
     tp += t.seconds();
     if (gatherSeconds) *gatherSeconds = tg;
     if (pushPullSeconds) *pushPullSeconds = tp;
+}
+
+void Hierarchy::pushPullPolynomial(const std::vector<RGB>& fromAbove) {
+    // As the constant traversal, with coefficient vectors: a child receives
+    // its parent's accumulated gathered polynomial restricted to it (exact
+    // push: down_child_j = sum_a T_c[a][j] down_parent_a) plus its own; a leaf
+    // is E (constant: the c_0 term) plus that; a parent is the projection of
+    // its children (pullPolynomial). Clusters add to c_0 only.
+    const uint32_t np = numPatches();
+    const size_t m = size_t(nb_ - 1);
+    using Coeffs = std::array<RGB, scene::kMaxBasisSize>;
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, np, 16), [&](const auto& range) {
+        struct Frame {
+            uint32_t e;
+            Coeffs down;
+            int next;
+        };
+        std::vector<Frame> stack;
+        for (uint32_t root = range.begin(); root != range.end(); ++root) {
+            const scene::Patch& P = scene_->patches[root];
+            const scene::Basis& basis = basis_->of(P.kind);
+            const RGB& E = P.emission;
+            stack.clear();
+            Frame f0{root, {}, 0};
+            f0.down[0] = gathered_[root] + fromAbove[root];
+            for (size_t a = 1; a <= m; ++a) f0.down[a] = gatheredHi_[size_t(root) * m + a - 1];
+            stack.push_back(f0);
+            while (!stack.empty()) {
+                Frame& f = stack.back();
+                uint32_t fc = firstChild_[f.e];
+                if (fc == kNone) {
+                    B_[f.e] = E + f.down[0];
+                    for (size_t a = 1; a <= m; ++a) hi_[size_t(f.e) * m + a - 1] = f.down[a];
+                    stack.pop_back();
+                    continue;
+                }
+                if (f.next < 4) {
+                    int ci = f.next++;
+                    uint32_t c = fc + uint32_t(ci);
+                    const auto& T = basis.twoScale(ci);
+                    Frame g{c, {}, 0};
+                    for (int j = 0; j < nb_; ++j) {
+                        RGB v = j == 0 ? gathered_[c] : gatheredHi_[size_t(c) * m + size_t(j - 1)];
+                        for (int a = 0; a < nb_; ++a) v += T[size_t(a * nb_ + j)] * f.down[size_t(a)];
+                        g.down[size_t(j)] = v;
+                    }
+                    stack.push_back(g);  // f is invalidated here
+                    continue;
+                }
+                pullPolynomial(f.e);
+                stack.pop_back();
+            }
+        }
+    });
+}
+
+void Hierarchy::pullPolynomial(uint32_t e) {
+    // L2 projection of the children's polynomials onto the parent's:
+    // parent_a = 1/4 sum_c sum_j T_c[a][j] child_j (each child covers a
+    // quarter of the parent's parametric domain).
+    const size_t m = size_t(nb_ - 1);
+    const uint32_t fc = firstChild_[e];
+    const scene::Basis& basis = basis_->of(scene_->patches[patch_[e]].kind);
+    std::array<RGB, scene::kMaxBasisSize> out{};
+    for (int c = 0; c < 4; ++c) {
+        const auto& T = basis.twoScale(c);
+        uint32_t ch = fc + uint32_t(c);
+        for (int a = 0; a < nb_; ++a) {
+            RGB v = T[size_t(a * nb_)] * B_[ch];
+            for (int j = 1; j < nb_; ++j) v += T[size_t(a * nb_ + j)] * hi_[size_t(ch) * m + size_t(j - 1)];
+            out[size_t(a)] += 0.25 * v;
+        }
+    }
+    B_[e] = out[0];
+    for (size_t a = 1; a <= m; ++a) hi_[size_t(e) * m + a - 1] = out[a];
+}
+
+void Hierarchy::extrapolateLeaves(const std::vector<RGB>& previous,
+                                  const std::vector<RGB>& previousHi, const RGB& factor) {
+    if (nb_ == 1) {
+        extrapolateLeaves(previous, factor);
+        return;
+    }
+    HRAD_CHECK(previous.size() == B_.size() && previousHi.size() == hi_.size());
+    const uint32_t n = numElements(), np = numPatches(), first = np + numClusters_;
+    const size_t m = size_t(nb_ - 1);
+    for (uint32_t e = 0; e < n; ++e) {
+        if (!isLeaf(e)) continue;
+        B_[e] += factor * (B_[e] - previous[e]);
+        for (size_t a = 0; a < m; ++a)
+            hi_[size_t(e) * m + a] += factor * (hi_[size_t(e) * m + a] - previousHi[size_t(e) * m + a]);
+    }
+    for (uint32_t e = n; e-- > first;)
+        if (firstChild_[e] != kNone) pullPolynomial(e);
+    for (uint32_t e = 0; e < np; ++e)
+        if (firstChild_[e] != kNone) pullPolynomial(e);
+    if (numClusters_) pullClusters();
 }
 
 void Hierarchy::extrapolateLeaves(const std::vector<RGB>& previous, const RGB& factor) {
@@ -472,19 +646,24 @@ uint64_t Hierarchy::elementBytes() const {
     return patch_.capacity() * sizeof(uint32_t) + key_.capacity() * sizeof(ElementKey) +
            parent_.capacity() * sizeof(uint32_t) + firstChild_.capacity() * sizeof(uint32_t) +
            area_.capacity() * sizeof(double) + B_.capacity() * sizeof(RGB) +
-           gathered_.capacity() * sizeof(RGB);
+           gathered_.capacity() * sizeof(RGB) + hi_.capacity() * sizeof(RGB) +
+           gatheredHi_.capacity() * sizeof(RGB);
 }
 
 uint64_t Hierarchy::linkBytes() const {
     return links_.capacity() * sizeof(Link) + linkOffsets_.capacity() * sizeof(uint64_t) +
            clusterLinkDir_.capacity() * sizeof(glm::vec3) +
-           samples_.capacity() * sizeof(KernelSamples);
+           samples_.capacity() * sizeof(KernelSamples) + couplingIndex_.capacity() * sizeof(uint32_t) +
+           couplingData_.capacity() * sizeof(float);
 }
 
 void Hierarchy::reportMemory(MemoryCounters& m) const {
     m.set("elements", elementBytes());
     m.set("links", links_.capacity() * sizeof(Link));
     m.set("link_offsets", linkOffsets_.capacity() * sizeof(uint64_t));
+    if (!couplingIndex_.empty())
+        m.set("link_coupling", couplingIndex_.capacity() * sizeof(uint32_t) +
+                                   couplingData_.capacity() * sizeof(float));
     if (!samples_.empty()) m.set("link_kernel_samples", samples_.capacity() * sizeof(KernelSamples));
     if (!clusterLinkDir_.empty()) m.set("cluster_link_directions", clusterLinkDir_.capacity() * sizeof(glm::vec3));
     if (tree_)
@@ -503,17 +682,48 @@ RGB HierarchyField::at(uint32_t patch, double u, double v) const {
         d = scene::childDomain(p.kind, d, c);
         e = h_->firstChild(e) + uint32_t(c);
     }
-    return h_->B(e);
+    if (h_->basisSize() == 1) return h_->B(e);
+    // The leaf's polynomial at the local coordinates of (u, v).
+    return h_->evaluate(e, (u - d.u0) / d.h, (v - d.v0) / d.h);
 }
 
 RGB HierarchyField::average(uint32_t patch, ElementKey key) const {
     uint32_t e = patch;
     int L = scene::keyLevel(key);
-    for (int l = 0; l < L && !h_->isLeaf(e); ++l)
+    int l = 0;
+    for (; l < L && !h_->isLeaf(e); ++l)
         e = h_->firstChild(e) + uint32_t(scene::keyChildAt(key, l));
     // Either the node at `key` (whose B is the exact area average of its
     // leaves after push-pull) or a leaf containing the whole region.
-    return h_->B(e);
+    if (h_->basisSize() == 1 || l == L) return h_->B(e);
+    // A region inside a polynomial leaf: its mean is the c_0 of the leaf's
+    // polynomial restricted to it (two-scale pushes along the key's path).
+    const int nb = h_->basisSize();
+    const scene::Basis& basis = h_->basis()->of(h_->scene().patches[patch].kind);
+    std::array<RGB, scene::kMaxBasisSize> c{}, next{};
+    c[0] = h_->B(e);
+    for (int a = 1; a < nb; ++a) c[size_t(a)] = h_->hi(e)[a - 1];
+    for (; l < L; ++l) {
+        const auto& T = basis.twoScale(scene::keyChildAt(key, l));
+        for (int j = 0; j < nb; ++j) {
+            RGB v(0.0);
+            for (int a = 0; a < nb; ++a) v += T[size_t(a * nb + j)] * c[size_t(a)];
+            next[size_t(j)] = v;
+        }
+        c = next;
+    }
+    return c[0];
+}
+
+RGB HierarchyField::leafPoint(uint32_t patch, ElementKey key, const RGB& leafValue, double a,
+                              double b) const {
+    if (h_->basisSize() == 1) return leafValue;
+    uint32_t e = patch;
+    int L = scene::keyLevel(key);
+    for (int l = 0; l < L && !h_->isLeaf(e); ++l)
+        e = h_->firstChild(e) + uint32_t(scene::keyChildAt(key, l));
+    HRAD_CHECK(h_->key(e) == key);
+    return h_->evaluate(e, a, b);
 }
 
 void HierarchyField::forEachLeaf(uint32_t patch,

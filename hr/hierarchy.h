@@ -13,17 +13,30 @@
 // then 16-byte Link records holding the sender, the transfer coefficient and
 // what refinement needs. Gather runs in parallel over receivers without locks.
 // (DESIGN.md "Core model"; the 16-byte link is a measured target.)
+//
+// Polynomial bases (hr.basis, scene/basis.h). B(e) is always the mean
+// radiosity of e (the coefficient of phi_0 = 1), so the constant basis is
+// today's solver unchanged, bit for bit. With a basis of degree p > 0 each
+// surface element also stores the coefficients c_1..c_{n-1} per RGB channel
+// (hi()), surface-surface links carry Galerkin coupling matrices K^{ab}
+// (transport/coupling.h, set by setCoupling()), gather() gathers every
+// coefficient over them, and push-pull moves coefficients with the exact
+// two-scale relations. Links touching a cluster exchange only the constant
+// term (Bekaert & Willems 1996; Sillion 1995): a cluster sends and receives
+// its mean radiosity.
 #pragma once
 
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <vector>
 
 #include "cluster/transfer.h"
 #include "cluster/tree.h"
 #include "core/memory.h"
 #include "core/types.h"
+#include "scene/basis.h"
 #include "scene/element.h"
 #include "scene/field.h"
 #include "scene/scene.h"
@@ -80,7 +93,39 @@ class Hierarchy {
   public:
     /// Without a cluster tree (or with model None) there are no cluster nodes.
     explicit Hierarchy(const scene::Scene& scene, const cluster::ClusterTree* tree = nullptr,
-                       cluster::ClusterModel model = cluster::ClusterModel::None);
+                       cluster::ClusterModel model = cluster::ClusterModel::None,
+                       int basisDegree = 0);
+
+    // ---- polynomial basis -------------------------------------------------------
+    int basisDegree() const { return basis_ ? basis_->degree() : 0; }
+    /// Number of basis functions (1 for the constant basis).
+    int basisSize() const { return nb_; }
+    /// The bases (null for the constant basis).
+    const scene::BasisSet* basis() const { return basis_.get(); }
+    /// Coefficients c_1..c_{n-1} of node e (n = basisSize(); empty span for
+    /// the constant basis). Clusters' stay zero.
+    const RGB* hi(uint32_t e) const { return hi_.data() + size_t(e) * size_t(nb_ - 1); }
+    RGB* hi(uint32_t e) { return hi_.data() + size_t(e) * size_t(nb_ - 1); }
+    /// Gathered higher coefficients of e (gather() writes them).
+    RGB* gatheredHi(uint32_t e) { return gatheredHi_.data() + size_t(e) * size_t(nb_ - 1); }
+    /// Every node's higher coefficients (for a copy one iteration earlier).
+    const std::vector<RGB>& allHi() const { return hi_; }
+    /// Radiosity of surface element e at its local coordinates (a, b)
+    /// (scene/element.h domainParam): the polynomial.
+    RGB evaluate(uint32_t e, double a, double b) const;
+    /// Coupling matrices of the current links: coupling(i) is the K^{ab}
+    /// (row-major n x n) of link i, or null for a link that exchanges only
+    /// the constant term (links touching a cluster) and uses Link::K.
+    const float* coupling(uint64_t i) const {
+        return couplingIndex_.empty() || couplingIndex_[i] == kNone
+                   ? nullptr
+                   : couplingData_.data() + size_t(couplingIndex_[i]) * size_t(nb_ * nb_);
+    }
+    /// Sets the coupling matrices of the current links (index per link, kNone
+    /// for none; data n*n floats per entry).
+    void setCoupling(std::vector<uint32_t>&& index, std::vector<float>&& data);
+    const std::vector<uint32_t>& couplingIndex() const { return couplingIndex_; }
+    const std::vector<float>& couplingData() const { return couplingData_; }
 
     const scene::Scene& scene() const { return *scene_; }
     /// Number of nodes (elements and clusters).
@@ -176,6 +221,10 @@ class Hierarchy {
     /// (surface elements and clusters). Extrapolates the geometric tail of
     /// the gather iteration (see HrSolver, hr.extrapolate).
     void extrapolateLeaves(const std::vector<RGB>& previous, const RGB& factor);
+    /// The same for a polynomial basis: `previousHi` are allHi() one
+    /// iteration earlier (every coefficient moves along its change).
+    void extrapolateLeaves(const std::vector<RGB>& previous, const std::vector<RGB>& previousHi,
+                           const RGB& factor);
     /// Sum over leaves of A (B - E): the reflected power (RGB).
     RGB reflectedPower() const;
     /// Sum over leaves of A * B (RGB).
@@ -202,8 +251,9 @@ class Hierarchy {
         RGB down;
         int next;  ///< next child to visit (0..4)
     };
-    /// What gather() stores for receiver r (a row of K times B).
-    RGB gatherRow(uint32_t r) const;
+    /// Gathers receiver r's row (K times B; coupling matrices for a
+    /// polynomial basis) into gathered_ (and gatheredHi_).
+    void gatherRow(uint32_t r);
     /// Irradiance the clusters hand each root patch after their rows have
     /// gathered (reflectance applied); empty without clusters.
     std::vector<RGB> clusterIrradianceToRoots() const;
@@ -211,6 +261,10 @@ class Hierarchy {
     /// (plus `fromAbove`), inner elements the area average of their children.
     void pushPullRoot(uint32_t root, const RGB& fromAbove, std::vector<PushFrame>& stack);
     void prepareOrientedDirections();
+    /// Push-pull of the polynomial coefficients (basis degree > 0).
+    void pushPullPolynomial(const std::vector<RGB>& fromAbove);
+    /// Pull of the coefficients of e from its four children (degree > 0).
+    void pullPolynomial(uint32_t e);
     /// Bottom-up over clusters: area-weighted mean B and, for the oriented
     /// model, the radiosity-weighted normal moments used by directionalB().
     void pullClusters();
@@ -240,10 +294,17 @@ class Hierarchy {
     std::vector<double> area_;
     std::vector<RGB> B_;
     std::vector<RGB> gathered_;
+    // Polynomial basis (degree > 0): nb_ - 1 higher coefficients per node.
+    std::unique_ptr<scene::BasisSet> basis_;
+    int nb_ = 1;
+    std::vector<RGB> hi_;
+    std::vector<RGB> gatheredHi_;
     // Links (CSR by receiver).
     std::vector<uint64_t> linkOffsets_;
     std::vector<Link> links_;
     std::vector<KernelSamples> samples_;
+    std::vector<uint32_t> couplingIndex_;
+    std::vector<float> couplingData_;
 };
 
 /// The hierarchical solution viewed as a RadiosityField (the values are the
@@ -257,6 +318,9 @@ class HierarchyField final : public scene::RadiosityField {
     RGB average(uint32_t patch, scene::ElementKey key) const override;
     void forEachLeaf(uint32_t patch,
                      const std::function<void(scene::ElementKey, const RGB&)>& fn) const override;
+    /// The leaf's polynomial at (a, b) (the leaf value for the constant basis).
+    RGB leafPoint(uint32_t patch, scene::ElementKey key, const RGB& leafValue, double a,
+                  double b) const override;
 
   private:
     const Hierarchy* h_;

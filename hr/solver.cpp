@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 #include <sstream>
+#include <unordered_map>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -89,6 +90,13 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.clusterLink = cluster::ClusterLinkSettings::fromParams(p);
     s.openPartialReceivers = p.getEnum("cluster.partial_receivers", s.openPartialReceivers ? "open" : "keep",
                                        {"open", "keep"}) == "open";
+    s.basisDegree = scene::basisDegree(p.getEnum("hr.basis", "constant", scene::basisNames()));
+    s.basisPoints = int(p.getInt("hr.basis_points", 0, 0, 16));
+    s.basisNearLevels = int(p.getInt("hr.basis_near_levels", s.basisDegree >= 3 ? 2 : s.basisNearLevels, 0, 4));
+    if (s.gaussSeidel && s.basisDegree > 0)
+        throwInputError(p.where("hr.iteration"),
+                        "hr.iteration = gauss-seidel needs hr.basis = constant (the polynomial push-pull "
+                        "runs over all root patches at once)");
     // Validate the oracle settings now (unknown keys included), so a bad
     // setting fails before any work is done.
     Params probe = s.oracleParams;
@@ -105,7 +113,11 @@ std::string HrSettings::describe() const {
         "max_iterations={}, tolerance={}, iteration={}, {}, cluster_model={}, {}, {})",
         oracle, sched, minArea, minAreaRel, maxLevel, maxIterations, tolerance,
         gaussSeidel ? fmt::format("gauss-seidel/{}", gsBlocks) : std::string("jacobi"), ff.describe(),
-        cluster::clusterModelName(clusterModel), cluster.describe(), clusterLink.describe());
+        cluster::clusterModelName(clusterModel), cluster.describe(), clusterLink.describe()) +
+           (basisDegree > 0 ? fmt::format(" basis={} basis_points={} basis_near_levels={}",
+                                          scene::basisName(basisDegree),
+                                          basisPoints > 0 ? basisPoints : basisDegree + 2, basisNearLevels)
+                            : std::string());
 }
 
 HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visibility,
@@ -118,6 +130,68 @@ HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visib
     for (const auto& patch : scene.patches)
         emittedRadiosity_ = std::max(emittedRadiosity_, maxComponent(patch.emission));
     if (!(emittedRadiosity_ > 0)) emittedRadiosity_ = 1.0;
+    if (s_.basisDegree > 0) {
+        basis_ = std::make_unique<scene::BasisSet>(s_.basisDegree);
+        coupling_ = std::make_unique<transport::CouplingEngine>(
+            scene, &visibility, engine_, *basis_,
+            s_.basisPoints > 0 ? s_.basisPoints : s_.basisDegree + 2, s_.basisNearLevels);
+    }
+}
+
+struct HrSolver::PreviousCoupling {
+    std::unordered_map<uint64_t, uint32_t> index;  ///< (receiver << 32 | sender) -> entry
+    std::vector<float> data;
+};
+
+HrSolver::PreviousCoupling HrSolver::snapshotCoupling(const Hierarchy& h) const {
+    PreviousCoupling p;
+    const auto& idx = h.couplingIndex();
+    if (idx.empty()) return p;
+    p.index.reserve(idx.size());
+    for (uint32_t r = 0; r < h.numElements(); ++r)
+        for (uint64_t i = h.linkBegin(r); i < h.linkEnd(r); ++i)
+            if (idx[i] != kNone) p.index.emplace((uint64_t(r) << 32) | h.link(i).sender, idx[i]);
+    p.data = h.couplingData();
+    return p;
+}
+
+uint64_t HrSolver::updateCoupling(Hierarchy& h, const PreviousCoupling* previous) const {
+    if (!coupling_) return 0;
+    const int nb = h.basisSize();
+    const size_t nn = size_t(nb * nb);
+    std::vector<uint32_t> recv = h.linkReceivers();
+    const uint64_t n = h.numLinks();
+    // Surface-surface links carrying something get a matrix; entries in link order.
+    std::vector<uint32_t> index(n, kNone);
+    uint32_t count = 0;
+    for (uint64_t i = 0; i < n; ++i) {
+        const Link& l = h.link(i);
+        if (l.K > 0 && !h.isCluster(recv[i]) && !h.isCluster(l.sender)) index[i] = count++;
+    }
+    std::vector<float> data(size_t(count) * nn, 0.f);
+    std::atomic<uint64_t> rays{0};
+    tbb::parallel_for(tbb::blocked_range<uint64_t>(0, n, 256), [&](const auto& range) {
+        uint64_t local = 0;
+        for (uint64_t i = range.begin(); i != range.end(); ++i) {
+            if (index[i] == kNone) continue;
+            uint32_t r = recv[i], s = h.link(i).sender;
+            float* out = data.data() + size_t(index[i]) * nn;
+            if (previous) {
+                auto it = previous->index.find((uint64_t(r) << 32) | s);
+                if (it != previous->index.end()) {
+                    std::copy_n(previous->data.data() + size_t(it->second) * nn, nn, out);
+                    continue;
+                }
+            }
+            const Link& l = h.link(i);
+            transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
+            transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
+            local += coupling_->compute(er, es, l.vis(), (l.flags & Link::kPartial) != 0, out);
+        }
+        rays += local;
+    });
+    h.setCoupling(std::move(index), std::move(data));
+    return rays;
 }
 
 bool HrSolver::canSubdivide(const Hierarchy& h, uint32_t e) const {
@@ -453,6 +527,20 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                     // per-link form-factor range (17 contour integrals each).
                     const bool wantBounds = bounds && !(aggregate && surfacePair(h, r, s));
                     oracles::LinkEstimate e = linkEstimate(h, r, l, wantBounds);
+                    if (coupling_ && oracle.needsBasisResidual() && surfacePair(h, r, s) &&
+                        !(l.flags & Link::kPartial)) {
+                        // The part of the transfer the receiver's basis truncates
+                        // (oracles/oracle.h LinkEstimate::basisResidualF). Not for
+                        // partially visible links: the residual is of the unoccluded
+                        // kernel and does not see a shadow edge across the receiver
+                        // (judging them by it left cornell's shadows under-refined:
+                        // cubic, 2,090 links, L2 0.0060 against 0.0032 with 2,460
+                        // links judged by the constant rule), so they keep the
+                        // constant rule.
+                        transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
+                        transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
+                        e.basisResidualF = coupling_->projectionResidual(er, es) * l.vis();
+                    }
                     if (aggregate) {
                         e.receiverRange = rerr[i].range;
                         e.receiverDeviation = rerr[i].deviation;
@@ -530,7 +618,9 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         if (s_.memoryBudget > 0) {
             uint64_t marked = 0;
             for (uint8_t m : mark) marked += m;
-            uint64_t perLink = sizeof(Link) + sizeof(uint32_t) + (aggregate ? sizeof(KernelSamples) : 0);
+            uint64_t perLink = sizeof(Link) + sizeof(uint32_t) + (aggregate ? sizeof(KernelSamples) : 0) +
+                               (coupling_ ? sizeof(uint32_t) + sizeof(float) * uint64_t(h.basisSize() * h.basisSize())
+                                          : 0);
             uint64_t perElement = h.numElements() ? h.elementBytes() / h.numElements() : 64;
             uint64_t estimate = h.elementBytes() + h.linkBytes() +
                                 (finalLinks.size() + n + newCount) * perLink +
@@ -620,7 +710,13 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         recv = std::move(nrecv);
         pendingS = std::move(nS);
     }
-    h.setLinks(finalRecv, std::move(finalLinks), std::move(finalS));
+    if (coupling_) {
+        PreviousCoupling previous = snapshotCoupling(h);
+        h.setLinks(finalRecv, std::move(finalLinks), std::move(finalS));
+        rec.rays += updateCoupling(h, &previous);
+    } else {
+        h.setLinks(finalRecv, std::move(finalLinks), std::move(finalS));
+    }
     return refined;
 }
 
@@ -643,7 +739,8 @@ HrResult HrSolver::solve(bool progress) {
         spdlog::info("cluster tree ({}): {} clusters, depth {}, {:.3f} s", s_.cluster.builder,
                      res.clusterTree->size(), res.clusterTree->depth(), res.clusterBuildSeconds);
     }
-    res.hierarchy = std::make_unique<Hierarchy>(*scene_, res.clusterTree.get(), s_.clusterModel);
+    res.hierarchy = std::make_unique<Hierarchy>(*scene_, res.clusterTree.get(), s_.clusterModel,
+                                                s_.basisDegree);
     Hierarchy& h = *res.hierarchy;
     linker_ = std::make_unique<cluster::ClusterLinker>(*scene_, res.clusterTree.get(),
                                                        s_.clusterModel, vis_, s_.clusterLink);
@@ -654,6 +751,7 @@ HrResult HrSolver::solve(bool progress) {
         std::vector<Link> links;
         initialLinks(h, recv, links, res, progress);
         h.setLinks(recv, std::move(links));
+        res.totalRays += updateCoupling(h, nullptr);
     }
     res.linkingSeconds = t.seconds();
     res.initialLinks = h.numLinks();
@@ -668,7 +766,7 @@ HrResult HrSolver::solve(bool progress) {
     int iteration = 0;
     // Aitken extrapolation state (hr.extrapolate): B one iteration earlier,
     // the last change of reflected power and its ratio, per channel.
-    std::vector<RGB> previousB;
+    std::vector<RGB> previousB, previousHi;
     RGB lastChange(0.0), lastRatio(0.0);
     // Geometric-tail estimate (see solver.h "Stopping"): the previous change
     // of reflected power, and whether it came from a plain iteration.
@@ -720,7 +818,10 @@ HrResult HrSolver::solve(bool progress) {
                 lastChange = change;
                 ++sinceExtrapolation;
                 if (ok && maxComponent(factor) > 0.0) {
-                    h.extrapolateLeaves(previousB, factor);
+                    if (h.basisSize() > 1)
+                        h.extrapolateLeaves(previousB, previousHi, factor);
+                    else
+                        h.extrapolateLeaves(previousB, factor);
                     rec.extrapolation = maxComponent(factor);
                     sinceExtrapolation = 0;
                     // The extrapolated state starts a new geometric sequence.
@@ -729,6 +830,7 @@ HrResult HrSolver::solve(bool progress) {
                     reflected = h.reflectedPower();
                 }
                 previousB = h.allB();
+                if (h.basisSize() > 1) previousHi = h.allHi();
             }
             rec.reflectedPower = reflected;
             rec.residual = relativeChange(reflected, lastReflected);

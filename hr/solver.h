@@ -61,6 +61,22 @@
 //                                       (without: 5.2 %), for 7x the links
 //   hr.extrapolate     bool    true    Aitken extrapolation of the gather iteration's tail
 //                                       (below)
+//   hr.basis           string  "constant"  constant | linear | quadratic | cubic: the
+//                                       polynomial basis on every element (scene/basis.h;
+//                                       Zatz 1993, Bekaert & Willems 1996). Degree > 0: every
+//                                       surface-surface link also carries its Galerkin coupling
+//                                       matrix (transport/coupling.h), computed once when the
+//                                       link is made; links touching a cluster exchange the
+//                                       constant term only (hr/hierarchy.h). "constant" is
+//                                       today's solver, bit for bit
+//   hr.basis_points    int     0       quadrature points per axis on each element for the
+//                                       coupling coefficients (0: degree + 2)
+//   hr.basis_near_levels int   1       near pairs use that rule on each of 4^k sub-elements
+//                                       of both elements (transport/coupling.h); 2 for the
+//                                       cubic basis, whose coupling with one level had a
+//                                       higher-order mode growing 1.12x per iteration in the
+//                                       furnace at rho 0.9 (the solve diverged once the
+//                                       stopping rule no longer stopped it early)
 //   cluster.model      string  "auto"  none | isotropic | oriented (cluster/transfer.h), or
 //                                       auto: none up to 2,000 patches, oriented above (the
 //                                       choice is logged and recorded in the result); with
@@ -141,6 +157,7 @@
 #include "hr/hierarchy.h"
 #include "oracles/oracle.h"
 #include "scene/scene.h"
+#include "transport/coupling.h"
 #include "transport/formfactor.h"
 #include "transport/visibility.h"
 
@@ -170,6 +187,13 @@ struct HrSettings {
     bool gaussSeidel = false;  ///< hr.iteration
     int gsBlocks = 0;          ///< hr.gs_blocks (0: one block per root patch)
     cluster::ClusterLinkSettings clusterLink;
+    /// hr.basis as a degree: 0 constant, 1 linear, 2 quadratic, 3 cubic.
+    int basisDegree = 0;
+    /// hr.basis_points: quadrature points per axis of the coupling
+    /// coefficients (0: degree + 2).
+    int basisPoints = 0;
+    /// hr.basis_near_levels (transport/coupling.h).
+    int basisNearLevels = 1;
 
     /// Reads the keys above (marks "oracle.*" used only after the oracle has
     /// read them: see HrSolver). Throws InputError on bad values or an unknown
@@ -293,6 +317,13 @@ class HrSolver {
     /// Fills e.Fmin / e.Fmax for link l of receiver r (only for oracles whose
     /// needsBounds() is true; the other fields of e must be set).
     void fillBounds(const Hierarchy& h, uint32_t r, const Link& l, oracles::LinkEstimate& e) const;
+    /// Polynomial bases: sets the coupling matrices of h's current links,
+    /// reusing those of `previous` (coupling index per link of the previous
+    /// link set, keyed by receiver and sender) and computing the others.
+    /// Returns the rays cast.
+    struct PreviousCoupling;
+    uint64_t updateCoupling(Hierarchy& h, const PreviousCoupling* previous) const;
+    PreviousCoupling snapshotCoupling(const Hierarchy& h) const;
 
     const scene::Scene* scene_;
     const transport::Visibility* vis_;
@@ -306,6 +337,8 @@ class HrSolver {
     Timer solveTimer_;       ///< started by solve() (hr.max_seconds)
     bool outOfTime() const { return s_.maxSeconds > 0 && solveTimer_.seconds() > s_.maxSeconds; }
     std::unique_ptr<cluster::ClusterLinker> linker_;  ///< made by solve() with the tree
+    std::unique_ptr<scene::BasisSet> basis_;              ///< degree > 0
+    std::unique_ptr<transport::CouplingEngine> coupling_;  ///< degree > 0
 };
 
 }  // namespace hrad::hr

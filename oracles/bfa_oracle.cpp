@@ -9,11 +9,13 @@ PowerOracle::Settings PowerOracle::Settings::fromParams(const Params& p) {
     s.eps = p.getDouble("eps", s.eps, 0.0, 1.0, true);
     s.useBound = p.getBool("use_bound", s.useBound);
     s.minArea = p.getDouble("min_area", s.minArea, 0.0, 1e300);
+    s.basisResidual = p.getBool("basis_residual", s.basisResidual);
     return s;
 }
 
 double PowerOracle::transportedPower(const LinkEstimate& e) const {
     double f = s_.useBound ? e.Fupper : e.F;
+    if (needsBasisResidual() && e.basisResidualF >= 0.0) f = e.basisResidualF;
     return maxComponent(e.receiverRho * e.senderB) * f * e.receiverArea * e.importance;
 }
 
@@ -27,7 +29,8 @@ Decision PowerOracle::decide(const LinkEstimate& e) const {
 }
 
 std::string PowerOracle::describe() const {
-    return fmt::format("bfa(eps={}, use_bound={}, min_area={})", s_.eps, s_.useBound, s_.minArea);
+    return fmt::format("bfa(eps={}, use_bound={}, min_area={}{})", s_.eps, s_.useBound, s_.minArea,
+                       s_.basisResidual ? "" : ", basis_residual=false");
 }
 
 }  // namespace hrad::oracles

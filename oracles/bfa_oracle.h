@@ -9,8 +9,27 @@
 // With importance (Smits, Arvo & Salesin 1992) the power is also multiplied by
 // the receiver's importance, which is 1 until importance is computed.
 //
+// Polynomial bases (hr.basis linear, quadratic, cubic; scene/basis.h). A
+// link's receiver then holds the Galerkin projection of the link's transfer,
+// not its average, so the power at stake is what the projection misses: the
+// rule is
+//   rho_r * B_s * R_rs * A_r <= eps * emitted power,
+//   R_rs = max_k |P(x_k) - F(x_k)| * visibility
+// with F(x) the point form factor from receiver point x to the sender and P
+// its projection onto the receiver's basis, over the receiver's corners, edge
+// midpoints and centroid (LinkEstimate::basisResidualF; the sender's own
+// variation is not judged, as in the constant rule). Partially visible links
+// keep the constant rule (the residual of the unoccluded kernel does not see
+// a shadow edge across the receiver). The higher the degree,
+// the smaller R for a smooth transfer, and the less the link is refined. For
+// the constant basis the published rule above applies unchanged (it bounds
+// the error by all the power the link carries, not by the projection's
+// miss). use_bound and basis_residual = false restore the constant rule for
+// every basis.
+//
 // Settings:
 //   eps          double  1e-3   fraction of total emitted power (0, 1]
+//   basis_residual bool  true   higher-order bases: judge by R_rs (above)
 //   use_bound    bool    false  use the upper bound Fupper instead of F
 //   min_area     double  0      elements at or below this area are not subdivided
 #pragma once
@@ -25,10 +44,12 @@ class PowerOracle final : public Oracle {
         double eps = 1e-3;
         bool useBound = false;
         double minArea = 0.0;
+        bool basisResidual = true;
         static Settings fromParams(const Params& p);
     };
     explicit PowerOracle(Settings s) : s_(s) {}
     Decision decide(const LinkEstimate& e) const override;
+    bool needsBasisResidual() const override { return s_.basisResidual && !s_.useBound; }
     std::string name() const override { return "bfa"; }
     double powerEps() const override { return s_.eps; }
     std::string describe() const override;

@@ -42,6 +42,14 @@ struct LinkEstimate {
     /// pointRange; a partially visible link has Fmin = 0; a link touching a
     /// cluster has [0, max(F, Fupper)]). The defaults are the trivial interval.
     double Fmin = 0.0, Fmax = 1.0;
+    /// Polynomial bases (hr.basis above constant), surface links, for oracles
+    /// whose needsBasisResidual() is true: max over check points of the
+    /// receiver of |P(x) - F(x)| times the visibility fraction, where F(x) is
+    /// the point form factor to the sender and P its projection onto the
+    /// receiver's basis (transport CouplingEngine::projectionResidual): the
+    /// part of the transfer the basis truncates. -1 when not computed (also
+    /// for partially visible links: hr/solver.cpp).
+    double basisResidualF = -1.0;
     /// Receiver-aggregate kernel error (hr/receiver_error.h), filled only for
     /// oracles whose needsReceiverError() is true and only for links between
     /// two surface elements (negative otherwise: not evaluated). With x_k the
@@ -87,6 +95,9 @@ class Oracle {
     /// extra point-to-element form factors for every link judged, so the
     /// solver only does it when asked.
     virtual bool needsBounds() const { return false; }
+    /// True when decide() reads LinkEstimate::basisResidualF (filled only
+    /// when the solve uses a basis above constant).
+    virtual bool needsBasisResidual() const { return false; }
     /// True when decide() reads the receiver aggregate (receiverRange,
     /// receiverDeviation, linkDeviation, receiverLinks); it costs point form
     /// factors at 7-9 receiver points for every surface link of every

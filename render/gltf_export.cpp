@@ -107,7 +107,8 @@ GltfCounts writeGlb(const scene::RadiosityField& field, const std::string& path,
             lo = glm::min(lo, glm::dvec3(f));
             hi = glm::max(hi, glm::dvec3(f));
             for (int k = 0; k < 3; ++k) putLE(pos, f[k]);
-            RGB b = interp ? interp->cornerValue(l.patch, l.key, i) : l.b;
+            RGB b = interp ? interp->cornerValue(l.patch, l.key, i)
+                           : field.leafPoint(l.patch, l.key, l.b, scene::cornerLocal(p.kind, i).x, scene::cornerLocal(p.kind, i).y);
             // The PNG/PLY tone map (render/image.h toneMap) without its sRGB encoding.
             for (int k = 0; k < 3; ++k) putLE(col, float(std::clamp(counts.exposure * b[k], 0.0, 1.0)));
             for (int k = 0; k < 3; ++k) putLE(rad, float(b[k]));

@@ -49,12 +49,13 @@ PlyCounts writePly(const scene::RadiosityField& field, const std::string& path, 
         const scene::Patch& p = scene.patches[l.patch];
         Vec3 c[4];
         int n = scene::elementCorners(p, scene::keyDomain(p.kind, l.key), c);
-        auto rgb = toneMap(l.b, exposure);
         putLE(faces, uint8_t(n));
         for (int i = 0; i < n; ++i) {
             putLE(vtx, float(c[i].x));
             putLE(vtx, float(c[i].y));
             putLE(vtx, float(c[i].z));
+            // The leaf's value at this corner (its polynomial, for hr.basis > constant).
+            auto rgb = toneMap(field.leafPoint(l.patch, l.key, l.b, scene::cornerLocal(p.kind, i).x, scene::cornerLocal(p.kind, i).y), exposure);
             for (uint8_t ch : rgb) putLE(vtx, ch);
             putLE(faces, int32_t(counts.vertices + uint64_t(i)));
         }

@@ -72,6 +72,13 @@ inline Vec2 domainParam(const Domain& d, double a, double b) {
 /// 3D corners of an element; returns the number of corners (3 or 4), counter-
 /// clockwise seen from the patch front (inverted triangles are reordered).
 int elementCorners(const Patch& p, const Domain& d, Vec3 out[4]);
+/// Local coordinates (a, b) of corner i in elementCorners order: quads
+/// (0,0) (1,0) (1,1) (0,1), triangles (0,0) (1,0) (0,1).
+inline Vec2 cornerLocal(PatchKind kind, int i) {
+    static constexpr double q[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+    static constexpr double t[3][2] = {{0, 0}, {1, 0}, {0, 1}};
+    return kind == PatchKind::Quad ? Vec2(q[i][0], q[i][1]) : Vec2(t[i][0], t[i][1]);
+}
 /// Exact area of the element (planar polygon area of its corners).
 double elementArea(const Patch& p, const Domain& d);
 /// Area centroid of the element.

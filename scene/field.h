@@ -30,6 +30,16 @@ class RadiosityField {
     virtual void forEachLeaf(uint32_t patch,
                              const std::function<void(ElementKey, const RGB&)>& fn) const = 0;
 
+    /// Value at local coordinates (a, b) (scene/element.h domainParam) of leaf
+    /// `key` of `patch`, whose value forEachLeaf reported as `leafValue`. A
+    /// piecewise constant field returns leafValue; a field with a polynomial
+    /// basis on its elements (hr.basis) evaluates the leaf's polynomial, so
+    /// exports show it at the elements' corners.
+    virtual RGB leafPoint(uint32_t patch, ElementKey key, const RGB& leafValue, double a, double b) const {
+        (void)patch, (void)key, (void)a, (void)b;
+        return leafValue;
+    }
+
     /// Total radiosity power sum_leaves B * A (RGB).
     RGB totalPower() const;
 };
