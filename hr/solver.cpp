@@ -514,6 +514,35 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         }
         if (!capHit && aggregate)
             receiverErrors(h, recv, pending, pendingS, finalRecv, finalLinks, finalS, rerr);
+        // Partially visible links into clusters (cluster.partial_receivers):
+        // the power each may hand to unseen surfaces of its receiving
+        // cluster, and their sum per receiving cluster.
+        std::vector<double> misplaced;
+        std::vector<double> clusterMisplaced;
+        std::vector<uint32_t> clusterPartial;
+        const bool partialCheck = !capHit && s_.openPartialReceivers && checkEps > 0 && h.numClusters() > 0;
+        if (partialCheck) {
+            misplaced.assign(n, 0.0);
+            tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const auto& range) {
+                for (size_t i = range.begin(); i != range.end(); ++i) {
+                    const Link& l = pending[i];
+                    if (!h.isCluster(recv[i]) || (l.flags & Link::kOpen) ||
+                        !(l.flags & (Link::kPartial | Link::kUncertain)))
+                        continue;
+                    oracles::LinkEstimate e = linkEstimate(h, recv[i], l, false);
+                    double unseen = (l.flags & Link::kUncertain) ? 1.0 : 1.0 - e.visibility;
+                    misplaced[i] = maxComponent(e.receiverRho * e.senderB) *
+                                   (e.visibility > 0 ? e.F / e.visibility : e.F) * unseen * e.receiverArea;
+                }
+            });
+            clusterMisplaced.assign(h.numClusters(), 0.0);
+            clusterPartial.assign(h.numClusters(), 0);
+            for (size_t i = 0; i < n; ++i)
+                if (misplaced[i] > 0) {
+                    clusterMisplaced[h.clusterIndex(recv[i])] += misplaced[i];
+                    ++clusterPartial[h.clusterIndex(recv[i])];
+                }
+        }
         if (!capHit) {
             tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const auto& range) {
                 for (size_t i = range.begin(); i != range.end(); ++i) {
@@ -572,13 +601,15 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                     // surfaces (closed cavities, the far side of a table).
                     // That power must be within eps too, else the receiving
                     // cluster is opened (cluster.partial_receivers = open).
-                    if (d == Decision::Accept && s_.openPartialReceivers && e.receiverIsCluster &&
-                        checkEps > 0 && (l.flags & (Link::kPartial | Link::kUncertain))) {
-                        double unseen = (l.flags & Link::kUncertain) ? 1.0 : 1.0 - e.visibility;
-                        double misplaced = maxComponent(e.receiverRho * e.senderB) *
-                                           (e.visibility > 0 ? e.F / e.visibility : e.F) * unseen *
-                                           e.receiverArea;
-                        if (misplaced > checkEps * e.emittedPower)
+                    // The links into one cluster misplace light together (as
+                    // a receiver's averaged senders do, hr/receiver_error.h):
+                    // their sum is held to eps too, refining the links with at
+                    // least an even share of it.
+                    if (d == Decision::Accept && partialCheck && misplaced[i] > 0) {
+                        const uint32_t c = h.clusterIndex(r);
+                        const double limit = checkEps * e.emittedPower;
+                        if (misplaced[i] > limit ||
+                            (clusterMisplaced[c] > limit && misplaced[i] * clusterPartial[c] >= clusterMisplaced[c]))
                             d = oracles::constrain(Decision::RefineReceiver, e);
                     }
                     decision[i] = uint8_t(d);

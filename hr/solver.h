@@ -87,11 +87,13 @@
 //                                       its light to every surface of the cluster facing the
 //                                       sender, seen or not; with `open` the power it may so
 //                                       misplace, rho B F_unoccluded (1 - v) A, must be within
-//                                       the oracle's eps share of the emitted power, else the
+//                                       the oracle's eps share of the emitted power, and so
+//                                       must the sum over the links into one cluster (links
+//                                       with at least an even share refined), else the
 //                                       receiving cluster is opened (Oracle::powerEps; ff and
 //                                       uniform have none). graz.mgf one-sided, bfa 1e-3: the
 //                                       reflected power on patches Monte Carlo has dark falls
-//                                       from 63 % to 46 % of the total for 0.02 % more links
+//                                       from 63 % to 42 % of the total for 0.06 % more links
 //   cluster.builder, cluster.leaf_size, cluster.max_depth   (cluster/tree.h)
 //   cluster.vis_rays, cluster.separation, cluster.surface_separation, cluster.near,
 //   cluster.near_rays                  links that touch a cluster (cluster/link.h)
