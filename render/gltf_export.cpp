@@ -59,27 +59,14 @@ std::vector<double> columnMajor(const glm::dmat4& mat) {
 
 GltfCounts writeGlb(const scene::RadiosityField& field, const std::string& path, const GltfExportOptions& options) {
     const scene::Scene& sc = field.scene();
-    struct Leaf {
-        uint32_t patch;
-        scene::ElementKey key;
-        RGB b;
-    };
-    std::vector<Leaf> leaves;
-    std::vector<RGB> values;
-    std::vector<double> areas;
-    for (uint32_t p = 0; p < sc.patches.size(); ++p)
-        field.forEachLeaf(p, [&](scene::ElementKey k, const RGB& b) {
-            leaves.push_back({p, k, b});
-            values.push_back(b);
-            areas.push_back(scene::elementArea(sc.patches[p], scene::keyDomain(sc.patches[p].kind, k)));
-        });
     GltfCounts counts;
+    counts.exposure = options.exposure;
+    const std::vector<FieldLeaf> leaves = fieldLeaves(field, counts.exposure);
     counts.leaves = leaves.size();
-    counts.exposure = options.exposure > 0 ? options.exposure : autoExposure(values, areas);
     std::unique_ptr<VertexInterpolation> interp;
     if (options.interpolate) interp = std::make_unique<VertexInterpolation>(field);
 
-    for (const Leaf& l : leaves) {
+    for (const FieldLeaf& l : leaves) {
         int n = sc.patches[l.patch].numVertices();
         counts.vertices += uint64_t(n);
         counts.triangles += uint64_t(n - 2);
@@ -98,7 +85,7 @@ GltfCounts writeGlb(const scene::RadiosityField& field, const std::string& path,
     idx.reserve(size_t(12 * counts.triangles));
     glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
     uint32_t base = 0;
-    for (const Leaf& l : leaves) {
+    for (const FieldLeaf& l : leaves) {
         const scene::Patch& p = sc.patches[l.patch];
         Vec3 c[4];
         int n = scene::elementCorners(p, scene::keyDomain(p.kind, l.key), c);

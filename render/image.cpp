@@ -37,6 +37,21 @@ double autoExposure(const std::vector<RGB>& values, const std::vector<double>& w
     return 1.0 / lw.back().first;
 }
 
+std::vector<FieldLeaf> fieldLeaves(const scene::RadiosityField& field, double& exposure) {
+    const scene::Scene& sc = field.scene();
+    std::vector<FieldLeaf> leaves;
+    std::vector<RGB> values;
+    std::vector<double> areas;
+    for (uint32_t p = 0; p < sc.patches.size(); ++p)
+        field.forEachLeaf(p, [&](scene::ElementKey k, const RGB& b) {
+            leaves.push_back({p, k, b});
+            values.push_back(b);
+            areas.push_back(scene::elementArea(sc.patches[p], scene::keyDomain(sc.patches[p].kind, k)));
+        });
+    if (!(exposure > 0)) exposure = autoExposure(values, areas);
+    return leaves;
+}
+
 double pngAutoExposure(const Image& image) {
     return std::max(autoExposure(image.pixels), 0.35 * autoExposure(image.pixels, {}, 0.5));
 }

@@ -14,6 +14,8 @@
 #include <vector>
 
 #include "core/types.h"
+#include "scene/element.h"
+#include "scene/field.h"
 
 namespace hrad::render {
 
@@ -32,6 +34,17 @@ struct Image {
 /// no value is positive.
 double autoExposure(const std::vector<RGB>& values, const std::vector<double>& weights = {},
                     double percentile = 0.99);
+
+/// One leaf element of a radiosity field and its radiosity.
+struct FieldLeaf {
+    uint32_t patch;
+    scene::ElementKey key;
+    RGB b;
+};
+/// The leaves of `field` in patch order (what the PLY and glTF exports
+/// write), and in `exposure` the exposure their colours use: unchanged when
+/// > 0, else autoExposure over the leaves weighted by their areas.
+std::vector<FieldLeaf> fieldLeaves(const scene::RadiosityField& field, double& exposure);
 
 /// The exposure writePng uses when it is not given one: the 99th percentile
 /// of the luminance maps to 1, unless that leaves the median darker than 0.35

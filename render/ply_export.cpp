@@ -26,26 +26,11 @@ void putLE(std::vector<char>& out, T value) {
 
 PlyCounts writePly(const scene::RadiosityField& field, const std::string& path, double exposure) {
     const scene::Scene& scene = field.scene();
-    struct Leaf {
-        uint32_t patch;
-        scene::ElementKey key;
-        RGB b;
-    };
-    std::vector<Leaf> leaves;
-    std::vector<RGB> values;
-    std::vector<double> areas;
-    for (uint32_t p = 0; p < scene.patches.size(); ++p)
-        field.forEachLeaf(p, [&](scene::ElementKey k, const RGB& b) {
-            leaves.push_back({p, k, b});
-            values.push_back(b);
-            areas.push_back(
-                scene::elementArea(scene.patches[p], scene::keyDomain(scene.patches[p].kind, k)));
-        });
-    if (!(exposure > 0)) exposure = autoExposure(values, areas);
+    const std::vector<FieldLeaf> leaves = fieldLeaves(field, exposure);
 
     PlyCounts counts;
     std::vector<char> vtx, faces;
-    for (const Leaf& l : leaves) {
+    for (const FieldLeaf& l : leaves) {
         const scene::Patch& p = scene.patches[l.patch];
         Vec3 c[4];
         int n = scene::elementCorners(p, scene::keyDomain(p.kind, l.key), c);

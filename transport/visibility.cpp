@@ -132,12 +132,14 @@ struct Visibility::Impl {
     std::atomic<int64_t> bytes{0};
     std::vector<uint32_t> triToPatch, quadToPatch;
     // Two-sided pairs (empty when the scene has none): the front patch of
-    // every patch, and the back twin and normal of every front patch.
+    // every patch, and the back twin of every front patch.
     std::vector<uint32_t> front, twin;
+    // Every patch's normal (empty unless the scene has two-sided pairs or
+    // stacked faces).
     std::vector<Vec3> normal;
-    // Stacked coplanar faces (none: `coplanar.overlaps` is null).
+    // Stacked coplanar faces (none: `coplanar.overlaps` is null), with every
+    // patch's plane offset.
     scene::CoplanarOverlaps overlaps;
-    std::vector<Vec3> planeNormal;
     std::vector<double> planeOffset;
     CoplanarData coplanar;
     unsigned triGeom = RTC_INVALID_GEOMETRY_ID, quadGeom = RTC_INVALID_GEOMETRY_ID;
@@ -169,27 +171,26 @@ Visibility::Visibility(const scene::Scene& sc) : impl_(std::make_unique<Impl>())
     rtcSetSceneFlags(m.scene, RTC_SCENE_FLAG_ROBUST);
     rtcSetSceneBuildQuality(m.scene, RTC_BUILD_QUALITY_HIGH);
 
+    m.overlaps = scene::CoplanarOverlaps(sc);
     if (sc.numBackSides() > 0) {
         m.front.resize(sc.patches.size());
         m.twin.resize(sc.patches.size());
-        m.normal.resize(sc.patches.size());
         for (uint32_t i = 0; i < sc.patches.size(); ++i) {
             m.front[i] = sc.frontOf(i);
             m.twin[i] = sc.patches[i].twin;
-            m.normal[i] = sc.patches[i].normal;
         }
     }
-    m.overlaps = scene::CoplanarOverlaps(sc);
+    if (sc.numBackSides() > 0 || !m.overlaps.empty()) {
+        m.normal.resize(sc.patches.size());
+        for (uint32_t i = 0; i < sc.patches.size(); ++i) m.normal[i] = sc.patches[i].normal;
+    }
     if (!m.overlaps.empty()) {
-        m.planeNormal.resize(sc.patches.size());
         m.planeOffset.resize(sc.patches.size());
-        for (uint32_t i = 0; i < sc.patches.size(); ++i) {
-            m.planeNormal[i] = sc.patches[i].normal;
+        for (uint32_t i = 0; i < sc.patches.size(); ++i)
             m.planeOffset[i] = glm::dot(sc.patches[i].normal, sc.patches[i].v[0]);
-        }
         m.coplanar.overlaps = &m.overlaps;
         m.coplanar.twin = m.twin.empty() ? nullptr : m.twin.data();
-        m.coplanar.normal = m.planeNormal.data();
+        m.coplanar.normal = m.normal.data();
         m.coplanar.offset = m.planeOffset.data();
     }
     for (uint32_t i = 0; i < sc.patches.size(); ++i)
