@@ -1,11 +1,11 @@
 #include "hr/hierarchy.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "core/error.h"
 #include "core/rng.h"
@@ -342,7 +342,8 @@ void Hierarchy::gatherRow(uint32_t r) {
     }
     const RGB& rho = scene_->patches[patch_[r]].rho;
     gathered_[r] = rho * sum;
-    for (int a = 1; a < nb_; ++a) gatheredHi_[size_t(r) * size_t(nb_ - 1) + size_t(a - 1)] = rho * sumHi[a];
+    for (int a = 1; a < nb_; ++a)
+        gatheredHi_[size_t(r) * size_t(nb_ - 1) + size_t(a - 1)] = rho * sumHi[a];
 }
 
 void Hierarchy::gather() {
@@ -362,7 +363,8 @@ std::vector<RGB> Hierarchy::clusterIrradianceToRoots() const {
     // Pre-order: parents before children.
     for (uint32_t c = 0; c < nc; ++c) {
         uint32_t parent = parent_[np + c];
-        clusterDown[c] = gathered_[np + c] + (parent == kNone ? RGB(0.0) : clusterDown[parent - np]);
+        clusterDown[c] =
+            gathered_[np + c] + (parent == kNone ? RGB(0.0) : clusterDown[parent - np]);
     }
     // What each link into a cluster sends, K times the sender's radiosity
     // towards that cluster, once per link rather than once per patch below
@@ -377,9 +379,10 @@ std::vector<RGB> Hierarchy::clusterIrradianceToRoots() const {
                     // carry (directionalB), as in gather(): with the mean B a
                     // sender cluster holding an emitter and surfaces facing
                     // elsewhere would send its average.
-                    sent[i - clusterLinkBase_] = glm::vec3(
-                        double(links_[i].K) *
-                        directionalB(links_[i].sender, -Vec3(clusterLinkDir_[i - clusterLinkBase_])));
+                    sent[i - clusterLinkBase_] =
+                        glm::vec3(double(links_[i].K) *
+                                  directionalB(links_[i].sender,
+                                               -Vec3(clusterLinkDir_[i - clusterLinkBase_])));
         });
     }
     auto fromClusters = [&](uint32_t root) {
@@ -404,7 +407,8 @@ std::vector<RGB> Hierarchy::clusterIrradianceToRoots() const {
     // on thread timing).
     fromAbove.resize(np);
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, np, 64), [&](const auto& range) {
-        for (uint32_t root = range.begin(); root != range.end(); ++root) fromAbove[root] = fromClusters(root);
+        for (uint32_t root = range.begin(); root != range.end(); ++root)
+            fromAbove[root] = fromClusters(root);
     });
     return fromAbove;
 }
@@ -475,7 +479,8 @@ void Hierarchy::sweep(int blocks, double* gatherSeconds, double* pushPullSeconds
     const uint32_t nb = uint32_t(std::clamp<int64_t>(blocks, 1, std::max<uint32_t>(np, 1)));
     std::vector<uint32_t> rows, stack;
     for (uint32_t b = 0; b < nb; ++b) {
-        const uint32_t lo = uint32_t(uint64_t(np) * b / nb), hi = uint32_t(uint64_t(np) * (b + 1) / nb);
+        const uint32_t lo = uint32_t(uint64_t(np) * b / nb),
+                       hi = uint32_t(uint64_t(np) * (b + 1) / nb);
         t.reset();
         // The rows of this block: every element below its root patches.
         rows.clear();
@@ -549,7 +554,8 @@ void Hierarchy::pushPullPolynomial(const std::vector<RGB>& fromAbove) {
                     Frame g{c, {}, 0};
                     for (int j = 0; j < nb_; ++j) {
                         RGB v = j == 0 ? gathered_[c] : gatheredHi_[size_t(c) * m + size_t(j - 1)];
-                        for (int a = 0; a < nb_; ++a) v += T[size_t(a * nb_ + j)] * f.down[size_t(a)];
+                        for (int a = 0; a < nb_; ++a)
+                            v += T[size_t(a * nb_ + j)] * f.down[size_t(a)];
                         g.down[size_t(j)] = v;
                     }
                     stack.push_back(g);  // f is invalidated here
@@ -575,7 +581,8 @@ void Hierarchy::pullPolynomial(uint32_t e) {
         uint32_t ch = fc + uint32_t(c);
         for (int a = 0; a < nb_; ++a) {
             RGB v = T[size_t(a * nb_)] * B_[ch];
-            for (int j = 1; j < nb_; ++j) v += T[size_t(a * nb_ + j)] * hi_[size_t(ch) * m + size_t(j - 1)];
+            for (int j = 1; j < nb_; ++j)
+                v += T[size_t(a * nb_ + j)] * hi_[size_t(ch) * m + size_t(j - 1)];
             out[size_t(a)] += 0.25 * v;
         }
     }
@@ -596,7 +603,8 @@ void Hierarchy::extrapolateLeaves(const std::vector<RGB>& previous,
         if (!isLeaf(e)) continue;
         B_[e] += factor * (B_[e] - previous[e]);
         for (size_t a = 0; a < m; ++a)
-            hi_[size_t(e) * m + a] += factor * (hi_[size_t(e) * m + a] - previousHi[size_t(e) * m + a]);
+            hi_[size_t(e) * m + a] +=
+                factor * (hi_[size_t(e) * m + a] - previousHi[size_t(e) * m + a]);
     }
     for (uint32_t e = n; e-- > first;)
         if (firstChild_[e] != kNone) pullPolynomial(e);
@@ -653,8 +661,8 @@ uint64_t Hierarchy::elementBytes() const {
 uint64_t Hierarchy::linkBytes() const {
     return links_.capacity() * sizeof(Link) + linkOffsets_.capacity() * sizeof(uint64_t) +
            clusterLinkDir_.capacity() * sizeof(glm::vec3) +
-           samples_.capacity() * sizeof(KernelSamples) + couplingIndex_.capacity() * sizeof(uint32_t) +
-           couplingData_.capacity() * sizeof(float);
+           samples_.capacity() * sizeof(KernelSamples) +
+           couplingIndex_.capacity() * sizeof(uint32_t) + couplingData_.capacity() * sizeof(float);
 }
 
 void Hierarchy::reportMemory(MemoryCounters& m) const {
@@ -664,8 +672,10 @@ void Hierarchy::reportMemory(MemoryCounters& m) const {
     if (!couplingIndex_.empty())
         m.set("link_coupling", couplingIndex_.capacity() * sizeof(uint32_t) +
                                    couplingData_.capacity() * sizeof(float));
-    if (!samples_.empty()) m.set("link_kernel_samples", samples_.capacity() * sizeof(KernelSamples));
-    if (!clusterLinkDir_.empty()) m.set("cluster_link_directions", clusterLinkDir_.capacity() * sizeof(glm::vec3));
+    if (!samples_.empty())
+        m.set("link_kernel_samples", samples_.capacity() * sizeof(KernelSamples));
+    if (!clusterLinkDir_.empty())
+        m.set("cluster_link_directions", clusterLinkDir_.capacity() * sizeof(glm::vec3));
     if (tree_)
         m.set("clusters", tree_->memoryBytes() + moments_.capacity() * sizeof(RadiantMoments) +
                               maxB_.capacity() * sizeof(RGB));
@@ -715,15 +725,27 @@ RGB HierarchyField::average(uint32_t patch, ElementKey key) const {
     return c[0];
 }
 
-RGB HierarchyField::leafPoint(uint32_t patch, ElementKey key, const RGB& leafValue, double a,
-                              double b) const {
-    if (h_->basisSize() == 1) return leafValue;
+uint32_t HierarchyField::elementAt(uint32_t patch, ElementKey key) const {
     uint32_t e = patch;
     int L = scene::keyLevel(key);
     for (int l = 0; l < L && !h_->isLeaf(e); ++l)
         e = h_->firstChild(e) + uint32_t(scene::keyChildAt(key, l));
     HRAD_CHECK(h_->key(e) == key);
-    return h_->evaluate(e, a, b);
+    return e;
+}
+
+RGB HierarchyField::leafPoint(uint32_t patch, ElementKey key, const RGB& leafValue, double a,
+                              double b) const {
+    if (h_->basisSize() == 1) return leafValue;
+    return h_->evaluate(elementAt(patch, key), a, b);
+}
+
+int HierarchyField::basisDegree() const { return h_->basisSize() == 1 ? 0 : h_->basis()->degree(); }
+
+void HierarchyField::leafHigherCoefficients(uint32_t patch, ElementKey key, RGB* out) const {
+    if (h_->basisSize() == 1) return;
+    const RGB* hi = h_->hi(elementAt(patch, key));
+    std::copy(hi, hi + (h_->basisSize() - 1), out);
 }
 
 void HierarchyField::forEachLeaf(uint32_t patch,

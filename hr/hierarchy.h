@@ -321,8 +321,12 @@ class HierarchyField final : public scene::RadiosityField {
     /// The leaf's polynomial at (a, b) (the leaf value for the constant basis).
     RGB leafPoint(uint32_t patch, scene::ElementKey key, const RGB& leafValue, double a,
                   double b) const override;
+    int basisDegree() const override;
+    void leafHigherCoefficients(uint32_t patch, scene::ElementKey key, RGB* out) const override;
 
   private:
+    /// The element of `patch` at `key` (which must be a node of its quadtree).
+    uint32_t elementAt(uint32_t patch, scene::ElementKey key) const;
     const Hierarchy* h_;
 };
 

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -391,16 +392,24 @@ MonteCarloResult cachedMonteCarlo(const scene::Scene& scene,
 
 namespace {
 constexpr char kSolutionMagic[8] = {'H', 'R', 'A', 'D', 'S', 'O', 'L', '\0'};
+// Version 1: piecewise constant leaves; version 2: leaves with polynomials
+// (a field whose basisDegree() > 0). A constant solution is still written as
+// version 1, byte for byte as before.
 constexpr uint32_t kSolutionVersion = 1;
+constexpr uint32_t kSolutionVersionPolynomial = 2;
 }  // namespace
 
 void saveSolution(const std::string& path, const scene::RadiosityField& field) {
     const scene::Scene& s = field.scene();
     Writer w;
     w.buf.append(kSolutionMagic, sizeof(kSolutionMagic));
-    w.pod(kSolutionVersion);
+    const int degree = field.basisDegree();
+    const int extra = scene::basisSize(degree) - 1;
+    w.pod(degree > 0 ? kSolutionVersionPolynomial : kSolutionVersion);
     w.pod(sceneContentHash(s));
     w.pod(uint64_t(s.patches.size()));
+    if (degree > 0) w.pod(uint32_t(degree));
+    std::array<RGB, scene::kMaxBasisSize> higher{};
     for (uint32_t p = 0; p < s.patches.size(); ++p) {
         std::vector<std::pair<scene::ElementKey, RGB>> leaves;
         field.forEachLeaf(p, [&](scene::ElementKey k, const RGB& b) { leaves.emplace_back(k, b); });
@@ -410,6 +419,13 @@ void saveSolution(const std::string& path, const scene::RadiosityField& field) {
             w.pod(b.r);
             w.pod(b.g);
             w.pod(b.b);
+            if (degree == 0) continue;
+            field.leafHigherCoefficients(p, k, higher.data());
+            for (int a = 0; a < extra; ++a) {
+                w.pod(higher[size_t(a)].r);
+                w.pod(higher[size_t(a)].g);
+                w.pod(higher[size_t(a)].b);
+            }
         }
     }
     Fnv f;
@@ -422,8 +438,7 @@ void saveSolution(const std::string& path, const scene::RadiosityField& field) {
     }
 }
 
-std::unique_ptr<scene::LeafField> loadSolution(const std::string& path,
-                                               const scene::Scene& scene) {
+std::unique_ptr<scene::LeafField> loadSolution(const std::string& path, const scene::Scene& scene) {
     auto fail = [&](const std::string& why) -> std::unique_ptr<scene::LeafField> {
         throw InputError(SourceLocation{path, 0, 0}, "not a usable hrad solution: " + why);
     };
@@ -437,9 +452,11 @@ std::unique_ptr<scene::LeafField> loadSolution(const std::string& path,
     auto version = r.pod<uint32_t>();
     auto hash = r.pod<uint64_t>();
     auto patches = r.pod<uint64_t>();
-    if (r.bad) return fail(fmt::format("truncated header ({} bytes, the header has 28)", buf.size()));
-    if (version != kSolutionVersion)
-        return fail(fmt::format("format version {} != {} (at byte offset 8)", version, kSolutionVersion));
+    if (r.bad)
+        return fail(fmt::format("truncated header ({} bytes, the header has 28)", buf.size()));
+    if (version != kSolutionVersion && version != kSolutionVersionPolynomial)
+        return fail(fmt::format("format version {} is neither {} nor {} (at byte offset 8)",
+                                version, kSolutionVersion, kSolutionVersionPolynomial));
     if (hash != sceneContentHash(scene) || patches != scene.patches.size())
         throw InputError(SourceLocation{path, 0, 0},
                          fmt::format("the solution was computed for another scene (content hash "
@@ -458,41 +475,81 @@ std::unique_ptr<scene::LeafField> loadSolution(const std::string& path,
         rhoMax = std::max(rhoMax, maxComponent(m.rho));
     }
     double bound = 1000.0 * eMax / std::max(1e-12, 1.0 - rhoMax) + 1e-300;
+    uint32_t degree = 0;
+    if (version == kSolutionVersionPolynomial) {
+        size_t at = r.pos;
+        degree = r.pod<uint32_t>();
+        if (r.bad)
+            return fail(fmt::format("truncated header ({} bytes, the header has 32)", buf.size()));
+        if (degree < 1 || degree > uint32_t(scene::kMaxBasisDegree))
+            return fail(fmt::format("basis degree {} (at byte offset {}) is not 1..{}", degree, at,
+                                    scene::kMaxBasisDegree));
+    }
+    const size_t extra = size_t(scene::basisSize(int(degree)) - 1);
+    const size_t leafBytes = 4 * sizeof(uint64_t) + 3 * sizeof(double) * extra;
     std::vector<std::vector<scene::LeafField::Leaf>> leaves(patches);
+    std::vector<std::vector<RGB>> higher(degree > 0 ? patches : 0);
     for (uint64_t p = 0; p < patches; ++p) {
         size_t countAt = r.pos;
         auto n = r.pod<uint32_t>();
-        if (r.bad || (buf.size() - r.pos) / (4 * sizeof(uint64_t)) < n)
-            return fail(fmt::format("truncated at patch {} (its leaf count {} at byte offset {} exceeds "
-                                    "the bytes left)", p, n, countAt));
+        if (r.bad || (buf.size() - r.pos) / leafBytes < n)
+            return fail(
+                fmt::format("truncated at patch {} (its leaf count {} at byte offset {} exceeds "
+                            "the bytes left)",
+                            p, n, countAt));
         leaves[p].resize(n);
-        for (auto& l : leaves[p]) {
+        if (degree > 0) higher[p].resize(extra * n);
+        for (size_t i = 0; i < n; ++i) {
+            auto& l = leaves[p][i];
             size_t at = r.pos;
             l.key = r.pod<uint64_t>();
             l.value.r = r.pod<double>();
             l.value.g = r.pod<double>();
             l.value.b = r.pod<double>();
+            for (size_t a = 0; a < extra; ++a) {
+                size_t cAt = r.pos;
+                RGB& c = higher[p][i * extra + a];
+                c.r = r.pod<double>();
+                c.g = r.pod<double>();
+                c.b = r.pod<double>();
+                // An orthonormal coefficient is bounded by the L2 norm of B
+                // over the leaf, itself within the radiosity bound below.
+                for (int ch = 0; ch < 3; ++ch)
+                    if (!(std::isfinite(c[ch]) && std::abs(c[ch]) <= bound))
+                        return fail(fmt::format(
+                            "patch {}: basis coefficient {} of the leaf at byte offset {} "
+                            "(at byte offset {}) is not finite or outside what the scene "
+                            "can produce (|c| <= {:.6g})",
+                            p, a + 1, at, cAt, bound));
+            }
             if (!scene::isValidKey(l.key))
-                return fail(fmt::format("patch {}: key {} (at byte offset {}) is not an element of the "
-                                        "patch's quadtree", p, l.key, at));
+                return fail(
+                    fmt::format("patch {}: key {} (at byte offset {}) is not an element of the "
+                                "patch's quadtree",
+                                p, l.key, at));
             for (int c = 0; c < 3; ++c)
                 if (!(std::isfinite(l.value[c]) && l.value[c] >= -bound && l.value[c] <= bound))
-                    return fail(fmt::format("patch {}: radiosity ({:.6g}, {:.6g}, {:.6g}) of the leaf {} at "
-                                            "byte offset {} is not finite or outside what the scene "
-                                            "can produce (|B| <= {:.6g})",
-                                            p, l.value.r, l.value.g, l.value.b, l.key, at, bound));
+                    return fail(fmt::format(
+                        "patch {}: radiosity ({:.6g}, {:.6g}, {:.6g}) of the leaf {} at "
+                        "byte offset {} is not finite or outside what the scene "
+                        "can produce (|B| <= {:.6g})",
+                        p, l.value.r, l.value.g, l.value.b, l.key, at, bound));
         }
     }
     size_t checked = r.pos;
     auto stored = r.pod<uint64_t>();
     if (r.bad || r.pos != buf.size())
-        return fail(fmt::format("the leaves end at byte offset {}, then {} bytes follow where the 8-byte "
-                                "checksum belongs", checked, buf.size() - checked));
+        return fail(
+            fmt::format("the leaves end at byte offset {}, then {} bytes follow where the 8-byte "
+                        "checksum belongs",
+                        checked, buf.size() - checked));
     Fnv f;
     f.bytes(buf.data(), checked);
-    if (f.h != stored) return fail(fmt::format("checksum mismatch (checksum at byte offset {})", checked));
+    if (f.h != stored)
+        return fail(fmt::format("checksum mismatch (checksum at byte offset {})", checked));
     try {
-        return std::make_unique<scene::LeafField>(scene, std::move(leaves));
+        return std::make_unique<scene::LeafField>(scene, std::move(leaves), int(degree),
+                                                  std::move(higher));
     } catch (const Error& e) {
         return fail(e.what());
     }

@@ -112,10 +112,16 @@ MonteCarloResult cachedMonteCarlo(const scene::Scene& scene,
 /// Solution files (`solution.hrsol`, written by `hrad solve`, read by
 /// `hrad render`): the leaves of any field with their radiosities, so a
 /// solution can be rendered again (other camera, size, reconstruction)
-/// without solving. Format (version 1, host byte order):
+/// without solving. Format (host byte order):
 ///   char[8] "HRADSOL\0", u32 version, u64 sceneContentHash, u64 patch count,
-///   per patch: u32 leaf count, then per leaf u64 key and f64 r, g, b;
+///   [version 2: u32 basis degree p, 1..3]
+///   per patch: u32 leaf count, then per leaf u64 key and f64 r, g, b (the
+///   leaf's mean), [version 2: then (basisSize(p) - 1) x f64 r, g, b, the
+///   coefficients c_1.. of the leaf's polynomial, scene/basis.h];
 ///   u64 FNV-1a of every byte above.
+/// Version 1 is written for piecewise constant fields (hr.basis = constant,
+/// the full matrix, Monte Carlo), version 2 for polynomial ones, so that
+/// `hrad render` draws the solver's polynomials, not their means.
 /// Written atomically (temporary file + rename). Throws hrad::InputError
 /// naming the path when the file cannot be written.
 void saveSolution(const std::string& path, const scene::RadiosityField& field);

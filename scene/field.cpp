@@ -1,8 +1,10 @@
 #include "scene/field.h"
 
-#include <cmath>
-
 #include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
 
 #include "core/error.h"
 
@@ -87,7 +89,8 @@ std::vector<uint8_t> uniformLevels(const Scene& scene, int level, double maxArea
                     int n = 1 << l;
                     for (int iu = 0; iu < n; iu += std::max(1, n - 1))
                         for (int iv = 0; iv < n; iv += std::max(1, n - 1))
-                            amax = std::max(amax, elementArea(p, Domain{double(iu) / n, double(iv) / n, 1.0 / n}));
+                            amax = std::max(amax, elementArea(p, Domain{double(iu) / n,
+                                                                        double(iv) / n, 1.0 / n}));
                     a = amax;
                 }
             }
@@ -97,11 +100,29 @@ std::vector<uint8_t> uniformLevels(const Scene& scene, int level, double maxArea
     return out;
 }
 
-LeafField::LeafField(const Scene& scene, std::vector<std::vector<Leaf>> leaves)
-    : scene_(&scene), leaves_(std::move(leaves)) {
+LeafField::LeafField(const Scene& scene, std::vector<std::vector<Leaf>> leaves, int degree,
+                     std::vector<std::vector<RGB>> higher)
+    : scene_(&scene), leaves_(std::move(leaves)), degree_(degree), higher_(std::move(higher)) {
     if (leaves_.size() != scene.patches.size())
         throw Error(fmt::format("leaf field: {} patches of leaves for a scene of {}",
                                 leaves_.size(), scene.patches.size()));
+    if (degree_ < 0 || degree_ > kMaxBasisDegree)
+        throw Error(fmt::format("leaf field: basis degree {} (0..{})", degree_, kMaxBasisDegree));
+    if (degree_ > 0) {
+        basis_ = std::make_unique<BasisSet>(degree_);
+        const size_t extra = size_t(basisSize(degree_) - 1);
+        if (higher_.size() != leaves_.size())
+            throw Error(
+                fmt::format("leaf field: {} patches of coefficients for {} patches of leaves",
+                            higher_.size(), leaves_.size()));
+        for (uint32_t p = 0; p < leaves_.size(); ++p)
+            if (higher_[p].size() != extra * leaves_[p].size())
+                throw Error(
+                    fmt::format("leaf field: patch {}: {} coefficients for {} leaves of degree {}",
+                                p, higher_[p].size(), leaves_[p].size(), degree_));
+    } else {
+        higher_.clear();
+    }
     index_.resize(leaves_.size());
     for (uint32_t p = 0; p < leaves_.size(); ++p) {
         const Patch& patch = scene.patches[p];
@@ -131,7 +152,55 @@ static std::vector<std::vector<LeafField::Leaf>> leavesOf(const RadiosityField& 
     return out;
 }
 
-LeafField::LeafField(const RadiosityField& field) : LeafField(field.scene(), leavesOf(field)) {}
+static std::vector<std::vector<RGB>> higherOf(const RadiosityField& field) {
+    const int degree = field.basisDegree();
+    std::vector<std::vector<RGB>> out;
+    if (degree == 0) return out;
+    const size_t extra = size_t(basisSize(degree) - 1);
+    out.resize(field.scene().patches.size());
+    for (uint32_t p = 0; p < out.size(); ++p)
+        field.forEachLeaf(p, [&](ElementKey k, const RGB&) {
+            size_t at = out[p].size();
+            out[p].resize(at + extra);
+            field.leafHigherCoefficients(p, k, out[p].data() + at);
+        });
+    return out;
+}
+
+LeafField::LeafField(const RadiosityField& field)
+    : LeafField(field.scene(), leavesOf(field), field.basisDegree(), higherOf(field)) {}
+
+LeafField::~LeafField() = default;
+
+RGB LeafField::evaluate(uint32_t patch, size_t i, double a, double b) const {
+    const RGB& mean = leaves_[patch][i].value;
+    if (degree_ == 0) return mean;
+    double phi[kMaxBasisSize];
+    basis_->of(scene_->patches[patch].kind).eval(a, b, phi);
+    const int n = basis_->size();
+    const RGB* c = higher_[patch].data() + i * size_t(n - 1);
+    RGB v = mean;
+    for (int k = 1; k < n; ++k) v += phi[k] * c[k - 1];
+    return v;
+}
+
+RGB LeafField::leafPoint(uint32_t patch, ElementKey key, const RGB& leafValue, double a,
+                         double b) const {
+    if (degree_ == 0) return leafValue;
+    auto it = index_[patch].find(key);
+    if (it == index_[patch].end()) return leafValue;
+    return evaluate(patch, it->second, a, b);
+}
+
+void LeafField::leafHigherCoefficients(uint32_t patch, ElementKey key, RGB* out) const {
+    if (degree_ == 0) return;
+    auto it = index_[patch].find(key);
+    if (it == index_[patch].end())
+        throw Error(fmt::format("leaf field: patch {}: no leaf {}", patch, key));
+    const size_t extra = size_t(basis_->size() - 1);
+    const RGB* c = higher_[patch].data() + it->second * extra;
+    std::copy(c, c + extra, out);
+}
 
 size_t LeafField::numLeaves() const {
     size_t n = 0;
@@ -154,7 +223,11 @@ RGB LeafField::at(uint32_t patch, double u, double v) const {
     Domain d{};
     for (int level = 0; level <= kMaxLevel; ++level) {
         auto it = index_[patch].find(k);
-        if (it != index_[patch].end()) return leaves_[patch][it->second].value;
+        if (it != index_[patch].end()) {
+            if (degree_ == 0) return leaves_[patch][it->second].value;
+            // The leaf's polynomial at the local coordinates of (u, v).
+            return evaluate(patch, it->second, (u - d.u0) / d.h, (v - d.v0) / d.h);
+        }
         int c = childContaining(p.kind, d, u, v);
         d = childDomain(p.kind, d, c);
         k = childKey(k, c);
@@ -181,7 +254,29 @@ RGB LeafField::averageBelow(uint32_t patch, ElementKey key, double* area) const 
 
 RGB LeafField::average(uint32_t patch, ElementKey key) const {
     int64_t i = leafAtOrAbove(patch, key);
-    if (i >= 0) return leaves_[patch][size_t(i)].value;  // constant over the leaf
+    if (i >= 0) {
+        const Leaf& leaf = leaves_[patch][size_t(i)];
+        if (degree_ == 0 || leaf.key == key) return leaf.value;  // the leaf's mean
+        // A region inside a polynomial leaf: its mean is the c_0 of the
+        // leaf's polynomial restricted to it (two-scale pushes along the
+        // key's path below the leaf, scene/basis.h).
+        const Basis& basis = basis_->of(scene_->patches[patch].kind);
+        const int n = basis.size();
+        std::array<RGB, kMaxBasisSize> c{}, next{};
+        c[0] = leaf.value;
+        leafHigherCoefficients(patch, leaf.key, c.data() + 1);
+        const int from = keyLevel(leaf.key), to = keyLevel(key);
+        for (int l = from; l < to; ++l) {
+            const auto& T = basis.twoScale(keyChildAt(key, l));
+            for (int j = 0; j < n; ++j) {
+                RGB v(0.0);
+                for (int a = 0; a < n; ++a) v += T[size_t(a * n + j)] * c[size_t(a)];
+                next[size_t(j)] = v;
+            }
+            c = next;
+        }
+        return c[0];
+    }
     double a = 0.0;
     return averageBelow(patch, key, &a);
 }

@@ -10,9 +10,11 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <unordered_map>
 #include <vector>
 
+#include "scene/basis.h"
 #include "scene/element.h"
 #include "scene/scene.h"
 
@@ -35,9 +37,20 @@ class RadiosityField {
     /// piecewise constant field returns leafValue; a field with a polynomial
     /// basis on its elements (hr.basis) evaluates the leaf's polynomial, so
     /// exports show it at the elements' corners.
-    virtual RGB leafPoint(uint32_t patch, ElementKey key, const RGB& leafValue, double a, double b) const {
+    virtual RGB leafPoint(uint32_t patch, ElementKey key, const RGB& leafValue, double a,
+                          double b) const {
         (void)patch, (void)key, (void)a, (void)b;
         return leafValue;
+    }
+
+    /// Degree of the polynomial basis on the leaves (scene/basis.h; 0: the
+    /// field is piecewise constant and forEachLeaf says all there is).
+    virtual int basisDegree() const { return 0; }
+    /// A leaf's basis coefficients after the mean (c_1 .. c_{n-1}, n =
+    /// basisSize(basisDegree())), written to `out`; what a saved solution
+    /// needs besides forEachLeaf's means. Nothing for degree 0.
+    virtual void leafHigherCoefficients(uint32_t patch, ElementKey key, RGB* out) const {
+        (void)patch, (void)key, (void)out;
     }
 
     /// Total radiosity power sum_leaves B * A (RGB).
@@ -81,7 +94,8 @@ class UniformField : public RadiosityField {
 
 /// Level per patch so that every element has area <= maxArea (level capped at
 /// maxLevel); with maxArea <= 0 every patch gets `level`.
-std::vector<uint8_t> uniformLevels(const Scene& scene, int level, double maxArea, int maxLevel = 12);
+std::vector<uint8_t> uniformLevels(const Scene& scene, int level, double maxArea,
+                                   int maxLevel = 12);
 
 /// A field given by an explicit list of leaves per patch (any quadtree cut of
 /// each root patch): a copy of another field's leaves, or a solution read
@@ -91,23 +105,35 @@ class LeafField final : public RadiosityField {
   public:
     struct Leaf {
         ElementKey key;
-        RGB value;
+        RGB value;  ///< the mean over the leaf (c_0 of its polynomial)
     };
     /// `leaves[p]` must tile patch p exactly (no overlaps, no holes):
-    /// checked, hrad::Error otherwise.
-    LeafField(const Scene& scene, std::vector<std::vector<Leaf>> leaves);
-    /// The leaves of `field` (on the same scene).
+    /// checked, hrad::Error otherwise. With `degree` > 0 the leaves carry
+    /// polynomials of that degree (scene/basis.h): `higher[p]` holds, leaf
+    /// after leaf, the n - 1 coefficients after the mean of each leaf of
+    /// patch p (n = basisSize(degree)); evaluation and averages over parts of
+    /// a leaf then follow the polynomial, as in the solver's field.
+    LeafField(const Scene& scene, std::vector<std::vector<Leaf>> leaves, int degree = 0,
+              std::vector<std::vector<RGB>> higher = {});
+    /// The leaves of `field` (on the same scene), with their polynomials.
     explicit LeafField(const RadiosityField& field);
+    ~LeafField() override;
 
     const Scene& scene() const override { return *scene_; }
     RGB at(uint32_t patch, double u, double v) const override;
     RGB average(uint32_t patch, ElementKey key) const override;
     void forEachLeaf(uint32_t patch,
                      const std::function<void(ElementKey, const RGB&)>& fn) const override;
+    RGB leafPoint(uint32_t patch, ElementKey key, const RGB& leafValue, double a,
+                  double b) const override;
+    int basisDegree() const override { return degree_; }
+    void leafHigherCoefficients(uint32_t patch, ElementKey key, RGB* out) const override;
     const std::vector<Leaf>& leaves(uint32_t patch) const { return leaves_[patch]; }
     size_t numLeaves() const;
 
   private:
+    /// The polynomial of leaf `i` of `patch` at its local coordinates (a, b).
+    RGB evaluate(uint32_t patch, size_t i, double a, double b) const;
     /// Index in leaves_[patch] of the leaf equal to or containing `key`, or -1
     /// when `key` is an interior node.
     int64_t leafAtOrAbove(uint32_t patch, ElementKey key) const;
@@ -116,6 +142,9 @@ class LeafField final : public RadiosityField {
     const Scene* scene_;
     std::vector<std::vector<Leaf>> leaves_;
     std::vector<std::unordered_map<ElementKey, uint32_t>> index_;
+    int degree_ = 0;
+    std::unique_ptr<BasisSet> basis_;       ///< degree_ > 0
+    std::vector<std::vector<RGB>> higher_;  ///< per patch, (n - 1) per leaf
 };
 
 }  // namespace hrad::scene

@@ -1,14 +1,19 @@
 // Polynomial bases in the hierarchical solver (hr.basis; scene/basis.h,
 // transport/coupling.h, hr/hierarchy.h): the furnace for every basis on quads
 // and triangles, exact push-pull of a linear field, reciprocity of the
-// coupling coefficients, and the constant basis unchanged.
+// coupling coefficients, the constant basis unchanged, and saved solutions.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 
 #include "core/rng.h"
 #include "hr/solver.h"
 #include "oracles/registry.h"
+#include "reference/cache.h"
 #include "scene/builtin.h"
 #include "tests/hr/settings.h"
 #include "tests/scenes.h"
@@ -329,4 +334,70 @@ TEST(BasisSolver, ClusterLinksExchangeTheConstantTerm) {
         std::cout << model << ": power constant " << power[0] << ", linear " << power[1] << "\n";
         EXPECT_NEAR(power[1], power[0], 0.02 * power[0]) << model;
     }
+}
+
+// A saved polynomial solution (solution.hrsol version 2) is the solver's
+// field: `hrad render` evaluates the same polynomials, pointwise and in the
+// averages over parts of a leaf; a constant one is still written as
+// version 1. A truncated or out-of-range polynomial file is refused.
+TEST(BasisSolver, SavedSolutionKeepsThePolynomials) {
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::temp_directory_path() / fmt::format("hrad-basis-hrsol-{}", ::getpid());
+    fs::create_directories(dir);
+    scene::Scene s = scene::makeBuiltin("cornell");
+    transport::Visibility vis(s);
+    for (const char* b : {"constant", "linear", "cubic"}) {
+        HrResult r = HrSolver(s, vis, basisSettings("bfa", 1e-2, b)).solve();
+        const HierarchyField& f = *r.field;
+        const std::string path = (dir / fmt::format("{}.hrsol", b)).string();
+        reference::saveSolution(path, f);
+        std::string bytes;
+        {
+            std::ifstream in(path, std::ios::binary);
+            bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+        }
+        uint32_t version = 0;
+        std::memcpy(&version, bytes.data() + 8, 4);
+        EXPECT_EQ(version, std::string(b) == "constant" ? 1u : 2u) << b;
+        auto back = reference::loadSolution(path, s);
+        ASSERT_TRUE(back);
+        EXPECT_EQ(back->basisDegree(), f.basisDegree());
+        Pcg32 rng(7);
+        double worstPoint = 0.0, worstAverage = 0.0, spread = 0.0;
+        for (uint32_t p = 0; p < s.patches.size(); ++p) {
+            for (int i = 0; i < 40; ++i) {
+                double u = rng.nextDouble(), v = rng.nextDouble();
+                if (s.patches[p].kind == scene::PatchKind::Triangle && u + v > 1)
+                    u = 1 - u, v = 1 - v;
+                RGB a = f.at(p, u, v), c = back->at(p, u, v);
+                worstPoint = std::max(worstPoint, maxComponent(glm::abs(a - c)));
+                spread = std::max(spread, maxComponent(glm::abs(a - f.at(p, 0.5, 0.5))));
+            }
+            // Every leaf, and a region two levels inside each leaf.
+            f.forEachLeaf(p, [&](scene::ElementKey k, const RGB&) {
+                for (scene::ElementKey q : {k, scene::childKey(scene::childKey(k, 1), 2)}) {
+                    RGB a = f.average(p, q), c = back->average(p, q);
+                    worstAverage = std::max(worstAverage, maxComponent(glm::abs(a - c)));
+                }
+            });
+        }
+        EXPECT_LT(worstPoint, 1e-12) << b;
+        EXPECT_LT(worstAverage, 1e-12) << b;
+        // The comparison can fail: the polynomial fields vary inside leaves.
+        if (std::string(b) != "constant") EXPECT_GT(spread, 1e-3) << b;
+        if (std::string(b) == "constant") continue;
+        std::ofstream(path + ".short", std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+        EXPECT_THROW(reference::loadSolution(path + ".short", s), InputError) << b;
+        std::string degree = bytes;
+        const uint32_t nine = 9;
+        std::memcpy(degree.data() + 28, &nine, 4);
+        std::ofstream(path + ".degree", std::ios::binary) << degree;
+        try {
+            reference::loadSolution(path + ".degree", s);
+            ADD_FAILURE() << "expected an error";
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("basis degree 9"), std::string::npos) << e.what();
+        }
+    }
+    fs::remove_all(dir);
 }
