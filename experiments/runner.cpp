@@ -219,6 +219,11 @@ Reference computeReference(const scene::Scene& sc, const transport::Visibility& 
         out.stats = json{{"regions", res.stats.regions},
                          {"paths", res.stats.paths},
                          {"rounds", res.stats.rounds}};
+        // The walk's own cost (0 when the reference came from the cache).
+        if (!out.cached) {
+            out.stats["rays"] = res.stats.rays;
+            out.stats["seconds"] = res.stats.seconds;
+        }
     }
     return out;
 }
@@ -275,6 +280,11 @@ json prepareReference(const PointSpec& p, const RunContext& ctx) {
             .string();
     out["seconds"] = t.seconds();
     out["stats"] = ref.stats;
+    if (r.refMc) {
+        auto [uLum, uRgb] = mcUncertainty(ref);
+        out["mc_stderr_l2_lum"] = uLum;
+        out["mc_stderr_l2_rgb"] = uRgb;
+    }
     return out;
 }
 

@@ -79,7 +79,8 @@ void validatePoint(const PointSpec& point);
 nlohmann::json runPoint(const PointSpec& point, const RunContext& context);
 
 /// Computes (or finds in the cache) the point's reference only; returns a
-/// description {"reference": ..., "cached": bool, "cache_dir": ..., "seconds": ...}.
+/// description {"reference": ..., "cached": bool, "cache_dir": ..., "seconds": ...,
+/// "stats": {...}} and, for Monte Carlo, mc_stderr_l2_lum / mc_stderr_l2_rgb.
 nlohmann::json prepareReference(const PointSpec& point, const RunContext& context);
 
 /// Same key the cache uses for the point's reference: scene label + kind +
