@@ -157,18 +157,33 @@ def scaling(store, stem, x="patches", ys=("links", "compute_s"), group="method")
     ys = list(ys)
     gcols = group if isinstance(group, list) else [group]
     df = _rows(store, [x] + ys, f"scaling vs {x}", gcols)
+    # Runs that a limit stopped (hr.max_seconds, hr.max_links, memory budget;
+    # column `capped`) are drawn hollow and left out of the fit: their counts
+    # are the limit's, not the method's.
+    capped = (df["capped"].fillna("") != "") if "capped" in df.columns else None
     fig, axes = style.figure(height=2.0 * len(ys), nrows=len(ys), sharex=True)
     axes = np.atleast_1d(axes)
     side = {"x": x, "panels": {}}
     for ax, y in zip(axes, ys):
         side["panels"][y] = {}
         for i, (label, g) in enumerate(_groups(df, group)):
+            cut = None
+            if capped is not None and capped.loc[g.index].any():
+                cut = g[capped.loc[g.index]].groupby(x, as_index=False)[y].mean().sort_values(x)
+                g = g[~capped.loc[g.index]]
+                st = dict(style.style_for(i))
+                st.update(ls="none", markerfacecolor="none")
+                ax.plot(cut[x], cut[y], **st)
             g = g.groupby(x, as_index=False)[y].mean().sort_values(x)
             entry = {"x": g[x].tolist(), "y": g[y].tolist(), "slope": None}
+            if cut is not None:
+                entry["capped_x"], entry["capped_y"] = cut[x].tolist(), cut[y].tolist()
             lab = label
             if g[x].nunique() >= 2:
                 entry["slope"] = loglog_slope(g[x], g[y])
                 lab = f"{label} (slope {entry['slope']:.2f})"
+                if cut is not None:
+                    lab += f"; {len(cut)} capped, hollow"
                 fx = np.array([g[x].min(), g[x].max()], float)
                 c = np.polyfit(np.log10(g[x]), np.log10(g[y]), 1)
                 ax.plot(fx, 10 ** np.polyval(c, np.log10(fx)), color=style.style_for(i)["color"],
