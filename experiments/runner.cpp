@@ -245,6 +245,23 @@ std::pair<double, double> mcUncertainty(const Reference& ref) {
     return {ratio(numL, denL), ratio(numC, denC)};
 }
 
+/// mcUncertainty's luminance norm over the regions of non-emitting patches
+/// only (the norm of the "non-emitters" error family): there the emitters'
+/// exact E no longer fills the denominator, so the noise is larger.
+double mcUncertaintyNonEmitters(const Reference& ref, const scene::Scene& sc) {
+    double num = 0, den = 0;
+    const scene::UniformField& f = *ref.field;
+    for (uint32_t p = 0; p < sc.patches.size(); ++p) {
+        if (sc.patches[p].isEmitter()) continue;
+        for (size_t k = f.offset(p); k < f.offset(p) + f.count(p) && k < ref.stdError.size(); ++k) {
+            double a = f.area(k), s = luminance(ref.stdError[k]), v = luminance(f.value(k));
+            num += a * s * s;
+            den += a * v * v;
+        }
+    }
+    return den > 0 ? std::sqrt(num / den) : (num > 0 ? INFINITY : 0.0);
+}
+
 }  // namespace
 
 void validatePoint(const PointSpec& p) {
@@ -284,6 +301,7 @@ json prepareReference(const PointSpec& p, const RunContext& ctx) {
         auto [uLum, uRgb] = mcUncertainty(ref);
         out["mc_stderr_l2_lum"] = uLum;
         out["mc_stderr_l2_rgb"] = uRgb;
+        out["mc_stderr_l2_nonemitter_lum"] = mcUncertaintyNonEmitters(ref, sc);
     }
     return out;
 }
@@ -418,6 +436,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
             auto [uLum, uRgb] = mcUncertainty(*ref);
             e["mc_stderr_l2_lum"] = uLum;
             e["mc_stderr_l2_rgb"] = uRgb;
+            e["mc_stderr_l2_nonemitter_lum"] = mcUncertaintyNonEmitters(*ref, sc);
         }
         // Error work, including the per-iteration errors (history_error), so
         // that wall - reference - error - render is the solver's own time.

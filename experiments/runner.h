@@ -43,6 +43,8 @@
 // (for luminance |sigma_k| = luminance(sigma_k), an upper bound of the
 // luminance's standard error since the channel errors may be correlated). An
 // L2 error of the same order as this number is not resolved by the reference.
+// mc_stderr_l2_nonemitter_lum is the same norm over the regions of the
+// non-emitting patches, the norm of l2_nonemitter_lum.
 #pragma once
 
 #include <filesystem>
