@@ -29,6 +29,14 @@ int runReference(const ReferenceCliOptions& o, Params& params) {
     fmt::print("{} reference for {}: {}\n", r.value("cached", false) ? "cached" : "computed",
                o.scene, r.value("reference", ""));
     fmt::print("stats: {}\n", r["stats"].dump());
+    // Monte Carlo: the relative L2 norm of the per-region standard errors
+    // (experiments/runner.h), the noise this reference adds to an L2 error.
+    if (r.contains("mc_stderr_l2_lum"))
+        fmt::print(
+            "standard error: relative L2 {:.4g} (luminance), {:.4g} (RGB); {:.4g} (luminance, "
+            "non-emitting patches only)\n",
+            r["mc_stderr_l2_lum"].get<double>(), r["mc_stderr_l2_rgb"].get<double>(),
+            r["mc_stderr_l2_nonemitter_lum"].get<double>());
     fmt::print("cache file: {} ({:.2f} s)\n", r.value("cache_file", r.value("cache_dir", "")),
                r.value("seconds", 0.0));
     return 0;

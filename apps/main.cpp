@@ -49,7 +49,8 @@ int main(int argc, char** argv) {
     // info
     auto* info = app.add_subcommand("info", "print scene statistics");
     std::string infoScene;
-    info->add_option("scene", infoScene, "built-in name (cornell, furnace, office:N, ...) or file")
+    info->add_option("scene", infoScene,
+                     "built-in name (cornell, furnace, office:N, office:N:T, ...) or file")
         ->required();
 
     // solve

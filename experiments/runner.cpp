@@ -219,6 +219,11 @@ Reference computeReference(const scene::Scene& sc, const transport::Visibility& 
         out.stats = json{{"regions", res.stats.regions},
                          {"paths", res.stats.paths},
                          {"rounds", res.stats.rounds}};
+        // The walk's own cost (0 when the reference came from the cache).
+        if (!out.cached) {
+            out.stats["rays"] = res.stats.rays;
+            out.stats["seconds"] = res.stats.seconds;
+        }
     }
     return out;
 }
@@ -238,6 +243,23 @@ std::pair<double, double> mcUncertainty(const Reference& ref) {
     }
     auto ratio = [](double n, double d) { return d > 0 ? std::sqrt(n / d) : (n > 0 ? INFINITY : 0.0); };
     return {ratio(numL, denL), ratio(numC, denC)};
+}
+
+/// mcUncertainty's luminance norm over the regions of non-emitting patches
+/// only (the norm of the "non-emitters" error family): there the emitters'
+/// exact E no longer fills the denominator, so the noise is larger.
+double mcUncertaintyNonEmitters(const Reference& ref, const scene::Scene& sc) {
+    double num = 0, den = 0;
+    const scene::UniformField& f = *ref.field;
+    for (uint32_t p = 0; p < sc.patches.size(); ++p) {
+        if (sc.patches[p].isEmitter()) continue;
+        for (size_t k = f.offset(p); k < f.offset(p) + f.count(p) && k < ref.stdError.size(); ++k) {
+            double a = f.area(k), s = luminance(ref.stdError[k]), v = luminance(f.value(k));
+            num += a * s * s;
+            den += a * v * v;
+        }
+    }
+    return den > 0 ? std::sqrt(num / den) : (num > 0 ? INFINITY : 0.0);
 }
 
 }  // namespace
@@ -275,6 +297,12 @@ json prepareReference(const PointSpec& p, const RunContext& ctx) {
             .string();
     out["seconds"] = t.seconds();
     out["stats"] = ref.stats;
+    if (r.refMc) {
+        auto [uLum, uRgb] = mcUncertainty(ref);
+        out["mc_stderr_l2_lum"] = uLum;
+        out["mc_stderr_l2_rgb"] = uRgb;
+        out["mc_stderr_l2_nonemitter_lum"] = mcUncertaintyNonEmitters(ref, sc);
+    }
     return out;
 }
 
@@ -408,6 +436,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
             auto [uLum, uRgb] = mcUncertainty(*ref);
             e["mc_stderr_l2_lum"] = uLum;
             e["mc_stderr_l2_rgb"] = uRgb;
+            e["mc_stderr_l2_nonemitter_lum"] = mcUncertaintyNonEmitters(*ref, sc);
         }
         // Error work, including the per-iteration errors (history_error), so
         // that wall - reference - error - render is the solver's own time.

@@ -43,6 +43,8 @@
 // (for luminance |sigma_k| = luminance(sigma_k), an upper bound of the
 // luminance's standard error since the channel errors may be correlated). An
 // L2 error of the same order as this number is not resolved by the reference.
+// mc_stderr_l2_nonemitter_lum is the same norm over the regions of the
+// non-emitting patches, the norm of l2_nonemitter_lum.
 #pragma once
 
 #include <filesystem>
@@ -79,7 +81,8 @@ void validatePoint(const PointSpec& point);
 nlohmann::json runPoint(const PointSpec& point, const RunContext& context);
 
 /// Computes (or finds in the cache) the point's reference only; returns a
-/// description {"reference": ..., "cached": bool, "cache_dir": ..., "seconds": ...}.
+/// description {"reference": ..., "cached": bool, "cache_dir": ..., "seconds": ...,
+/// "stats": {...}} and, for Monte Carlo, mc_stderr_l2_lum / mc_stderr_l2_rgb.
 nlohmann::json prepareReference(const PointSpec& point, const RunContext& context);
 
 /// Same key the cache uses for the point's reference: scene label + kind +

@@ -172,6 +172,13 @@ def main():
         plot(["table", "--store", store, "--out", tex, "--columns", "eps,links,l2_lum"])
         t = open(tex).read() if os.path.exists(tex) else ""
         check(r"\toprule" in t and r"\bottomrule" in t and t.count(r" \\") == 4, "booktabs table with 3 rows")
+        # --fit: the exponent a of links ~ elements^a per group, as the rows give it.
+        plot(["table", "--store", store, "--out", out + "_fit.tex", "--columns", "elements,links,capped",
+              "--group", "clustering", "--fit", "links,elements"])
+        fit = json.load(open(out + "_fit.json")) if os.path.exists(out + "_fit.json") else {}
+        fa = fit.get("exponents", {}).get("bvh", {}).get("a")
+        check(fa is not None and abs(fa - slope) < 1e-9, f"table --fit exponent {fa} == slope from rows {slope:.6f}")
+        check(f"$a$ = {slope:.3f} (3 points)" in open(out + "_fit.tex").read(), "table --fit row")
 
         # CSV folder from `hrad results export` gives the same slope.
         csv = os.path.join(work, "csv")

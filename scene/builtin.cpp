@@ -14,7 +14,8 @@ namespace {
 
 const char* kUsage =
     "valid built-in scenes: cornell, furnace[:rho[:E[:side]]], plates:parallel:W:H:D, "
-    "plates:perpendicular:W:H:L, plates:occluded:W:H:D:S:Z (0 < Z < D), office:N";
+    "plates:perpendicular:W:H:L, plates:occluded:W:H:D:S:Z (0 < Z < D), office:N, office:N:T "
+    "(tessellated furniture, T in [1, 64])";
 
 std::vector<std::string> split(const std::string& s, char sep) {
     std::vector<std::string> out;
@@ -96,6 +97,232 @@ Camera pinhole(Vec3 eye, Vec3 target, Vec3 up, double fovYDegrees) {
     c.up = up;
     c.fovYDegrees = fovYDegrees;
     return c;
+}
+
+// ---- Tessellated furniture for office:N:T --------------------------------
+//
+// Connected triangle meshes as real models have them: every mesh is closed
+// (watertight, consistently oriented outward) and neighbouring triangles share
+// their vertices. Patches carry their own corner positions, so "shared" means
+// bit-identical: every vertex is computed once from integer grid coordinates
+// and stored in an index table, and each triangle copies the positions from
+// that table (a face-cluster builder finds the connectivity by welding equal
+// positions). Every triangle must survive Scene::addTriangle (non-degenerate),
+// so the counts documented in builtin.h are exact; a dropped one is a bug.
+
+/// An indexed triangle mesh emitted into the scene as root patches.
+struct MeshBuilder {
+    std::vector<Vec3> vertices;
+    std::vector<std::array<uint32_t, 3>> triangles;
+    uint32_t add(const Vec3& p) {
+        vertices.push_back(p);
+        return uint32_t(vertices.size() - 1);
+    }
+    void tri(uint32_t a, uint32_t b, uint32_t c) { triangles.push_back({a, b, c}); }
+    void emit(Scene& s, uint32_t material) const {
+        for (const auto& t : triangles) {
+            bool added = s.addTriangle(vertices[t[0]], vertices[t[1]], vertices[t[2]], material);
+            HRAD_CHECK_MSG(added, "office tessellation made a degenerate triangle");
+        }
+    }
+};
+
+/// A closed surface of revolution (sphere topology): `rings` rings of `segs`
+/// vertices ring(i, j) (i = 0 nearest `bottom`, j around the axis from +x
+/// towards +z), closed by a fan to each pole. With
+/// the rings ordered so that the profile (bottom pole, rings, top pole) runs
+/// counter-clockwise in the (r, y) half-plane, the normals point outward:
+/// at a vertex the tangents are dP/di and dP/dj and cross(dP/di, dP/dj) is
+/// the outward normal (for a cylinder wall, dP/di = +y, dP/dj = the azimuth
+/// direction). 2 segs rings triangles, segs rings + 2 vertices.
+template <typename Ring>
+void addRevolved(Scene& s, int rings, int segs, const Vec3& bottom, const Vec3& top, Ring ring,
+                 uint32_t material) {
+    MeshBuilder m;
+    uint32_t pb = m.add(bottom);
+    std::vector<uint32_t> idx(size_t(rings) * size_t(segs));
+    for (int i = 0; i < rings; ++i)
+        for (int j = 0; j < segs; ++j) idx[size_t(i) * segs + j] = m.add(ring(i, j));
+    uint32_t pt = m.add(top);
+    auto at = [&](int i, int j) { return idx[size_t(i) * segs + size_t(j % segs)]; };
+    for (int j = 0; j < segs; ++j) m.tri(pb, at(0, j), at(0, j + 1));
+    for (int i = 0; i + 1 < rings; ++i)
+        for (int j = 0; j < segs; ++j) {
+            uint32_t a = at(i, j), b = at(i + 1, j), c = at(i + 1, j + 1), d = at(i, j + 1);
+            m.tri(a, b, c);
+            m.tri(a, c, d);
+        }
+    for (int j = 0; j < segs; ++j) m.tri(at(rings - 1, j), pt, at(rings - 1, j + 1));
+    m.emit(s, material);
+}
+
+/// A lathe: the profile (r_k, y_k), k = 0..K-1 (every r_k > 0), revolved
+/// about the vertical axis through `axis` with `segs` segments, closed by the
+/// poles (0, bottomY) and (0, topY). The profile runs counter-clockwise in
+/// the (r, y) half-plane (outward from the bottom pole, up the outside, back
+/// in over the top) so that the normals point outward.
+void addLathe(Scene& s, const Vec3& axis, const std::vector<std::array<double, 2>>& profile,
+              double bottomY, double topY, int segs, uint32_t material) {
+    std::vector<double> cs(static_cast<size_t>(segs)), sn(static_cast<size_t>(segs));
+    for (int j = 0; j < segs; ++j) {
+        double phi = 2.0 * kPi * j / segs;
+        cs[size_t(j)] = std::cos(phi);
+        sn[size_t(j)] = std::sin(phi);
+    }
+    // Azimuth phi runs from +x towards +z: at phi = 0 on a vertical wall
+    // dP/di = +y, dP/dj = +z and cross(+y, +z) = +x, outward.
+    addRevolved(
+        s, int(profile.size()), segs, axis + Vec3(0, bottomY, 0), axis + Vec3(0, topY, 0),
+        [&](int i, int j) {
+            const auto& rp = profile[size_t(i)];
+            return axis + Vec3(rp[0] * cs[size_t(j)], rp[1], rp[0] * sn[size_t(j)]);
+        },
+        material);
+}
+
+/// A closed cylinder of radius r from y0 to y1 on the vertical axis through
+/// `axis` (caps are fans): `bands` bands along its height, bands + 1 rings.
+void addCylinder(Scene& s, const Vec3& axis, double r, double y0, double y1, int bands, int segs,
+                 uint32_t material) {
+    std::vector<std::array<double, 2>> prof;
+    for (int k = 0; k <= bands; ++k) prof.push_back({r, y0 + (y1 - y0) * k / bands});
+    addLathe(s, axis, prof, y0, y1, segs, material);
+}
+
+/// A closed "grid box": the surface of the unit cube [0,1]^3 mapped through
+/// `map` (an orientation-preserving deformation: a box, a bent slab, a
+/// cushion), each face a grid of na x nb, nb x nc or nc x na cells, each cell
+/// two triangles: 4 (na nb + nb nc + nc na) triangles, outward normals.
+/// Vertices on cube edges and corners are shared by the faces meeting there.
+template <typename Map>
+void addGridBox(Scene& s, int na, int nb, int nc, Map map, uint32_t material) {
+    MeshBuilder m;
+    const int n[3] = {na, nb, nc};
+    // One index per surface lattice point (i, j, k), i in [0, na] etc.
+    std::vector<uint32_t> idx(size_t(na + 1) * size_t(nb + 1) * size_t(nc + 1), UINT32_MAX);
+    auto vert = [&](int i, int j, int k) {
+        uint32_t& slot = idx[(size_t(i) * size_t(nb + 1) + size_t(j)) * size_t(nc + 1) + size_t(k)];
+        if (slot == UINT32_MAX) slot = m.add(map(double(i) / na, double(j) / nb, double(k) / nc));
+        return slot;
+    };
+    for (int a = 0; a < 3; ++a) {
+        int b = (a + 1) % 3, c = (a + 2) % 3;  // e_b x e_c = e_a
+        for (int side = 0; side < 2; ++side)
+            for (int p = 0; p < n[b]; ++p)
+                for (int q = 0; q < n[c]; ++q) {
+                    auto at = [&](int dp, int dq) {
+                        int g[3];
+                        g[a] = side ? n[a] : 0;
+                        g[b] = p + dp;
+                        g[c] = q + dq;
+                        return vert(g[0], g[1], g[2]);
+                    };
+                    uint32_t v0 = at(0, 0), v1 = at(1, 0), v2 = at(1, 1), v3 = at(0, 1);
+                    if (side) {  // outward +a: counter-clockwise in (b, c)
+                        m.tri(v0, v1, v2);
+                        m.tri(v0, v2, v3);
+                    } else {
+                        m.tri(v0, v2, v1);
+                        m.tri(v0, v3, v2);
+                    }
+                }
+    }
+    m.emit(s, material);
+}
+
+/// The furniture of one room of office:N:T (see builtin.h for the counts):
+/// room corner (x0, 0, z0), tessellation t >= 1, s = 8 t segments around.
+void addTessellatedFurniture(Scene& s, double x0, double z0, int t, uint32_t deskM, uint32_t metalM,
+                             uint32_t chairM, uint32_t potM, uint32_t leafM, uint32_t cupM) {
+    const int segs = 8 * t;
+    // Desk near the -z wall: top 1.2 x 0.04 x 0.7 at 0.72 m (grid 12t x 1 x
+    // 7t), four cylinder legs (r 2.5 cm, 8t bands) reaching 1 cm into the top
+    // and standing 2 mm above the floor (so no leg cap lies in the floor plane).
+    const double dx = x0 + 0.2, dz = z0 + 0.3;
+    addGridBox(
+        s, 12 * t, 1, 7 * t,
+        [&](double u, double v, double w) {
+            return Vec3(dx + 1.2 * u, 0.72 + 0.04 * v, dz + 0.7 * w);
+        },
+        deskM);
+    for (int k = 0; k < 4; ++k) {
+        Vec3 axis(dx + ((k & 1) ? 1.15 : 0.05), 0.0, dz + ((k & 2) ? 0.65 : 0.05));
+        addCylinder(s, axis, 0.025, 0.002, 0.73, 8 * t, segs, metalM);
+    }
+    // Three cups on the desk: lathes with an outer wall (2t bands), a rim,
+    // an inner wall (2t bands) down to an inner bottom 8 mm above the base.
+    const double cupX[3] = {0.3, 0.45, 0.9}, cupZ[3] = {0.2, 0.5, 0.35};
+    for (int c = 0; c < 3; ++c) {
+        const double y0 = 0.761, hgt = 0.1;
+        std::vector<std::array<double, 2>> prof;
+        for (int k = 0; k <= 2 * t; ++k) {
+            double f = double(k) / (2 * t);
+            prof.push_back({0.035 + 0.01 * f, y0 + hgt * f});
+        }
+        for (int k = 0; k <= 2 * t; ++k) {
+            double f = double(k) / (2 * t);
+            prof.push_back({0.041 - 0.01 * f, y0 + hgt - (hgt - 0.008) * f});
+        }
+        addLathe(s, Vec3(dx + cupX[c], 0.0, dz + cupZ[c]), prof, y0, y0 + 0.008, segs, cupM);
+    }
+    // Chair in front of the desk: a cushioned seat (grid 6t x 1 x 6t, top
+    // bulging 2 cm), a back bent on an arc of radius 0.5 m (grid 8t along the
+    // arc x 6t up x 1 through its 3 cm thickness), four cylinder legs (r 2 cm,
+    // 4t bands).
+    const double cx = x0 + 0.75, cz = z0 + 1.15;
+    addGridBox(
+        s, 6 * t, 1, 6 * t,
+        [&](double u, double v, double w) {
+            double bulge = 0.02 * v * std::sin(kPi * u) * std::sin(kPi * w);
+            return Vec3(cx + 0.45 * u, 0.42 + 0.05 * v + bulge, cz + 0.45 * w);
+        },
+        chairM);
+    {
+        const double rad = 0.5, phi0 = std::asin(0.45), ax = cx + 0.225, az = cz + 0.45 - rad;
+        addGridBox(
+            s, 8 * t, 6 * t, 1,
+            [&](double u, double v, double w) {
+                double phi = -phi0 + 2.0 * phi0 * u, rho = rad - 0.03 + 0.03 * w;
+                return Vec3(ax + rho * std::sin(phi), 0.46 + 0.49 * v, az + rho * std::cos(phi));
+            },
+            chairM);
+    }
+    for (int k = 0; k < 4; ++k) {
+        Vec3 axis(cx + ((k & 1) ? 0.41 : 0.04), 0.0, cz + ((k & 2) ? 0.41 : 0.04));
+        addCylinder(s, axis, 0.02, 0.002, 0.43, 4 * t, segs, metalM);
+    }
+    // A potted plant in the (-x, +z) corner: a tapered pot (lathe: wall of
+    // 4t bands, rim, soil 5 cm below the rim) and three overlapping bumpy
+    // spheres of foliage (4t latitude bands, 4t - 1 rings).
+    const Vec3 pot(x0 + 0.45, 0.0, z0 + 3.5);
+    {
+        std::vector<std::array<double, 2>> prof;
+        for (int k = 0; k <= 4 * t; ++k) {
+            double f = double(k) / (4 * t);
+            prof.push_back({0.15 + 0.05 * f, 0.002 + 0.348 * f});
+        }
+        prof.push_back({0.185, 0.35});
+        prof.push_back({0.185, 0.30});
+        addLathe(s, pot, prof, 0.002, 0.30, segs, potM);
+    }
+    const Vec3 leafC[3] = {pot + Vec3(0.0, 0.52, 0.0), pot + Vec3(0.1, 0.68, -0.05),
+                           pot + Vec3(-0.08, 0.78, 0.06)};
+    const double leafR[3] = {0.2, 0.15, 0.12};
+    for (int k = 0; k < 3; ++k) {
+        const int bands = 4 * t;
+        const Vec3 c = leafC[k];
+        const double r0 = leafR[k];
+        addRevolved(
+            s, bands - 1, segs, c - Vec3(0, r0, 0), c + Vec3(0, r0, 0),
+            [&](int i, int j) {
+                double theta = kPi * (i + 1) / bands;  // polar angle from the bottom pole
+                double phi = 2.0 * kPi * j / segs;
+                double r = r0 * (1.0 + 0.08 * std::sin(5.0 * theta + k) * std::sin(4.0 * phi));
+                return c + Vec3(r * std::sin(theta) * std::cos(phi), -r * std::cos(theta),
+                                r * std::sin(theta) * std::sin(phi));
+            },
+            leafM);
+    }
 }
 
 }  // namespace
@@ -246,7 +473,12 @@ Scene makePerpendicularPlates(double w, double h, double l) {
 // (top + 4 legs), a chair (seat, back, 4 legs) and a bookcase with 12 books.
 // Surfaces of the rooms face into the rooms; furniture boxes face outward.
 // Room (0,0) occupies x, z in [0, 4]; about 240 patches per room.
-Scene makeOffice(int n) {
+//
+// office:N:T -- the same rooms with the desk and the chair made of connected,
+// closed triangle meshes at tessellation T, plus three cups on the desk and a
+// potted plant (addTessellatedFurniture; counts in builtin.h).
+Scene makeOffice(int n, int tess) {
+    HRAD_CHECK_MSG(n >= 1 && tess >= 0, "office:{}:{}: bad arguments", n, tess);
     Scene s;
     uint32_t wallM = s.addMaterial({"wall", RGB(0.70, 0.70, 0.66), RGB(0.0)});
     uint32_t floorM = s.addMaterial({"floor", RGB(0.45, 0.33, 0.22), RGB(0.0)});
@@ -259,6 +491,13 @@ Scene makeOffice(int n) {
     uint32_t bookM[3] = {s.addMaterial({"book_red", RGB(0.55, 0.10, 0.08), RGB(0.0)}),
                          s.addMaterial({"book_green", RGB(0.10, 0.40, 0.15), RGB(0.0)}),
                          s.addMaterial({"book_blue", RGB(0.10, 0.15, 0.50), RGB(0.0)})};
+    // Materials of the tessellated furniture only (office:N keeps its list).
+    uint32_t potM = 0, leafM = 0, cupM = 0;
+    if (tess > 0) {
+        potM = s.addMaterial({"pot", RGB(0.55, 0.30, 0.20), RGB(0.0)});
+        leafM = s.addMaterial({"leaves", RGB(0.12, 0.35, 0.10), RGB(0.0)});
+        cupM = s.addMaterial({"cup", RGB(0.85, 0.85, 0.82), RGB(0.0)});
+    }
 
     const double S = 4.0, H = 3.0, T = 0.2, P = S + T;
     const double doorLo = 1.5, doorHi = 2.5, doorTop = 2.1;
@@ -311,8 +550,10 @@ Scene makeOffice(int n) {
                 Vec3 a(x0 + 1.4, y, z0 + 1.7);
                 quadFacing(s, a, a + 1.2 * X, a + 1.2 * X + 0.6 * Z, a + 0.6 * Z, -Y, lightM);
             }
+            if (tess > 0)
+                addTessellatedFurniture(s, x0, z0, tess, deskM, metalM, chairM, potM, leafM, cupM);
             // Desk near the -z wall: top 1.2 x 0.7 x 0.04 at 0.72 m, four legs.
-            {
+            if (tess == 0) {
                 double dx = x0 + 0.2, dz = z0 + 0.3;
                 addBox(s, {dx, 0.72, dz}, {dx + 1.2, 0.76, dz + 0.7}, deskM);
                 for (int k = 0; k < 4; ++k) {
@@ -321,7 +562,7 @@ Scene makeOffice(int n) {
                 }
             }
             // Chair in front of the desk.
-            {
+            if (tess == 0) {
                 double cx = x0 + 0.75, cz = z0 + 1.15;
                 addBox(s, {cx, 0.42, cz}, {cx + 0.45, 0.46, cz + 0.45}, chairM);
                 addBox(s, {cx, 0.46, cz + 0.41}, {cx + 0.45, 0.95, cz + 0.45}, chairM, 4);
@@ -350,8 +591,28 @@ Scene makeOffice(int n) {
             }
         }
     s.camera = pinhole(Vec3(3.6, 1.6, 3.6), Vec3(0.5, 1.0, 0.5), Vec3(0, 1, 0), 60.0);
-    finish(s, fmt::format("office:{}", n));
+    finish(s, tess > 0 ? fmt::format("office:{}:{}", n, tess) : fmt::format("office:{}", n));
     return s;
+}
+
+uint64_t officePatches(int n, int tess) {
+    // office:N: 225 patches per room (floor 16, ceiling 16, walls 4 x 15 --
+    // a doorway removes 2 wall cells from each of its two walls and adds 4
+    // doorway quads --, luminaire 1, desk 22, chair 27, bookcase 23, books
+    // 60). office:N:T: the desk and chair boxes (49 quads) become the meshes
+    // of addTessellatedFurniture:
+    //   desk top        grid 12t x 1 x 7t    336 t^2 +  76 t
+    //   4 desk legs     8t bands, s = 8t     4 (128 t^2 + 16 t)
+    //   3 cups          4t + 2 rings         3 (64 t^2 + 32 t)
+    //   chair seat      grid 6t x 1 x 6t     144 t^2 +  48 t
+    //   chair back      grid 8t x 6t x 1     192 t^2 +  56 t
+    //   4 chair legs    4t bands             4 (64 t^2 + 16 t)
+    //   pot             4t + 3 rings          64 t^2 +  48 t
+    //   3 foliage balls 4t - 1 rings         3 (64 t^2 - 16 t)
+    //   sum                                 1888 t^2 + 404 t
+    const uint64_t rooms = uint64_t(n) * uint64_t(n), t = uint64_t(tess);
+    if (tess == 0) return 225 * rooms;
+    return rooms * (225 - 49 + 1888 * t * t + 404 * t);
 }
 
 Scene makeBuiltin(const std::string& spec) {
@@ -396,11 +657,28 @@ Scene makeBuiltin(const std::string& spec) {
         return s;
     }
     if (head == "office") {
-        if (parts.size() != 2) throwInputError(where, "office needs a grid size N; {}", kUsage);
+        if (parts.size() != 2 && parts.size() != 3)
+            throwInputError(where, "office needs a grid size N and optionally a tessellation T; {}",
+                            kUsage);
         double v = parseArg(spec, parts[1], "N");
         if (!(v >= 1 && v <= 64 && std::floor(v) == v))
             throwInputError(where, "office:N needs an integer N in [1, 64], got '{}'", parts[1]);
-        Scene s = makeOffice(int(v));
+        int tess = 0;
+        if (parts.size() == 3) {
+            double t = parseArg(spec, parts[2], "T");
+            if (!(t >= 1 && t <= kOfficeMaxTessellation && std::floor(t) == t))
+                throwInputError(where,
+                                "office:N:T needs an integer tessellation T in [1, {}], got '{}'",
+                                kOfficeMaxTessellation, parts[2]);
+            tess = int(t);
+            uint64_t count = officePatches(int(v), tess);
+            if (count > kOfficeMaxPatches)
+                throwInputError(where,
+                                "office:{}:{} would have {} patches, more than the limit of {} "
+                                "(about 200 bytes each before solving); use a smaller N or T",
+                                int(v), tess, count, kOfficeMaxPatches);
+        }
+        Scene s = makeOffice(int(v), tess);
         s.name = spec;
         return s;
     }

@@ -23,6 +23,8 @@ def main(argv=None):
     p.add_argument("--sort", help="table: sort by these columns")
     p.add_argument("--caption")
     p.add_argument("--label")
+    p.add_argument("--fit", help="table: Y,X: add the fitted exponent a of Y ~ X^a per --group "
+                                 "(runs stopped by a limit left out)")
     p.add_argument("--where", help="pandas query selecting runs, e.g. \"solver == 'hr'\"")
     p.add_argument("--cols", type=int, default=3, help="images: grid columns")
     p.add_argument("--max-images", type=int, default=9, help="images: at most this many runs")
@@ -50,7 +52,8 @@ def main(argv=None):
                 p.error("table needs --columns")
             figures.latex_table(st, a.out, a.columns.split(","),
                                 sort=a.sort.split(",") if a.sort else None,
-                                caption=a.caption, label=a.label, where=a.where)
+                                caption=a.caption, label=a.label, where=a.where,
+                                fit=tuple(a.fit.split(",")) if a.fit else None, group=group)
     except StoreError as e:
         print(f"hradplot: error: {e}", file=sys.stderr)
         return 2

@@ -30,6 +30,9 @@ LABELS = {
     "elements": "elements",
     "leaves": "leaf elements",
     "patches": "input patches",
+    "links_per_patch": "links per patch",
+    "cluster_builder": "cluster builder",
+    "capped": "stopped by",
     "residual": "residual (rel. unshot power)",
     "iteration": "iteration",
 }
@@ -44,6 +47,10 @@ SOURCES = {
     "fm_level": ["settings"],
     "oracle_level": ["settings"],
     "patches": ["summary"],
+    "cluster_builder": ["settings"],
+    "clustering": ["settings"],
+    "capped": ["summary"],
+    "links_per_patch": ["links", "summary"],
 }
 
 
@@ -150,18 +157,33 @@ def scaling(store, stem, x="patches", ys=("links", "compute_s"), group="method")
     ys = list(ys)
     gcols = group if isinstance(group, list) else [group]
     df = _rows(store, [x] + ys, f"scaling vs {x}", gcols)
+    # Runs that a limit stopped (hr.max_seconds, hr.max_links, memory budget;
+    # column `capped`) are drawn hollow and left out of the fit: their counts
+    # are the limit's, not the method's.
+    capped = (df["capped"].fillna("") != "") if "capped" in df.columns else None
     fig, axes = style.figure(height=2.0 * len(ys), nrows=len(ys), sharex=True)
     axes = np.atleast_1d(axes)
     side = {"x": x, "panels": {}}
     for ax, y in zip(axes, ys):
         side["panels"][y] = {}
         for i, (label, g) in enumerate(_groups(df, group)):
+            cut = None
+            if capped is not None and capped.loc[g.index].any():
+                cut = g[capped.loc[g.index]].groupby(x, as_index=False)[y].mean().sort_values(x)
+                g = g[~capped.loc[g.index]]
+                st = dict(style.style_for(i))
+                st.update(ls="none", markerfacecolor="none")
+                ax.plot(cut[x], cut[y], **st)
             g = g.groupby(x, as_index=False)[y].mean().sort_values(x)
             entry = {"x": g[x].tolist(), "y": g[y].tolist(), "slope": None}
+            if cut is not None:
+                entry["capped_x"], entry["capped_y"] = cut[x].tolist(), cut[y].tolist()
             lab = label
             if g[x].nunique() >= 2:
                 entry["slope"] = loglog_slope(g[x], g[y])
                 lab = f"{label} (slope {entry['slope']:.2f})"
+                if cut is not None:
+                    lab += f"; {len(cut)} capped, hollow"
                 fx = np.array([g[x].min(), g[x].max()], float)
                 c = np.polyfit(np.log10(g[x]), np.log10(g[y]), 1)
                 ax.plot(fx, 10 ** np.polyval(c, np.log10(fx)), color=style.style_for(i)["color"],
@@ -434,9 +456,25 @@ def _fmt(v):
     return _tex_escape(v)
 
 
-def latex_table(store, path, columns, sort=None, caption=None, label=None, where=None):
-    """A booktabs table of the chosen runs columns."""
-    _require_runs(store, columns, "the LaTeX table")
+def fitted_exponents(df, x, y, group):
+    """Least-squares a of y ~ x^a per group, over the rows no limit stopped
+    (column `capped` empty, where present): {label: (a, points used, points
+    left out)}; a is None with fewer than two points."""
+    out = {}
+    for label, g in _groups(df, group):
+        ok = g[g["capped"].fillna("") == ""] if "capped" in g.columns else g
+        ok = ok[(ok[x] > 0) & (ok[y] > 0)]
+        a = loglog_slope(ok[x], ok[y]) if ok[x].nunique() >= 2 else None
+        out[label] = (a, len(ok), len(g) - len(ok))
+    return out
+
+
+def latex_table(store, path, columns, sort=None, caption=None, label=None, where=None,
+                fit=None, group="method"):
+    """A booktabs table of the chosen runs columns. fit = (y, x): one more
+    row per group with the fitted exponent a of y ~ x^a (fitted_exponents;
+    points stopped by a limit left out), also written to PATH.json."""
+    _require_runs(store, list(columns) + (list(fit) if fit else []), "the LaTeX table")
     df = store.runs
     if where is not None:
         df = df.query(where)
@@ -456,6 +494,19 @@ def latex_table(store, path, columns, sort=None, caption=None, label=None, where
               r"\midrule"]
     for _, r in df.iterrows():
         lines.append(" & ".join(_fmt(r[c]) for c in columns) + r" \\")
+    if fit:
+        fy, fx = fit
+        fits = fitted_exponents(df, fx, fy, group)
+        lines.append(r"\midrule")
+        for g, (a, n, left) in fits.items():
+            txt = (f"{g}: {fy} $\\propto$ {fx}$^a$, $a$ = " + ("--" if a is None else f"{a:.3f}") +
+                   f" ({n} points" + (f"; {left} stopped by a limit left out" if left else "") + ")")
+            lines.append(r"\multicolumn{" + str(len(columns)) + "}{l}{" +
+                         txt.replace("_", r"\_") + r"} \\")
+        with open(os.path.splitext(path)[0] + ".json", "w") as f:
+            json.dump({"fit": {"y": fy, "x": fx},
+                       "exponents": {str(g): {"a": a, "points": n, "left_out": left}
+                                     for g, (a, n, left) in fits.items()}}, f, indent=1)
     lines += [r"\bottomrule", r"\end{tabular}", r"\end{table}", ""]
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     with open(path, "w") as f:

@@ -95,6 +95,17 @@ def _derive(runs):
                                if len(runs) else [])
         runs["pr_max_subdivision"] = (st.map(lambda d: d.get("pr.max_subdivision", 2))
                                       if len(runs) else [])
+        # The cluster tree builder (cluster/tree.h; "bvh" when unset) and
+        # whether face clusters sit below it (cluster.faces): the row sets of
+        # the face_scaling study, as one label.
+        runs["cluster_builder"] = (st.map(lambda d: d.get("cluster.builder", "bvh"))
+                                   if len(runs) else [])
+
+        def clustering(d):
+            faces = d.get("cluster.faces", False)
+            faces = faces if isinstance(faces, bool) else str(faces).lower() in ("true", "1")
+            return d.get("cluster.builder", "bvh") + (" + face clusters" if faces else "")
+        runs["clustering"] = st.map(clustering) if len(runs) else []
     if "summary" in runs.columns and "patches" not in runs.columns:
         def patches(s):
             try:
@@ -126,6 +137,21 @@ def _derive(runs):
                           ("error_map_l1", ("error_map", "l1"))):
             if col not in runs.columns:
                 runs[col] = runs["summary"].map(from_summary(path)).astype(float)
+    if "summary" in runs.columns and len(runs):
+        # Which limit stopped the solve (hr.max_seconds, hr.max_links,
+        # memory.budget_mb): "time", "links", "memory" or "" (none).
+        def capped(s):
+            try:
+                v = json.loads(s)
+            except (TypeError, ValueError):
+                return ""
+            return ",".join(name for key, name in (("time_limit_hit", "time"),
+                                                    ("link_cap_hit", "links"),
+                                                    ("memory_budget_hit", "memory"))
+                            if v.get(key))
+        runs["capped"] = runs["summary"].map(capped)
+    if "links" in runs.columns and "patches" in runs.columns and len(runs):
+        runs["links_per_patch"] = runs["links"] / runs["patches"]
     if "wall_s" in runs.columns:
         # Solve time: the point's wall clock without reference, error and
         # render phases (which a sweep adds and a solver would not pay).

@@ -1,10 +1,13 @@
 // Built-in scenes (scene/builtin.h).
+#include "scene/builtin.h"
+
 #include <gtest/gtest.h>
 
 #include <map>
+#include <numeric>
+#include <unordered_map>
 
 #include "core/error.h"
-#include "scene/builtin.h"
 #include "scene/loader.h"
 
 namespace hrad::scene {
@@ -179,6 +182,147 @@ TEST(Builtin, OfficePatchCountScalesWithRooms) {
     Scene again = loadScene("office:4");
     ASSERT_EQ(again.patches.size(), four.patches.size());
     for (size_t i = 0; i < four.patches.size(); ++i) EXPECT_EQ(again.patches[i].v, four.patches[i].v);
+}
+
+// office:N:T (scene/builtin.h): exact patch counts, closed connected meshes.
+
+// FNV-1a over every patch's kind, material and corner coordinates (bits).
+uint64_t sceneDigest(const Scene& s) {
+    uint64_t h = 1469598103934665603ull;
+    auto mix = [&](const void* p, size_t n) {
+        const auto* b = static_cast<const unsigned char*>(p);
+        for (size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+    };
+    for (const auto& p : s.patches) {
+        mix(&p.kind, sizeof p.kind);
+        mix(&p.material, sizeof p.material);
+        for (const auto& v : p.v) mix(&v[0], 3 * sizeof(double));
+    }
+    return h;
+}
+
+TEST(Builtin, OfficeWithoutTessellationIsUnchanged) {
+    // office:N is 225 N^2 quads, and office:2 and office:3 are bit for bit what it was
+    // before office:N:T existed (digests recorded from commit bf6e95e).
+    for (int n : {1, 2, 3}) {
+        Scene s = loadScene("office:" + std::to_string(n));
+        EXPECT_EQ(s.patches.size(), officePatches(n));
+        EXPECT_EQ(s.patches.size(), size_t(225 * n * n));
+        EXPECT_EQ(s.count(PatchKind::Triangle), 0u);
+        EXPECT_EQ(s.materials.size(), 11u);
+    }
+    EXPECT_EQ(sceneDigest(loadScene("office:2")), 0x36bd9f4206a73cc1ull);
+    EXPECT_EQ(sceneDigest(loadScene("office:3")), 0x1265df5069ff22ebull);
+}
+
+TEST(Builtin, OfficeTessellatedPatchCountsAreAsDocumented) {
+    // The numbers quoted in builtin.h.
+    EXPECT_EQ(officePatches(2, 1), 9'872u);
+    EXPECT_EQ(officePatches(2, 4), 128'000u);
+    EXPECT_EQ(officePatches(2, 12), 1'107'584u);
+    EXPECT_GE(double(officePatches(2, 12)) / double(officePatches(2, 1)), 100.0);
+    for (auto [n, t] : {std::pair{1, 1}, std::pair{1, 2}, std::pair{2, 1}, std::pair{1, 3}}) {
+        Scene s = loadScene(fmt::format("office:{}:{}", n, t));
+        SCOPED_TRACE(s.name);
+        const size_t rooms = size_t(n * n), tt = size_t(t);
+        EXPECT_EQ(s.name, fmt::format("office:{}:{}", n, t));
+        EXPECT_EQ(s.patches.size(), officePatches(n, t));
+        EXPECT_EQ(s.count(PatchKind::Triangle), rooms * (1888 * tt * tt + 404 * tt));
+        EXPECT_EQ(s.count(PatchKind::Quad), rooms * 176);
+        EXPECT_EQ(s.stats.inputFaces, s.patches.size());
+        EXPECT_EQ(s.stats.droppedDegenerate, 0u);
+        EXPECT_EQ(s.numEmitters(), rooms);
+        EXPECT_NO_THROW(s.validate());
+    }
+    // Deterministic.
+    EXPECT_EQ(sceneDigest(loadScene("office:1:2")), sceneDigest(loadScene("office:1:2")));
+}
+
+TEST(Builtin, OfficeTessellatedFurnitureIsClosedConnectedMeshes) {
+    for (auto [n, t] : {std::pair{1, 1}, std::pair{2, 2}}) {
+        Scene s = loadScene(fmt::format("office:{}:{}", n, t));
+        SCOPED_TRACE(s.name);
+        // Weld vertices by exact position: meshes share bit-identical corners.
+        std::map<std::array<double, 3>, uint32_t> ids;
+        std::vector<std::array<uint32_t, 3>> tris;
+        for (const auto& p : s.patches) {
+            if (p.kind != PatchKind::Triangle) continue;
+            std::array<uint32_t, 3> t3{};
+            for (int k = 0; k < 3; ++k) {
+                const Vec3& v = p.v[size_t(k)];
+                auto [it, fresh] = ids.try_emplace({v.x, v.y, v.z}, uint32_t(ids.size()));
+                t3[size_t(k)] = it->second;
+            }
+            tris.push_back(t3);
+        }
+        // Closed, manifold and consistently oriented: every directed edge
+        // appears exactly once and so does its reverse.
+        std::map<std::pair<uint32_t, uint32_t>, int> directed;
+        for (const auto& t3 : tris)
+            for (int k = 0; k < 3; ++k) ++directed[{t3[size_t(k)], t3[size_t((k + 1) % 3)]}];
+        size_t bad = 0;
+        for (const auto& [e, c] : directed) {
+            auto rev = directed.find({e.second, e.first});
+            bad += c != 1 || rev == directed.end() || rev->second != 1;
+        }
+        EXPECT_EQ(bad, 0u);
+        // Connected components through shared vertices (union-find).
+        std::vector<uint32_t> parent(ids.size());
+        std::iota(parent.begin(), parent.end(), 0u);
+        auto find = [&](uint32_t x) {
+            while (parent[x] != x) x = parent[x] = parent[parent[x]];
+            return x;
+        };
+        for (const auto& t3 : tris) {
+            parent[find(t3[1])] = find(t3[0]);
+            parent[find(t3[2])] = find(t3[0]);
+        }
+        // Per component: Euler characteristic V - E + F = 2 (sphere topology)
+        // and positive enclosed volume (outward normals).
+        std::unordered_map<uint32_t, std::array<double, 4>> comp;  // V, E, F, volume*6
+        for (uint32_t v = 0; v < parent.size(); ++v) comp[find(v)][0] += 1;
+        for (const auto& t3 : tris) {
+            auto& c = comp[find(t3[0])];
+            c[1] += 1.5;
+            c[2] += 1;
+        }
+        for (const auto& p : s.patches)
+            if (p.kind == PatchKind::Triangle) {
+                const Vec3 &a = p.v[0], &b = p.v[1], &c = p.v[2];
+                comp[find(ids.at({a.x, a.y, a.z}))][3] += glm::dot(a, glm::cross(b, c));
+            }
+        EXPECT_EQ(comp.size(), size_t(n * n * kOfficeMeshesPerRoom));
+        for (const auto& [root, c] : comp) {
+            EXPECT_EQ(c[0] - c[1] + c[2], 2.0);
+            EXPECT_GT(c[3] / 6.0, 1e-6);  // the smallest (a chair leg) is ~5e-4 m^3
+        }
+        // Rooms' furniture stays inside the room, above the floor.
+        for (const auto& p : s.patches)
+            for (int k = 0; k < p.numVertices(); ++k) {
+                EXPECT_GT(p.v[size_t(k)].y, -1e-12);
+                EXPECT_LT(p.v[size_t(k)].y, 3.0 + 1e-12);
+            }
+    }
+}
+
+TEST(Builtin, OfficeTessellationBadOptionsAreInputErrors) {
+    auto message = [](const std::string& spec) -> std::string {
+        try {
+            loadScene(spec);
+        } catch (const InputError& e) {
+            return e.what();
+        }
+        return "no error";
+    };
+    for (const char* spec : {"office:2:0", "office:2:1.5", "office:2:x", "office:2:", "office:2:65",
+                             "office:2:-1", "office:2:3:4", "office:64:64"}) {
+        std::string m = message(spec);
+        SCOPED_TRACE(spec);
+        // FILE:LINE-style: the spec stands where a file name would.
+        EXPECT_EQ(m.rfind(std::string(spec) + ": error: ", 0), 0u) << m;
+    }
+    EXPECT_NE(message("office:2:65").find("[1, 64]"), std::string::npos);
+    EXPECT_NE(message("office:64:64").find("20000000"), std::string::npos);
 }
 
 TEST(Builtin, UnknownNameListsTheValidOnes) {
