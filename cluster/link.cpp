@@ -79,7 +79,13 @@ Opening ClusterLinker::opening(const LinkEnd& r, const LinkEnd& s) const {
     bool sv = sc && !(tree_ && tree_->planarFace(s.cluster));
     double dist = glm::length(r.center - s.center);
     double sep = rv && sv ? s_.separation : rv || sv ? s_.surfaceSeparation : s_.faceSeparation;
-    if (dist > sep * (r.radius + s.radius)) return Opening::None;
+    if (dist > sep * (r.radius + s.radius)) {
+        // A face link whose centroids do not face may still exchange light
+        // where one end straddles the other's plane: opened, not dropped.
+        if (!rv && !sv && faceLink(r, s) && !(kernel(r, s) > 0) && straddles(r, s))
+            return openLarger(r, s);
+        return Opening::None;
+    }
     if (rc && sc)
         return r.radius >= 2 * s.radius   ? Opening::Receiver
                : s.radius >= 2 * r.radius ? Opening::Sender
@@ -91,6 +97,22 @@ double ClusterLinker::blockedVisibilityBound() const {
     // (1 - v)^n = 0.05: 0.31 for 8 rays, 0.046 for 64.
     int n = std::max(1, s_.visRays);
     return 1.0 - std::pow(0.05, 1.0 / n);
+}
+
+bool ClusterLinker::straddles(const LinkEnd& r, const LinkEnd& s) const {
+    // Plane of a flat end: a surface element's, or a face cluster's cone axis
+    // through its centroid (its surfaces lie within planarity * radius of it).
+    auto front = [&](const LinkEnd& e, const LinkEnd& other) {
+        Vec3 n = e.isCluster ? tree_->node(e.cluster).coneAxis : scene_->patches[e.patch].normal;
+        double slack = e.isCluster ? tree_->node(e.cluster).planarity * e.radius : 0.0;
+        return glm::dot(n, other.center - e.center) > -(other.radius + slack);
+    };
+    return front(r, s) && front(s, r);
+}
+
+Opening ClusterLinker::openLarger(const LinkEnd& r, const LinkEnd& s) const {
+    if (r.isCluster && (!s.isCluster || r.radius >= s.radius)) return Opening::Receiver;
+    return s.isCluster ? Opening::Sender : Opening::Receiver;
 }
 
 bool ClusterLinker::coplanar(const LinkEnd& r, const LinkEnd& s) const {

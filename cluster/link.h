@@ -58,7 +58,10 @@
 // points). Two coplanar flat ends (surface elements, or face clusters whose
 // cone and planarity are zero: ClusterTree::flatFace) exchange no light: such
 // a link is dropped without rays (this drops the self-link of a flat face
-// cluster instead of opening it down to its patches).
+// cluster instead of opening it down to its patches). A face link whose
+// centroids do not face each other (point transfer 0) is opened rather than
+// dropped when either end's bounding sphere reaches in front of the other's
+// plane: the parts that do face exchange light (straddles()).
 //
 // Near cluster pairs (cluster.near = sample; experimental, off by default).
 // Two clusters whose spheres are apart but closer than `separation` need not
@@ -206,6 +209,13 @@ class ClusterLinker {
     /// A link whose ends are planar face clusters or surface elements, at
     /// least one a face cluster (the links `face_separation` governs).
     bool faceLink(const LinkEnd& r, const LinkEnd& s) const;
+
+    /// Face links (faceLink) whose centroids do not face each other (kernel
+    /// 0) may still exchange light where an end's bounding sphere reaches in
+    /// front of the other end's plane; true when that holds both ways.
+    bool straddles(const LinkEnd& r, const LinkEnd& s) const;
+    /// The cluster end to open (the larger when both are clusters).
+    Opening openLarger(const LinkEnd& r, const LinkEnd& s) const;
 
     /// Both ends flat and in one plane (ClusterTree::flatFace for clusters):
     /// they exchange no light.

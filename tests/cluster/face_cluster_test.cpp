@@ -13,6 +13,7 @@
 #include "scene/loader.h"
 #include "tests/hr/settings.h"
 #include "tests/scenes.h"
+#include "tests/test_util.h"
 #include "transport/visibility.h"
 
 using namespace hrad;
@@ -220,6 +221,39 @@ TEST(FaceClusters, InvariantsOnOfficeAndCornell) {
         EXPECT_GT(t.numFaceNodes(), 0u) << name;
         std::cout << name << ": " << t.size() << " clusters, " << t.numFaceNodes() << " face, "
                   << t.numPlanarFaceNodes() << " planar, depth " << t.depth() << "\n";
+    }
+}
+
+// Real scenes (skipped without ../shared/scenes): the invariants hold, and
+// the forest's sizes are printed (bench/results/face_clusters.md).
+TEST(FaceClusters, InvariantsOnSharedScenes) {
+    auto dir = test::sharedScenesDir();
+    if (!dir) GTEST_SKIP() << "../shared/scenes absent";
+    for (const char* rel : {"lost-empire/lost_empire.obj", "renderpark-mgf/salon/classroom.mgf"}) {
+        SCOPED_TRACE(rel);
+        Params lp;
+        lp.set("obj.clamp_rho", 0.99);
+        scene::Scene s = scene::loadScene((*dir / rel).string(), lp);
+        FaceForest f = buildFaceForest(s, FaceClusterParams{});
+        std::vector<uint32_t> sizes;
+        uint32_t lone = 0;
+        for (uint32_t r : f.roots) {
+            if (f.isPatch(r))
+                ++lone;
+            else
+                sizes.push_back(f.node(r).patches);
+        }
+        std::sort(sizes.begin(), sizes.end());
+        ClusterTree t(s, faceSettings());
+        expectTreeInvariants(s, t);
+        uint64_t inRoots = 0;
+        for (uint32_t x : sizes) inRoots += x;
+        std::cout << rel << ": " << s.patches.size() << " patches, " << f.rounds << " rounds, "
+                  << f.roots.size() << " roots (" << lone << " lone patches, " << sizes.size()
+                  << " face clusters holding " << inRoots << " patches; median "
+                  << (sizes.empty() ? 0 : sizes[sizes.size() / 2]) << ", largest "
+                  << (sizes.empty() ? 0 : sizes.back()) << "), tree " << t.size()
+                  << " nodes, depth " << t.depth() << "\n";
     }
 }
 
