@@ -1,12 +1,12 @@
 // The `hrad` command line. This is the only translation unit that includes
 // CLI11 (slow to compile); it turns flags into Params (each remembering the
 // flag it came from) and dispatches to apps/cmd_*.cpp.
-#include <tbb/global_control.h>
-#include <tbb/info.h>
-
-#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <memory>
+
+#include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
 
 #include "apps/commands.h"
 #include "core/error.h"
@@ -42,8 +42,7 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"quiet", "info", "debug"}))
         ->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
     int threads = 0;
-    app.add_option("--threads", threads, "worker threads (0: all cores)")
-        ->check(CLI::NonNegativeNumber);
+    app.add_option("--threads", threads, "worker threads (0: all cores)")->check(CLI::NonNegativeNumber);
     std::vector<std::string> sets;
     app.add_option("--set", sets, "any setting as key=value (repeatable), e.g. ff.vis_rays=32");
 
@@ -59,14 +58,12 @@ int main(int argc, char** argv) {
     std::string solver, oracle;
     double eps = -1, minArea = -1;
     int refLevel = -1, width = 0, height = 0;
-    bool interpolate = false, noImages = false, noPly = false, quietProgress = false,
-         errorMap = false;
+    bool interpolate = false, noImages = false, noPly = false, quietProgress = false, errorMap = false;
     solve->add_option("scene", so.scene, "built-in name or file")->required();
     solve->add_option("--solver", solver, "hr | full-matrix | progressive");
     solve->add_option("--oracle", oracle, "refinement oracle (hr): bfa, ff, uniform, error, kv");
     auto* epsOpt = solve->add_option("--eps", eps, "oracle threshold (oracle.eps)");
-    auto* minAreaOpt =
-        solve->add_option("--min-area", minArea, "minimum element area (hr.min_area)");
+    auto* minAreaOpt = solve->add_option("--min-area", minArea, "minimum element area (hr.min_area)");
     std::string clusterModel, clusterBuilder;
     solve->add_option("--cluster", clusterModel,
                       "volume clustering (cluster.model): none, isotropic, oriented");
@@ -77,21 +74,18 @@ int main(int argc, char** argv) {
                     "face clusters of connected, nearly coplanar patches below the bvh "
                     "(cluster.faces; cluster.face_cone, face_planarity, face_separation)");
     solve->add_option("-o,--output", so.outDir, "output folder")->capture_default_str();
-    auto* refLevelOpt = solve->add_option(
-        "--reference-level", refLevel,
-        "also solve a full-matrix reference at this uniform level and report the error");
+    auto* refLevelOpt = solve->add_option("--reference-level", refLevel,
+                      "also solve a full-matrix reference at this uniform level and report the error");
     solve->add_flag("--error-map", errorMap,
                     "with --reference-level: render the reference too and write reference.png, "
                     "error.png (16-bit signed relative error) and error_fc.png (false colour)");
     auto* widthOpt = solve->add_option("--width", width, "image width");
     auto* heightOpt = solve->add_option("--height", height, "image height");
-    solve->add_flag("--interpolate", interpolate,
-                    "vertex-interpolated reconstruction in the image");
+    solve->add_flag("--interpolate", interpolate, "vertex-interpolated reconstruction in the image");
     solve->add_flag("--no-images", noImages, "do not render image.exr / image.png");
     solve->add_flag("--no-ply", noPly, "do not write solution.ply");
-    solve->add_flag(
-        "--glb", so.writeGlb,
-        "also write solution.glb (glTF, vertex colours; interpolated with --interpolate)");
+    solve->add_flag("--glb", so.writeGlb,
+                    "also write solution.glb (glTF, vertex colours; interpolated with --interpolate)");
     bool noSolution = false;
     solve->add_flag("--no-solution", noSolution,
                     "do not write solution.hrsol (the solution for hrad render)");
@@ -99,58 +93,45 @@ int main(int argc, char** argv) {
 
     // render
     auto* renderCmd = app.add_subcommand(
-        "render",
-        "render a saved solution (solution.hrsol) again: other camera, size, reconstruction");
+        "render", "render a saved solution (solution.hrsol) again: other camera, size, reconstruction");
     app::RenderCliOptions rco;
     int renderWidth = 0, renderHeight = 0;
     bool renderInterpolate = false;
     renderCmd->add_option("scene", rco.scene, "the scene the solution was computed on")->required();
-    renderCmd->add_option("solution", rco.solution, "solution.hrsol written by hrad solve")
-        ->required();
+    renderCmd->add_option("solution", rco.solution, "solution.hrsol written by hrad solve")->required();
     renderCmd->add_option("-o,--output", rco.outDir, "output folder")->capture_default_str();
     auto* rWidthOpt = renderCmd->add_option("--width", renderWidth, "image width");
     auto* rHeightOpt = renderCmd->add_option("--height", renderHeight, "image height");
     renderCmd->add_flag("--interpolate", renderInterpolate, "vertex-interpolated reconstruction");
-    renderCmd->add_flag(
-        "--glb", rco.writeGlb,
-        "also write solution.glb (glTF, vertex colours; interpolated with --interpolate)");
+    renderCmd->add_flag("--glb", rco.writeGlb,
+                        "also write solution.glb (glTF, vertex colours; interpolated with --interpolate)");
 
     // sweep
     auto* sweep = app.add_subcommand("sweep", "run a study (TOML) into a results store (SQLite)");
     app::SweepCliOptions sw;
-    sweep->add_option("study", sw.study, "study file (see experiments/studies/README.md)")
-        ->required();
-    sweep->add_option("--store", sw.store,
-                      "results store (default: <study dir>/results/<name>.sqlite)");
-    sweep->add_option("-j,--jobs", sw.jobs, "points run at once (child processes)")
-        ->check(CLI::PositiveNumber);
+    sweep->add_option("study", sw.study, "study file (see experiments/studies/README.md)")->required();
+    sweep->add_option("--store", sw.store, "results store (default: <study dir>/results/<name>.sqlite)");
+    sweep->add_option("-j,--jobs", sw.jobs, "points run at once (child processes)")->check(CLI::PositiveNumber);
     sweep->add_option("--shard", sw.shard, "run only points with index % N == i (i/N, 0 <= i < N)");
-    sweep->add_flag("--resume", sw.resume,
-                    "continue into an existing store, skipping finished points");
-    sweep->add_flag("--retry-failed", sw.retryFailed,
-                    "with --resume: rerun points recorded as failed");
+    sweep->add_flag("--resume", sw.resume, "continue into an existing store, skipping finished points");
+    sweep->add_flag("--retry-failed", sw.retryFailed, "with --resume: rerun points recorded as failed");
     sweep->add_flag("--dry-run", sw.dryRun, "validate and print the expanded points, run nothing");
-    sweep
-        ->add_option("--max-points", sw.maxPoints,
-                     "refuse a study of more points (sweep.max_points; default: the study's "
-                     "[limits] max_points, else 1000000)")
+    sweep->add_option("--max-points", sw.maxPoints,
+                      "refuse a study of more points (sweep.max_points; default: the study's "
+                      "[limits] max_points, else 1000000)")
         ->check(CLI::PositiveNumber);
     sweep->add_option("--max-seconds", sw.maxSeconds, "wall-time limit per point (0: none)");
     sweep->add_option("--max-memory", sw.maxMemory, "address-space limit per point, e.g. 4G");
-    sweep->add_option("--cache", sw.cacheDir,
-                      "reference cache folder (default $HRAD_CACHE or ~/.cache/hrad)");
+    sweep->add_option("--cache", sw.cacheDir, "reference cache folder (default $HRAD_CACHE or ~/.cache/hrad)");
     sweep->add_flag("--no-cache", sw.noCache, "compute references in every point, never cache");
     sweep->add_flag("--progress", sw.progress, "show the children's progress and logs");
     sweep->add_flag("--slurm", sw.slurm,
                     "write the Slurm pipeline (references, points array, merge) and submit it with "
                     "sbatch; with --dry-run only write it; with --resume only the missing points");
-    sweep->add_option("--slurm-dir", sw.slurmDir,
-                      "folder of the Slurm pipeline (default <store>.slurm)");
-    sweep->add_option("--slurm-set", sw.slurmSets,
-                      "KEY=VALUE over the study's [slurm] table (repeatable)");
-    sweep->add_flag(
-        "--references-only", sw.referencesOnly,
-        "compute each distinct reference of the points once into the cache, run no point");
+    sweep->add_option("--slurm-dir", sw.slurmDir, "folder of the Slurm pipeline (default <store>.slurm)");
+    sweep->add_option("--slurm-set", sw.slurmSets, "KEY=VALUE over the study's [slurm] table (repeatable)");
+    sweep->add_flag("--references-only", sw.referencesOnly,
+                    "compute each distinct reference of the points once into the cache, run no point");
     sweep->add_option("--points-file", sw.pointsFile,
                       "run only the point indices listed in this file (--shard splits the list)");
     sweep->add_flag("--status", sw.status,
@@ -179,16 +160,14 @@ int main(int argc, char** argv) {
     refCmd->add_option("scene", ro.scene, "built-in name or file")->required();
     refCmd->add_option("--kind", ro.kind, "full-matrix | montecarlo")
         ->check(CLI::IsMember({"full-matrix", "montecarlo"}));
-    refCmd->add_option("--cache", ro.cacheDir,
-                       "cache folder (default $HRAD_CACHE or ~/.cache/hrad)");
+    refCmd->add_option("--cache", ro.cacheDir, "cache folder (default $HRAD_CACHE or ~/.cache/hrad)");
     bool refQuiet = false;
     refCmd->add_flag("--no-progress", refQuiet, "no progress lines on stderr");
 
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        // --help/--version exit 0; every malformed command line is an input error: exit 2 (issue
-        // 16).
+        // --help/--version exit 0; every malformed command line is an input error: exit 2 (issue 16).
         return app.exit(e) == 0 ? 0 : 2;
     }
 
@@ -203,9 +182,7 @@ int main(int argc, char** argv) {
         addSets(params, sets);
         if (*info) return app::runInfo(infoScene, params);
         if (*solve) {
-            auto flag = [&](const char* name) {
-                return SourceLocation{std::string("command line (") + name + ")", 0, 0};
-            };
+            auto flag = [&](const char* name) { return SourceLocation{std::string("command line (") + name + ")", 0, 0}; };
             if (!solver.empty()) params.set("solver", solver, flag("--solver"));
             if (!oracle.empty()) params.set("hr.oracle", oracle, flag("--oracle"));
             if (*epsOpt) params.set("oracle.eps", eps, flag("--eps"));
@@ -214,8 +191,7 @@ int main(int argc, char** argv) {
             if (!clusterBuilder.empty())
                 params.set("cluster.builder", clusterBuilder, flag("--cluster-builder"));
             if (faceClusters) params.set("cluster.faces", true, flag("--faces"));
-            if (*refLevelOpt)
-                params.set("metrics.reference_level", int64_t(refLevel), flag("--reference-level"));
+            if (*refLevelOpt) params.set("metrics.reference_level", int64_t(refLevel), flag("--reference-level"));
             if (*widthOpt) params.set("render.width", int64_t(width), flag("--width"));
             if (*heightOpt) params.set("render.height", int64_t(height), flag("--height"));
             if (interpolate) params.set("render.interpolate", true, flag("--interpolate"));
@@ -228,9 +204,7 @@ int main(int argc, char** argv) {
             return app::runSolve(so, params);
         }
         if (*renderCmd) {
-            auto flag = [&](const char* name) {
-                return SourceLocation{std::string("command line (") + name + ")", 0, 0};
-            };
+            auto flag = [&](const char* name) { return SourceLocation{std::string("command line (") + name + ")", 0, 0}; };
             if (*rWidthOpt) params.set("render.width", int64_t(renderWidth), flag("--width"));
             if (*rHeightOpt) params.set("render.height", int64_t(renderHeight), flag("--height"));
             if (renderInterpolate) params.set("render.interpolate", true, flag("--interpolate"));
