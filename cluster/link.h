@@ -50,9 +50,11 @@
 // its surfaces. Links with a planar face cluster at one end are therefore
 // not held to `separation`: between two face clusters, or a face cluster
 // and a surface element, the link is valid once the centroids are more than
-// `face_separation` times the sum of the radii apart (1: spheres apart, as
-// for a surface element); a face cluster and a volume cluster keep
-// `surface_separation`. Whether the link is then refined is the oracle's
+// `face_separation` times the sum of the radii apart (1 would be spheres
+// apart, as for a surface element, but the point transfer then gains light:
+// office:3 +4.8 % green at 1, +0.4 % at 1.5, -0.4 % at 2, against the
+// unclustered solve; bench/results/face_clusters.md); a face cluster and a
+// volume cluster keep `surface_separation`. Whether the link is then refined is the oracle's
 // decision, from the same transfer, visibility and upper bound as any
 // cluster link (the upper bound A_s / (pi gap^2) holds for every pair of
 // points). Two coplanar flat ends (surface elements, or face clusters whose
@@ -106,9 +108,14 @@
 //                                     (Monte Carlo transfer, above; experimental)
 //   cluster.near_rays   int     32   rays per estimate of a sampled near link (two
 //                                     estimates per link)
-//   cluster.face_separation  double  1  the same for links whose ends are planar face
+//   cluster.face_separation  double  1.5  the same for links whose ends are planar face
 //                                     clusters or surface elements, at least one a face
 //                                     cluster (cluster.faces; 1: bounding spheres apart)
+//   cluster.face_kernel  string  "point"  point | disc: the transfer of those links is
+//                                     the point transfer, or with pi r^2 + A_r + A_s in the
+//                                     denominator (the disc-to-disc form factor of coaxial
+//                                     parallel discs within 3 %); disc loses 3 % of the light
+//                                     on office:3 at face_separation 1.5 and is not the default
 #pragma once
 
 #include <cstdint>
