@@ -225,6 +225,9 @@ FaceForest buildFaceForest(const scene::Scene& scene, const FaceClusterParams& p
                              ? std::sqrt(f.meanSquaredDistance / f.meanSquaredRadius)
                              : 0.0;
             if (fit > params.planarity) continue;
+            if (params.compactness > 0 &&
+                m.area < params.compactness * 2 * kPi * f.meanSquaredRadius)
+                continue;
             double perim = std::max(0.0, a.perimeter + b.perimeter - 2 * edges[e].length);
             double shape =
                 perim > 0 ? std::max(0.0, 1.0 - 4 * kPi * m.area / (perim * perim)) : 0.0;

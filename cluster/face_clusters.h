@@ -29,14 +29,17 @@
 //   shape  1 - 4 pi A / P^2, the irregularity of the merged region from its
 //          area A and perimeter P (P_a + P_b - 2 |shared edges|; sec. 3.3)
 // cost = fit + dir + face_shape * shape. A merge is allowed only while the
-// merged normal cone's half-angle is at most face_cone and fit at most
-// face_planarity. The plane fit uses Eigen's 3x3 self-adjoint solver.
+// merged normal cone's half-angle is at most face_cone, fit at most
+// face_planarity, and the compactness A / (2 pi r_rms^2) (1 for a disc, 0.95
+// for a square, 6 / (pi n) for a 1 x n strip) at least face_compactness. The plane fit uses Eigen's
+// 3x3 self-adjoint solver.
 //
 // Settings (read by ClusterSettings, cluster/tree.h):
 //   cluster.faces            bool    false  face clusters under the bvh
 //   cluster.face_cone        double  30     largest normal-cone half-angle, degrees (0..89)
 //   cluster.face_planarity   double  0.1    largest relative distance from the plane
 //   cluster.face_shape       double  0.5    weight of the shape term
+//   cluster.face_compactness double  0      smallest compactness of a merged cluster (0..1)
 #pragma once
 
 #include <array>
@@ -52,6 +55,7 @@ struct FaceClusterParams {
     double coneDegrees = 30.0;
     double planarity = 0.1;
     double shapeWeight = 0.5;
+    double compactness = 0.0;
 };
 
 /// A binary forest over the root patches. Ids below the number of patches

@@ -33,6 +33,7 @@ ClusterSettings ClusterSettings::fromParams(const Params& p) {
     s.faceCone = p.getDouble("cluster.face_cone", s.faceCone, 0.0, 89.0);
     s.facePlanarity = p.getDouble("cluster.face_planarity", s.facePlanarity, 0.0, 1.0);
     s.faceShape = p.getDouble("cluster.face_shape", s.faceShape, 0.0, 10.0);
+    s.faceCompactness = p.getDouble("cluster.face_compactness", s.faceCompactness, 0.0, 1.0);
     if (s.faces && s.builder != "bvh")
         throwInputError({}, "cluster.faces = true needs cluster.builder = bvh (got '{}')",
                         s.builder);
@@ -43,8 +44,9 @@ std::string ClusterSettings::describe() const {
     std::string out =
         fmt::format("cluster(builder={}, leaf_size={}, max_depth={}", builder, leafSize, maxDepth);
     if (faces)
-        out += fmt::format(", faces=true, face_cone={}, face_planarity={}, face_shape={}", faceCone,
-                           facePlanarity, faceShape);
+        out += fmt::format(
+            ", faces=true, face_cone={}, face_planarity={}, face_shape={}, face_compactness={}",
+            faceCone, facePlanarity, faceShape, faceCompactness);
     return out + ")";
 }
 
@@ -363,6 +365,7 @@ ClusterTree::ClusterTree(const scene::Scene& scene, const ClusterSettings& setti
         fp.coneDegrees = settings.faceCone;
         fp.planarity = settings.facePlanarity;
         fp.shapeWeight = settings.faceShape;
+        fp.compactness = settings.faceCompactness;
         FaceForest forest = buildFaceForest(scene, fp);
         b.prepareFaces(forest);
         std::vector<uint32_t> items = forest.roots;

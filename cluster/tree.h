@@ -44,6 +44,8 @@
 //   cluster.face_planarity  double  0.1    largest planarity of a face cluster (0..1)
 //   cluster.face_shape      double  0.5    weight of the compactness term in the
 //                                          merge cost (0..10)
+//   cluster.face_compactness double 0      smallest compactness A / (2 pi r_rms^2) of a
+//                                          merged face cluster (0..1; 0: any shape)
 #pragma once
 
 #include <array>
@@ -84,6 +86,7 @@ struct ClusterSettings {
     double faceCone = 30.0;  ///< degrees
     double facePlanarity = 0.1;
     double faceShape = 0.5;
+    double faceCompactness = 0.0;
     static ClusterSettings fromParams(const Params& p);
     std::string describe() const;
 };

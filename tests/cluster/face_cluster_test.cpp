@@ -191,6 +191,22 @@ TEST(FaceClusters, ConeLimitSplitsACurvedSurface) {
     EXPECT_TRUE(buildFaceForest(s, tight).nodes.empty());
 }
 
+TEST(FaceClusters, CompactnessLimitKeepsStripsApart) {
+    // A 1 x 32 strip of unit squares: without a limit one face cluster; with
+    // face_compactness 0.5 no cluster longer than about 6 / (0.5 pi) = 3.8
+    // squares (compactness of a 1 x n strip: 6 / (pi n) for large n).
+    scene::Scene s;
+    uint32_t m = s.addMaterial({"m", RGB(0.5), RGB(0.0)});
+    for (int i = 0; i < 32; ++i)
+        s.addQuad(Vec3(i, 0, 0), Vec3(i + 1, 0, 0), Vec3(i + 1, 1, 0), Vec3(i, 1, 0), m);
+    EXPECT_EQ(buildFaceForest(s, FaceClusterParams{}).roots.size(), 1u);
+    FaceClusterParams fp;
+    fp.compactness = 0.5;
+    FaceForest f = buildFaceForest(s, fp);
+    EXPECT_GE(f.roots.size(), 8u);
+    for (const auto& nd : f.nodes) EXPECT_LE(nd.patches, 4u);
+}
+
 TEST(FaceClusters, TwinSidesNeverShareAFaceCluster) {
     scene::Scene s;
     uint32_t m = s.addMaterial({"m", RGB(0.5), RGB(0.0)});
