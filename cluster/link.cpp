@@ -82,8 +82,8 @@ Opening ClusterLinker::opening(const LinkEnd& r, const LinkEnd& s) const {
     if (dist > sep * (r.radius + s.radius)) {
         // A face link whose centroids do not face may still exchange light
         // where one end straddles the other's plane: opened, not dropped.
-        if (!rv && !sv && faceLink(r, s) && !(kernel(r, s) > 0) && straddles(r, s))
-            return openLarger(r, s);
+        bool face = (rc && !rv) || (sc && !sv);
+        if (face && !(kernel(r, s) > 0) && straddles(r, s)) return openLarger(r, s);
         return Opening::None;
     }
     if (rc && sc)
@@ -103,6 +103,7 @@ bool ClusterLinker::straddles(const LinkEnd& r, const LinkEnd& s) const {
     // Plane of a flat end: a surface element's, or a face cluster's cone axis
     // through its centroid (its surfaces lie within planarity * radius of it).
     auto front = [&](const LinkEnd& e, const LinkEnd& other) {
+        if (e.isCluster && !tree_->planarFace(e.cluster)) return true;  // a volume: no plane
         Vec3 n = e.isCluster ? tree_->node(e.cluster).coneAxis : scene_->patches[e.patch].normal;
         double slack = e.isCluster ? tree_->node(e.cluster).planarity * e.radius : 0.0;
         return glm::dot(n, other.center - e.center) > -(other.radius + slack);

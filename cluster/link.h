@@ -60,9 +60,11 @@
 // points). Two coplanar flat ends (surface elements, or face clusters whose
 // cone and planarity are zero: ClusterTree::flatFace) exchange no light: such
 // a link is dropped without rays (this drops the self-link of a flat face
-// cluster instead of opening it down to its patches). A face link whose
-// centroids do not face each other (point transfer 0) is opened rather than
-// dropped when either end's bounding sphere reaches in front of the other's
+// cluster instead of opening it down to its patches). A link with a planar
+// face cluster at one end whose centroids do not face each other (point
+// transfer 0: a planar face cluster's projected area is exactly 0 behind its
+// plane, where a volume cluster's is rarely so) is opened rather than dropped
+// when the other end's bounding sphere reaches in front of each flat end's
 // plane: the parts that do face exchange light (straddles()).
 //
 // Near cluster pairs (cluster.near = sample; experimental, off by default).
@@ -217,9 +219,11 @@ class ClusterLinker {
     /// least one a face cluster (the links `face_separation` governs).
     bool faceLink(const LinkEnd& r, const LinkEnd& s) const;
 
-    /// Face links (faceLink) whose centroids do not face each other (kernel
-    /// 0) may still exchange light where an end's bounding sphere reaches in
-    /// front of the other end's plane; true when that holds both ways.
+    /// Links with a planar face cluster at one end whose centroids do not
+    /// face each other (kernel 0) may still exchange light where an end's
+    /// bounding sphere reaches in front of the other end's plane; true when
+    /// that holds for every flat end (surface element or planar face
+    /// cluster; a volume cluster has no plane).
     bool straddles(const LinkEnd& r, const LinkEnd& s) const;
     /// The cluster end to open (the larger when both are clusters).
     Opening openLarger(const LinkEnd& r, const LinkEnd& s) const;
