@@ -70,6 +70,10 @@ int main(int argc, char** argv) {
                       "volume clustering (cluster.model): none, isotropic, oriented");
     solve->add_option("--cluster-builder", clusterBuilder,
                       "cluster tree builder (cluster.builder): bvh, octree");
+    bool faceClusters = false;
+    solve->add_flag("--faces", faceClusters,
+                    "face clusters of connected, nearly coplanar patches below the bvh "
+                    "(cluster.faces; cluster.face_cone, face_planarity, face_separation)");
     solve->add_option("-o,--output", so.outDir, "output folder")->capture_default_str();
     auto* refLevelOpt = solve->add_option("--reference-level", refLevel,
                       "also solve a full-matrix reference at this uniform level and report the error");
@@ -187,6 +191,7 @@ int main(int argc, char** argv) {
             if (!clusterModel.empty()) params.set("cluster.model", clusterModel, flag("--cluster"));
             if (!clusterBuilder.empty())
                 params.set("cluster.builder", clusterBuilder, flag("--cluster-builder"));
+            if (faceClusters) params.set("cluster.faces", true, flag("--faces"));
             if (*refLevelOpt) params.set("metrics.reference_level", int64_t(refLevel), flag("--reference-level"));
             if (*widthOpt) params.set("render.width", int64_t(width), flag("--width"));
             if (*heightOpt) params.set("render.height", int64_t(height), flag("--height"));

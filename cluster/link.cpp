@@ -1,9 +1,9 @@
 #include "cluster/link.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
-
-#include <fmt/format.h>
 
 #include "core/rng.h"
 
@@ -17,19 +17,22 @@ ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
         p.getDouble("cluster.surface_separation", s.surfaceSeparation, 1.0, 100.0);
     s.sampleNear = p.getEnum("cluster.near", "open", {"open", "sample"}) == "sample";
     s.nearRays = int(p.getInt("cluster.near_rays", s.nearRays, 2, 4096));
+    s.faceSeparation = p.getDouble("cluster.face_separation", s.faceSeparation, 1.0, 100.0);
+    s.faceDisc = p.getEnum("cluster.face_kernel", "point", {"point", "disc"}) == "disc";
     return s;
 }
 
 std::string ClusterLinkSettings::describe() const {
-    return fmt::format("cluster_vis_rays={}, cluster_separation={}, "
-                       "cluster_surface_separation={}, cluster_near={}, cluster_near_rays={}",
-                       visRays, separation, surfaceSeparation, sampleNear ? "sample" : "open",
-                       nearRays);
+    return fmt::format(
+        "cluster_vis_rays={}, cluster_separation={}, "
+        "cluster_surface_separation={}, cluster_near={}, cluster_near_rays={}, "
+        "cluster_face_separation={}, cluster_face_kernel={}",
+        visRays, separation, surfaceSeparation, sampleNear ? "sample" : "open", nearRays,
+        faceSeparation, faceDisc ? "disc" : "point");
 }
 
-ClusterLinker::ClusterLinker(const scene::Scene& scene, const ClusterTree* tree,
-                             ClusterModel model, const transport::Visibility* visibility,
-                             ClusterLinkSettings settings)
+ClusterLinker::ClusterLinker(const scene::Scene& scene, const ClusterTree* tree, ClusterModel model,
+                             const transport::Visibility* visibility, ClusterLinkSettings settings)
     : scene_(&scene), tree_(tree), model_(model), vis_(visibility), s_(settings) {}
 
 double ClusterLinker::projectedFraction(const LinkEnd& e, const Vec3& d) const {
@@ -47,7 +50,16 @@ double ClusterLinker::kernel(const LinkEnd& r, const LinkEnd& s) const {
     bool orientedReceiver = r.isCluster && model_ == ClusterModel::Oriented;
     double gr = orientedReceiver ? 1.0 : projectedFraction(r, -u);
     if (orientedReceiver && projectedFraction(r, -u) <= 0) return 0.0;
-    return s.area * gs * gr / (kPi * dist2);
+    double denom = kPi * dist2;
+    if (s_.faceDisc && faceLink(r, s)) denom += r.area + s.area;
+    return s.area * gs * gr / denom;
+}
+
+bool ClusterLinker::faceLink(const LinkEnd& r, const LinkEnd& s) const {
+    if (!tree_) return false;
+    bool rf = r.isCluster && tree_->planarFace(r.cluster);
+    bool sf = s.isCluster && tree_->planarFace(s.cluster);
+    return (rf || sf) && (!r.isCluster || rf) && (!s.isCluster || sf);
 }
 
 Opening ClusterLinker::opening(const LinkEnd& r, const LinkEnd& s) const {
@@ -62,12 +74,22 @@ Opening ClusterLinker::opening(const LinkEnd& r, const LinkEnd& s) const {
     // unoccluded kernel, accepted cluster pairs closer than 2 (rr + rs)
     // carried 15-19 % too little on office:3), `surface_separation` times
     // (default 1: spheres apart) for surface-cluster links.
+    // Planar face clusters link like surfaces (see the header).
+    bool rv = rc && !(tree_ && tree_->planarFace(r.cluster));
+    bool sv = sc && !(tree_ && tree_->planarFace(s.cluster));
     double dist = glm::length(r.center - s.center);
-    double sep = rc && sc ? s_.separation : s_.surfaceSeparation;
-    if (dist > sep * (r.radius + s.radius)) return Opening::None;
-    if (rc && sc) return r.radius >= 2 * s.radius   ? Opening::Receiver
-                         : s.radius >= 2 * r.radius ? Opening::Sender
-                                                    : Opening::Both;
+    double sep = rv && sv ? s_.separation : rv || sv ? s_.surfaceSeparation : s_.faceSeparation;
+    if (dist > sep * (r.radius + s.radius)) {
+        // A face link whose centroids do not face may still exchange light
+        // where one end straddles the other's plane: opened, not dropped.
+        bool face = (rc && !rv) || (sc && !sv);
+        if (face && !(kernel(r, s) > 0) && straddles(r, s)) return openLarger(r, s);
+        return Opening::None;
+    }
+    if (rc && sc)
+        return r.radius >= 2 * s.radius   ? Opening::Receiver
+               : s.radius >= 2 * r.radius ? Opening::Sender
+                                          : Opening::Both;
     return rc ? Opening::Receiver : Opening::Sender;
 }
 
@@ -77,9 +99,48 @@ double ClusterLinker::blockedVisibilityBound() const {
     return 1.0 - std::pow(0.05, 1.0 / n);
 }
 
+bool ClusterLinker::straddles(const LinkEnd& r, const LinkEnd& s) const {
+    // Plane of a flat end: a surface element's, or a face cluster's cone axis
+    // through its centroid (its surfaces lie within planarity * radius of it).
+    auto front = [&](const LinkEnd& e, const LinkEnd& other) {
+        if (e.isCluster && !tree_->planarFace(e.cluster)) return true;  // a volume: no plane
+        Vec3 n = e.isCluster ? tree_->node(e.cluster).coneAxis : scene_->patches[e.patch].normal;
+        double slack = e.isCluster ? tree_->node(e.cluster).planarity * e.radius : 0.0;
+        return glm::dot(n, other.center - e.center) > -(other.radius + slack);
+    };
+    return front(r, s) && front(s, r);
+}
+
+Opening ClusterLinker::openLarger(const LinkEnd& r, const LinkEnd& s) const {
+    if (r.isCluster && (!s.isCluster || r.radius >= s.radius)) return Opening::Receiver;
+    return s.isCluster ? Opening::Sender : Opening::Receiver;
+}
+
+bool ClusterLinker::coplanar(const LinkEnd& r, const LinkEnd& s) const {
+    auto plane = [&](const LinkEnd& e, Vec3& n, Vec3& x) {
+        if (!e.isCluster) {
+            const auto& p = scene_->patches[e.patch];
+            n = p.normal;
+            x = p.v[0];
+            return true;
+        }
+        if (!tree_ || !tree_->flatFace(e.cluster)) return false;
+        n = tree_->node(e.cluster).coneAxis;
+        x = tree_->node(e.cluster).centroid;
+        return true;
+    };
+    Vec3 nr, xr, ns, xs;
+    if (!plane(r, nr, xr) || !plane(s, ns, xs)) return false;
+    double tol = 1e-9 * (r.radius + s.radius);
+    return std::abs(glm::dot(nr, ns)) >= 1.0 - 1e-12 && std::abs(glm::dot(nr, xs - xr)) <= tol &&
+           std::abs(glm::dot(ns, xr - xs)) <= tol;
+}
+
 ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
                                 std::span<const RGB> rootB) const {
     ClusterLink out;
+    // Coplanar flat ends exchange nothing: no link, no rays.
+    if (coplanar(r, s)) return out;
     out.open = opening(r, s);
     if (out.open != Opening::None) {
         // Two clusters whose spheres are apart but that are too close for the
@@ -99,9 +160,9 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
     // Upper bound: all cosines <= 1 and the nearest points of the spheres.
     double gap = dist - r.radius - s.radius;
     double iso = model_ == ClusterModel::Isotropic ? 0.25 : 1.0;
-    out.Fupper = gap > 0 ? s.area * (s.isCluster ? iso : 1.0) * (r.isCluster ? iso : 1.0) /
-                               (kPi * gap * gap)
-                         : 3.0e38;
+    out.Fupper =
+        gap > 0 ? s.area * (s.isCluster ? iso : 1.0) * (r.isCluster ? iso : 1.0) / (kPi * gap * gap)
+                : 3.0e38;
     double judged = 1.0, carried = 1.0;
     const int n = s_.visRays;
     if (n > 0 && vis_) {
@@ -116,8 +177,8 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
         // surfaces carry nothing yet uses cos alone); after 32 rejections the
         // best candidate is used. `cosine` is the sampled surface's cosine
         // towards `towards` (1 for a surface element, sampled uniformly).
-        auto samplePoint = [&](const LinkEnd& e, const Vec3& towards, uint32_t& patch,
-                               bool sender, double& cosine) {
+        auto samplePoint = [&](const LinkEnd& e, const Vec3& towards, uint32_t& patch, bool sender,
+                               double& cosine) {
             double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
             cosine = 1.0;
             if (e.isCluster) {
@@ -270,9 +331,7 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s) const
     out.rays = uint32_t(judged.cast + carried.cast);
     // Receiver factor: the model hands an oriented receiving cluster's
     // surfaces K cos_k+(u), i.e. K A_r E[cos+] in all.
-    auto receiverFactor = [&](const Estimate& e) {
-        return orientedReceiver ? e.cosR / n : 1.0;
-    };
+    auto receiverFactor = [&](const Estimate& e) { return orientedReceiver ? e.cosR / n : 1.0; };
     // Estimates the model cannot use; the pair is opened instead:
     //  - an oriented receiver hands the light to its surfaces facing the
     //    sender's centroid; when more than 10 % of the sampled transfer

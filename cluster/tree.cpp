@@ -1,11 +1,12 @@
 #include "cluster/tree.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 
-#include <fmt/format.h>
-
+#include "cluster/face_clusters.h"
 #include "core/error.h"
 #include "core/timer.h"
 
@@ -28,12 +29,25 @@ ClusterSettings ClusterSettings::fromParams(const Params& p) {
     s.builder = p.getEnum("cluster.builder", s.builder, kBuilders);
     s.leafSize = int(p.getInt("cluster.leaf_size", s.leafSize, 1, 64));
     s.maxDepth = int(p.getInt("cluster.max_depth", s.maxDepth, 1, 64));
+    s.faces = p.getBool("cluster.faces", s.faces);
+    s.faceCone = p.getDouble("cluster.face_cone", s.faceCone, 0.0, 89.0);
+    s.facePlanarity = p.getDouble("cluster.face_planarity", s.facePlanarity, 0.0, 1.0);
+    s.faceShape = p.getDouble("cluster.face_shape", s.faceShape, 0.0, 10.0);
+    s.faceCompactness = p.getDouble("cluster.face_compactness", s.faceCompactness, 0.0, 1.0);
+    if (s.faces && s.builder != "bvh")
+        throwInputError({}, "cluster.faces = true needs cluster.builder = bvh (got '{}')",
+                        s.builder);
     return s;
 }
 
 std::string ClusterSettings::describe() const {
-    return fmt::format("cluster(builder={}, leaf_size={}, max_depth={})", builder, leafSize,
-                       maxDepth);
+    std::string out =
+        fmt::format("cluster(builder={}, leaf_size={}, max_depth={}", builder, leafSize, maxDepth);
+    if (faces)
+        out += fmt::format(
+            ", faces=true, face_cone={}, face_planarity={}, face_shape={}, face_compactness={}",
+            faceCone, facePlanarity, faceShape, faceCompactness);
+    return out + ")";
 }
 
 /// Recursive builders; they fill nodes_ in pre-order and children_ per node.
@@ -82,15 +96,13 @@ struct TreeBuilder {
     }
 
     // ---- binned SAH BVH ----------------------------------------------------------
-    uint32_t bvh(uint32_t begin, uint32_t end, int depth) {
-        uint32_t c = newNode(begin, end, depth);
+    /// Partitions ids[begin, end) (indices into bb / cc: item bounds and
+    /// centroids) by the binned SAH and returns the split position.
+    uint32_t sahSplit(std::vector<uint32_t>& ids, uint32_t begin, uint32_t end,
+                      const std::vector<scene::Bounds3>& bb0, const std::vector<Vec3>& cc) {
         uint32_t n = end - begin;
-        if (n <= uint32_t(cfg.leafSize) || depth >= cfg.maxDepth) {
-            makeLeaf(c);
-            return c;
-        }
         scene::Bounds3 cb;
-        for (uint32_t i = begin; i < end; ++i) cb.expand(pc[t.order_[i]]);
+        for (uint32_t i = begin; i < end; ++i) cb.expand(cc[ids[i]]);
         constexpr int kBins = 16;
         double bestCost = INFINITY;
         int bestAxis = -1, bestSplit = -1;
@@ -101,15 +113,15 @@ struct TreeBuilder {
             uint32_t cnt[kBins] = {};
             double scale = kBins / ext[axis];
             auto binOf = [&](uint32_t p) {
-                int b = int((pc[p][axis] - cb.lo[axis]) * scale);
+                int b = int((cc[p][axis] - cb.lo[axis]) * scale);
                 return std::clamp(b, 0, kBins - 1);
             };
             for (uint32_t i = begin; i < end; ++i) {
-                uint32_t p = t.order_[i];
+                uint32_t p = ids[i];
                 int b = binOf(p);
                 ++cnt[b];
-                bb[b].expand(pb[p].lo);
-                bb[b].expand(pb[p].hi);
+                bb[b].expand(bb0[p].lo);
+                bb[b].expand(bb0[p].hi);
             }
             // Sweep: cost(split after bin k) = SA(left) N_left + SA(right) N_right.
             double rightArea[kBins];
@@ -148,16 +160,139 @@ struct TreeBuilder {
             mid = begin + n / 2;
         } else {
             double scale = kBins / ext[bestAxis];
-            auto it = std::partition(t.order_.begin() + begin, t.order_.begin() + end,
-                                     [&](uint32_t p) {
-                                         int b = int((pc[p][bestAxis] - cb.lo[bestAxis]) * scale);
-                                         return std::clamp(b, 0, kBins - 1) <= bestSplit;
-                                     });
-            mid = uint32_t(it - t.order_.begin());
+            auto it = std::partition(ids.begin() + begin, ids.begin() + end, [&](uint32_t p) {
+                int b = int((cc[p][bestAxis] - cb.lo[bestAxis]) * scale);
+                return std::clamp(b, 0, kBins - 1) <= bestSplit;
+            });
+            mid = uint32_t(it - ids.begin());
             if (mid == begin || mid == end) mid = begin + n / 2;
         }
+        return mid;
+    }
+
+    uint32_t bvh(uint32_t begin, uint32_t end, int depth) {
+        uint32_t c = newNode(begin, end, depth);
+        uint32_t n = end - begin;
+        if (n <= uint32_t(cfg.leafSize) || depth >= cfg.maxDepth) {
+            makeLeaf(c);
+            return c;
+        }
+        uint32_t mid = sahSplit(t.order_, begin, end, pb, pc);
         std::vector<uint32_t> kids = {bvh(begin, mid, depth + 1), bvh(mid, end, depth + 1)};
         setChildren(c, kids);
+        return c;
+    }
+
+    // ---- face clusters under a bvh ---------------------------------------------
+    // Items of the bvh are the face forest's roots (forest ids: patches or
+    // merged nodes); nodes are emitted in pre-order, appending their
+    // patches to order_, so ranges are contiguous.
+    const FaceForest* ff = nullptr;
+    std::vector<scene::Bounds3> fb;  // bounds per forest id
+    std::vector<Vec3> fc;            // bounds centre per forest id
+
+    void prepareFaces(const FaceForest& forest) {
+        ff = &forest;
+        uint32_t k = forest.numPatches;
+        fb.assign(k + forest.nodes.size(), scene::Bounds3());
+        fc.assign(fb.size(), Vec3(0.0));
+        for (uint32_t i = 0; i < k; ++i) fb[i] = pb[i];
+        for (uint32_t i = 0; i < forest.nodes.size(); ++i) {
+            const auto& nd = forest.nodes[i];
+            scene::Bounds3 b = fb[nd.a];
+            b.expand(fb[nd.b].lo);
+            b.expand(fb[nd.b].hi);
+            fb[k + i] = b;
+        }
+        for (size_t i = 0; i < fb.size(); ++i) fc[i] = fb[i].center();
+        t.order_.clear();
+    }
+
+    uint32_t openNode(int depth) {
+        ClusterNode node;
+        node.patchBegin = uint32_t(t.order_.size());
+        node.depth = uint16_t(depth);
+        t.nodes_.push_back(node);
+        t.depth_ = std::max(t.depth_, depth);
+        return uint32_t(t.nodes_.size() - 1);
+    }
+
+    void closeNode(uint32_t c) {
+        ClusterNode& node = t.nodes_[c];
+        node.patchEnd = uint32_t(t.order_.size());
+        for (uint32_t i = node.patchBegin; i < node.patchEnd; ++i) {
+            node.box.expand(pb[t.order_[i]].lo);
+            node.box.expand(pb[t.order_[i]].hi);
+        }
+    }
+
+    void appendPatches(uint32_t id) {
+        std::vector<uint32_t> stack = {id};
+        while (!stack.empty()) {
+            uint32_t x = stack.back();
+            stack.pop_back();
+            if (ff->isPatch(x)) {
+                t.order_.push_back(x);
+            } else {
+                stack.push_back(ff->node(x).b);
+                stack.push_back(ff->node(x).a);
+            }
+        }
+    }
+
+    uint32_t leafOf(const std::vector<uint32_t>& patches, int depth) {
+        uint32_t c = openNode(depth);
+        for (uint32_t p : patches) t.order_.push_back(p);
+        closeNode(c);
+        makeLeaf(c);
+        return c;
+    }
+
+    uint32_t emitFace(uint32_t id, int depth) {
+        uint32_t c = openNode(depth);
+        t.nodes_[c].face = true;
+        bool patch = ff->isPatch(id);
+        t.nodes_[c].coneAxis = patch ? s.patches[id].normal : ff->node(id).coneAxis;
+        uint32_t count = patch ? 1 : ff->node(id).patches;
+        if (count <= uint32_t(cfg.leafSize)) {
+            appendPatches(id);
+            closeNode(c);
+            makeLeaf(c);
+            return c;
+        }
+        std::vector<uint32_t> kids;
+        for (uint32_t child : {ff->node(id).a, ff->node(id).b})
+            kids.push_back(emitFace(child, depth + 1));
+        setChildren(c, kids);
+        closeNode(c);
+        return c;
+    }
+
+    uint32_t bvhItems(std::vector<uint32_t>& items, uint32_t begin, uint32_t end, int depth) {
+        uint32_t n = end - begin;
+        if (n == 1 && !ff->isPatch(items[begin])) return emitFace(items[begin], depth);
+        bool allLone = true;
+        for (uint32_t i = begin; i < end; ++i) allLone = allLone && ff->isPatch(items[i]);
+        if (allLone && (n <= uint32_t(cfg.leafSize) || depth >= cfg.maxDepth))
+            return leafOf(std::vector<uint32_t>(items.begin() + begin, items.begin() + end), depth);
+        uint32_t c = openNode(depth);
+        std::vector<uint32_t> kids;
+        if (depth >= cfg.maxDepth) {
+            // Depth cap: the face clusters and one leaf of the lone patches.
+            std::vector<uint32_t> lone;
+            for (uint32_t i = begin; i < end; ++i) {
+                if (ff->isPatch(items[i]))
+                    lone.push_back(items[i]);
+                else
+                    kids.push_back(emitFace(items[i], depth + 1));
+            }
+            if (!lone.empty()) kids.push_back(leafOf(lone, depth + 1));
+        } else {
+            uint32_t mid = sahSplit(items, begin, end, fb, fc);
+            kids = {bvhItems(items, begin, mid, depth + 1), bvhItems(items, mid, end, depth + 1)};
+        }
+        setChildren(c, kids);
+        closeNode(c);
         return c;
     }
 
@@ -216,7 +351,8 @@ struct TreeBuilder {
 };
 
 ClusterTree::ClusterTree(const scene::Scene& scene, const ClusterSettings& settings)
-    : scene_(&scene) {
+    : scene_(&scene), settings_(settings) {
+    faceConeCos_ = std::cos(settings.faceCone * kPi / 180.0);
     Timer timer;
     size_t n = scene.patches.size();
     HRAD_CHECK(n > 0);
@@ -224,7 +360,18 @@ ClusterTree::ClusterTree(const scene::Scene& scene, const ClusterSettings& setti
     std::iota(order_.begin(), order_.end(), 0u);
     TreeBuilder b(*this, scene, settings);
     nodes_.reserve(2 * n / size_t(std::max(1, settings.leafSize)) + 16);
-    if (settings.builder == "bvh") {
+    if (settings.builder == "bvh" && settings.faces) {
+        FaceClusterParams fp;
+        fp.coneDegrees = settings.faceCone;
+        fp.planarity = settings.facePlanarity;
+        fp.shapeWeight = settings.faceShape;
+        fp.compactness = settings.faceCompactness;
+        FaceForest forest = buildFaceForest(scene, fp);
+        b.prepareFaces(forest);
+        std::vector<uint32_t> items = forest.roots;
+        b.bvhItems(items, 0, uint32_t(items.size()), 0);
+        HRAD_CHECK(order_.size() == n);
+    } else if (settings.builder == "bvh") {
         b.bvh(0, uint32_t(n), 0);
     } else if (settings.builder == "octree") {
         scene::Bounds3 all = scene.bounds();
@@ -243,13 +390,15 @@ void ClusterTree::finalize() {
     const auto& P = scene_->patches;
     areaPrefix_.resize(order_.size() + 1);
     areaPrefix_[0] = 0;
-    for (size_t i = 0; i < order_.size(); ++i) areaPrefix_[i + 1] = areaPrefix_[i] + P[order_[i]].area;
+    for (size_t i = 0; i < order_.size(); ++i)
+        areaPrefix_[i + 1] = areaPrefix_[i] + P[order_[i]].area;
     parent_.assign(nodes_.size(), UINT32_MAX);
     patchCluster_.assign(P.size(), UINT32_MAX);
     // Children have larger indices than parents: accumulate bottom-up.
     for (size_t ci = nodes_.size(); ci-- > 0;) {
         ClusterNode& c = nodes_[ci];
-        for (uint32_t i = 0; i < c.childCount; ++i) parent_[children_[c.childBegin + i]] = uint32_t(ci);
+        for (uint32_t i = 0; i < c.childCount; ++i)
+            parent_[children_[c.childBegin + i]] = uint32_t(ci);
         for (uint32_t i = c.ownBegin; i < c.ownEnd; ++i) patchCluster_[order_[i]] = uint32_t(ci);
         double a = 0;
         RGB rho(0.0);
@@ -282,7 +431,51 @@ void ClusterTree::finalize() {
             r2 = std::max(r2, glm::dot(corner - c.centroid, corner - c.centroid));
         }
         c.radius = std::sqrt(r2);
+        if (c.face) {
+            // Normal cone around the builder's axis, and planarity: the
+            // largest vertex distance from the least-squares plane over the
+            // radius.
+            AreaMoments m;
+            double minCos = 1.0;
+            for (uint32_t i = c.patchBegin; i < c.patchEnd; ++i) {
+                const auto& p = P[order_[i]];
+                m.addPatch(p);
+                minCos = std::min(minCos, glm::dot(p.normal, c.coneAxis));
+            }
+            c.coneCos = minCos;
+            PlaneFit f = fitPlane(m, c.coneAxis);
+            c.planeNormal = f.normal;
+            double dmax = 0.0;
+            for (uint32_t i = c.patchBegin; i < c.patchEnd; ++i) {
+                const auto& p = P[order_[i]];
+                for (int v = 0; v < p.numVertices(); ++v)
+                    dmax = std::max(dmax, std::abs(glm::dot(p.v[v] - f.centroid, f.normal)));
+            }
+            c.planarity = c.radius > 0 ? std::min(1.0, dmax / c.radius) : 0.0;
+        }
     }
+}
+
+bool ClusterTree::planarFace(uint32_t ci) const {
+    const ClusterNode& c = nodes_[ci];
+    return c.face && c.coneCos >= faceConeCos_ && c.planarity <= settings_.facePlanarity;
+}
+
+bool ClusterTree::flatFace(uint32_t ci) const {
+    const ClusterNode& c = nodes_[ci];
+    return c.face && c.coneCos >= 1.0 - 1e-12 && c.planarity <= 1e-9;
+}
+
+uint32_t ClusterTree::numFaceNodes() const {
+    uint32_t n = 0;
+    for (const auto& c : nodes_) n += c.face;
+    return n;
+}
+
+uint32_t ClusterTree::numPlanarFaceNodes() const {
+    uint32_t n = 0;
+    for (uint32_t c = 0; c < size(); ++c) n += planarFace(c);
+    return n;
 }
 
 uint64_t ClusterTree::memoryBytes() const {

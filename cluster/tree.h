@@ -18,10 +18,34 @@
 //           bounding volume hierarchies")
 //   octree  recursive subdivision of a cube into octants by patch centroid;
 //           chains of single children are collapsed
+// Face clusters (cluster.faces = true, bvh only): the root patches are first
+// grouped into a forest of connected, nearly coplanar face clusters
+// (cluster/face_clusters.h; Willmott, Heckbert & Garland 1999). Each forest
+// root, and each group of at most leaf_size patches that joined no face
+// cluster, becomes an item of the bvh, which is built above the items as
+// above. A face cluster with at most leaf_size patches is one leaf; a larger
+// one has its two sub-clusters as children (a patch child becomes a leaf of
+// one patch). Face-cluster nodes have `face` set. The tree stays one node
+// array in pre-order with contiguous patch ranges.
+// Every face-cluster node records its normal cone (the face builder's axis,
+// and the cosine of the half-angle around it that holds every normal below)
+// and its planarity (largest distance of a vertex below from the
+// least-squares plane, over the node's radius); the linker treats a face
+// cluster within face_cone and face_planarity as one surface
+// (cluster/link.h). Volume nodes keep coneCos -1 and planarity 1.
 // Settings:
 //   cluster.builder    string  "bvh"
 //   cluster.leaf_size  int     4     patches per leaf cluster (1..64)
-//   cluster.max_depth  int     40    depth cap (leaves may then hold more patches)
+//   cluster.max_depth  int     40    depth cap of the bvh (leaves may then hold more
+//                                    patches); face clusters below it add their own depth
+//   cluster.faces           bool    false  face clusters below the bvh
+//   cluster.face_cone       double  30     largest normal-cone half-angle of a face
+//                                          cluster, degrees (0..89)
+//   cluster.face_planarity  double  0.1    largest planarity of a face cluster (0..1)
+//   cluster.face_shape      double  0.5    weight of the compactness term in the
+//                                          merge cost (0..10)
+//   cluster.face_compactness double 0      smallest compactness A / (2 pi r_rms^2) of a
+//                                          merged face cluster (0..1; 0: any shape)
 #pragma once
 
 #include <array>
@@ -42,17 +66,27 @@ struct ClusterNode {
     Vec3 centroid{0.0};   ///< area-weighted centroid of the surfaces below
     double radius = 0.0;  ///< radius of a sphere around `centroid` containing the box
     Vec3 normalSum{0.0};  ///< S = sum_k A_k n_k
-    std::array<double, 6> normalMoment{};  ///< M = sum_k A_k n_k n_k^T (xx, xy, xz, yy, yz, zz)
+    std::array<double, 6> normalMoment{};     ///< M = sum_k A_k n_k n_k^T (xx, xy, xz, yy, yz, zz)
     uint32_t childBegin = 0, childCount = 0;  ///< sub-clusters: children[childBegin..+childCount)
     uint32_t patchBegin = 0, patchEnd = 0;    ///< all patches below: order[patchBegin..patchEnd)
     uint32_t ownBegin = 0, ownEnd = 0;        ///< patches held directly (leaf clusters)
     uint16_t depth = 0;
+    bool face = false;       ///< a face cluster (cluster.faces)
+    Vec3 coneAxis{0.0};      ///< unit axis of a cone holding every normal below
+    double coneCos = -1.0;   ///< min_k n_k . coneAxis (cosine of the cone's half-angle)
+    double planarity = 1.0;  ///< max vertex distance from the least-squares plane / radius
+    Vec3 planeNormal{0.0};   ///< unit normal of the least-squares plane (towards the normals)
 };
 
 struct ClusterSettings {
     std::string builder = "bvh";
     int leafSize = 4;
     int maxDepth = 40;
+    bool faces = false;
+    double faceCone = 30.0;  ///< degrees
+    double facePlanarity = 0.1;
+    double faceShape = 0.5;
+    double faceCompactness = 0.0;
     static ClusterSettings fromParams(const Params& p);
     std::string describe() const;
 };
@@ -73,6 +107,16 @@ class ClusterTree {
     /// Leaf cluster holding each patch.
     const std::vector<uint32_t>& patchCluster() const { return patchCluster_; }
     int depth() const { return depth_; }
+    const ClusterSettings& settings() const { return settings_; }
+    /// A face cluster that links as one surface: `face`, its normal cone
+    /// within face_cone and its planarity within face_planarity.
+    bool planarFace(uint32_t c) const;
+    /// A planar face cluster whose surfaces are coplanar (normal cone and
+    /// planarity zero up to rounding): its surfaces exchange no light.
+    bool flatFace(uint32_t c) const;
+    /// Number of face-cluster nodes, and of those that are planarFace().
+    uint32_t numFaceNodes() const;
+    uint32_t numPlanarFaceNodes() const;
     double buildSeconds() const { return buildSeconds_; }
     uint64_t memoryBytes() const;
 
@@ -90,6 +134,8 @@ class ClusterTree {
   private:
     void finalize();
     const scene::Scene* scene_;
+    ClusterSettings settings_;
+    double faceConeCos_ = 1.0;
     std::vector<ClusterNode> nodes_;
     std::vector<uint32_t> children_;
     std::vector<uint32_t> order_;

@@ -767,8 +767,10 @@ HrResult HrSolver::solve(bool progress) {
     if (s_.clusterModel != cluster::ClusterModel::None) {
         res.clusterTree = std::make_unique<cluster::ClusterTree>(*scene_, s_.cluster);
         res.clusterBuildSeconds = res.clusterTree->buildSeconds();
-        spdlog::info("cluster tree ({}): {} clusters, depth {}, {:.3f} s", s_.cluster.builder,
-                     res.clusterTree->size(), res.clusterTree->depth(), res.clusterBuildSeconds);
+        spdlog::info("cluster tree ({}{}): {} clusters ({} face clusters, {} planar), depth {}, {:.3f} s",
+                     s_.cluster.builder, s_.cluster.faces ? " + faces" : "", res.clusterTree->size(),
+                     res.clusterTree->numFaceNodes(), res.clusterTree->numPlanarFaceNodes(),
+                     res.clusterTree->depth(), res.clusterBuildSeconds);
     }
     res.hierarchy = std::make_unique<Hierarchy>(*scene_, res.clusterTree.get(), s_.clusterModel,
                                                 s_.basisDegree);

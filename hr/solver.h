@@ -94,9 +94,11 @@
 //                                       uniform have none). graz.mgf one-sided, bfa 1e-3: the
 //                                       reflected power on patches Monte Carlo has dark falls
 //                                       from 63 % to 42 % of the total for 0.06 % more links
-//   cluster.builder, cluster.leaf_size, cluster.max_depth   (cluster/tree.h)
+//   cluster.builder, cluster.leaf_size, cluster.max_depth, cluster.faces,
+//   cluster.face_cone, cluster.face_planarity, cluster.face_shape   (cluster/tree.h)
 //   cluster.vis_rays, cluster.separation, cluster.surface_separation, cluster.near,
-//   cluster.near_rays                  links that touch a cluster (cluster/link.h)
+//   cluster.near_rays, cluster.face_separation, cluster.face_kernel
+//                                      links that touch a cluster (cluster/link.h)
 //
 // Links touching a cluster are built by cluster::ClusterLinker (cluster/link.h:
 // point approximation, visibility rays, validity); surface links by

@@ -86,6 +86,22 @@ TEST(Cli, SolveWritesArtefactsAndSummary) {
     EXPECT_EQ(s["settings"]["cluster.model"], "oriented");
 }
 
+TEST(Cli, FacesFlagSetsClusterFacesAndOctreeRefusesIt) {
+    auto dir = hrad::test::tempDir("cli_faces");
+    Result r = run("solve office:1 --cluster oriented --faces --no-images --no-ply --no-solution -o " +
+                   dir.string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    nlohmann::json s;
+    std::ifstream(dir / "summary.json") >> s;
+    EXPECT_EQ(s["settings"]["cluster.faces"], true) << s["settings"].dump();
+    r = run("solve office:1 --cluster oriented --faces --cluster-builder octree -o " + dir.string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("cluster.faces"), std::string::npos) << r.output;
+    r = run("solve office:1 --cluster oriented --set cluster.face_cone=120 -o " + dir.string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("cluster.face_cone"), std::string::npos) << r.output;
+}
+
 TEST(Cli, ErrorMapNeedsReferenceLevelAndWritesMaps) {
     auto dir = hrad::test::tempDir("cli_errmap");
     Result bad = run("solve cornell --error-map --no-progress -o " + dir.string());
