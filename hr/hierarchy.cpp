@@ -706,23 +706,13 @@ RGB HierarchyField::average(uint32_t patch, ElementKey key) const {
     // Either the node at `key` (whose B is the exact area average of its
     // leaves after push-pull) or a leaf containing the whole region.
     if (h_->basisSize() == 1 || l == L) return h_->B(e);
-    // A region inside a polynomial leaf: its mean is the c_0 of the leaf's
-    // polynomial restricted to it (two-scale pushes along the key's path).
-    const int nb = h_->basisSize();
-    const scene::Basis& basis = h_->basis()->of(h_->scene().patches[patch].kind);
-    std::array<RGB, scene::kMaxBasisSize> c{}, next{};
+    // A region inside a polynomial leaf: the mean of the leaf's polynomial
+    // over it.
+    std::array<RGB, scene::kMaxBasisSize> c{};
     c[0] = h_->B(e);
-    for (int a = 1; a < nb; ++a) c[size_t(a)] = h_->hi(e)[a - 1];
-    for (; l < L; ++l) {
-        const auto& T = basis.twoScale(scene::keyChildAt(key, l));
-        for (int j = 0; j < nb; ++j) {
-            RGB v(0.0);
-            for (int a = 0; a < nb; ++a) v += T[size_t(a * nb + j)] * c[size_t(a)];
-            next[size_t(j)] = v;
-        }
-        c = next;
-    }
-    return c[0];
+    for (int a = 1; a < h_->basisSize(); ++a) c[size_t(a)] = h_->hi(e)[a - 1];
+    return scene::meanOverSubElement(h_->basis()->of(h_->scene().patches[patch].kind), c,
+                                     h_->key(e), key);
 }
 
 uint32_t HierarchyField::elementAt(uint32_t patch, ElementKey key) const {

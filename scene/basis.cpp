@@ -189,4 +189,21 @@ void Basis::eval(double a, double b, double* out) const {
     }
 }
 
+RGB meanOverSubElement(const Basis& basis, std::array<RGB, kMaxBasisSize> c, uint64_t outer,
+                       uint64_t key) {
+    HRAD_CHECK(keyContains(outer, key));
+    const int n = basis.size();
+    std::array<RGB, kMaxBasisSize> next{};
+    for (int l = keyLevel(outer); l < keyLevel(key); ++l) {
+        const auto& T = basis.twoScale(keyChildAt(key, l));
+        for (int j = 0; j < n; ++j) {
+            RGB v(0.0);
+            for (int a = 0; a < n; ++a) v += T[size_t(a * n + j)] * c[size_t(a)];
+            next[size_t(j)] = v;
+        }
+        c = next;
+    }
+    return c[0];
+}
+
 }  // namespace hrad::scene

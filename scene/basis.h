@@ -103,6 +103,13 @@ class Basis {
     std::array<std::vector<double>, 4> twoScale_;
 };
 
+/// Mean over the region `key` of the polynomial with coefficients c[0..n-1]
+/// (n = basis.size()) on the element `outer` that contains it (both keys of
+/// one patch's quadtree, scene/element.h): c_0 after the two-scale
+/// restrictions along the key's path from `outer` down to `key`.
+RGB meanOverSubElement(const Basis& basis, std::array<RGB, kMaxBasisSize> c, uint64_t outer,
+                       uint64_t key);
+
 /// The bases of one degree for both patch kinds.
 struct BasisSet {
     explicit BasisSet(int degree)

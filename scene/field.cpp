@@ -257,25 +257,12 @@ RGB LeafField::average(uint32_t patch, ElementKey key) const {
     if (i >= 0) {
         const Leaf& leaf = leaves_[patch][size_t(i)];
         if (degree_ == 0 || leaf.key == key) return leaf.value;  // the leaf's mean
-        // A region inside a polynomial leaf: its mean is the c_0 of the
-        // leaf's polynomial restricted to it (two-scale pushes along the
-        // key's path below the leaf, scene/basis.h).
-        const Basis& basis = basis_->of(scene_->patches[patch].kind);
-        const int n = basis.size();
-        std::array<RGB, kMaxBasisSize> c{}, next{};
+        // A region inside a polynomial leaf: the mean of the leaf's
+        // polynomial over it.
+        std::array<RGB, kMaxBasisSize> c{};
         c[0] = leaf.value;
         leafHigherCoefficients(patch, leaf.key, c.data() + 1);
-        const int from = keyLevel(leaf.key), to = keyLevel(key);
-        for (int l = from; l < to; ++l) {
-            const auto& T = basis.twoScale(keyChildAt(key, l));
-            for (int j = 0; j < n; ++j) {
-                RGB v(0.0);
-                for (int a = 0; a < n; ++a) v += T[size_t(a * n + j)] * c[size_t(a)];
-                next[size_t(j)] = v;
-            }
-            c = next;
-        }
-        return c[0];
+        return meanOverSubElement(basis_->of(scene_->patches[patch].kind), c, leaf.key, key);
     }
     double a = 0.0;
     return averageBelow(patch, key, &a);

@@ -11,6 +11,7 @@
 #include "cluster/tree.h"
 #include "hr/solver.h"
 #include "scene/loader.h"
+#include "tests/cluster/tree_invariants.h"
 #include "tests/hr/settings.h"
 #include "tests/scenes.h"
 #include "tests/test_util.h"
@@ -61,60 +62,6 @@ ClusterSettings faceSettings() {
     return cs;
 }
 
-/// Pre-order, contiguous patch ranges, every patch once, areas, boxes,
-/// spheres, parents and patchCluster: what tree.h promises for any builder.
-void expectTreeInvariants(const scene::Scene& s, const ClusterTree& t) {
-    std::multiset<uint32_t> seen;
-    for (uint32_t c = 0; c < t.size(); ++c) {
-        const auto& n = t.node(c);
-        ASSERT_LE(n.patchBegin, n.patchEnd);
-        for (uint32_t i = n.ownBegin; i < n.ownEnd; ++i) seen.insert(t.patchAt(i));
-        if (n.childCount == 0) {
-            EXPECT_GT(n.ownEnd, n.ownBegin) << "empty leaf " << c;
-            EXPECT_EQ(n.ownBegin, n.patchBegin);
-            EXPECT_EQ(n.ownEnd, n.patchEnd);
-        } else {
-            EXPECT_EQ(n.ownEnd, n.ownBegin);
-            double a = 0;
-            uint32_t next = n.patchBegin;
-            for (uint32_t k = 0; k < n.childCount; ++k) {
-                uint32_t ch = t.child(c, k);
-                EXPECT_GT(ch, c) << "pre-order";
-                EXPECT_EQ(t.parents()[ch], c);
-                EXPECT_EQ(t.node(ch).patchBegin, next) << "children's ranges tile the parent's";
-                next = t.node(ch).patchEnd;
-                a += t.node(ch).area;
-                // A face cluster's sub-clusters are face clusters.
-                if (n.face) EXPECT_TRUE(t.node(ch).face);
-            }
-            EXPECT_EQ(next, n.patchEnd);
-            EXPECT_NEAR(a, n.area, 1e-9 * n.area);
-        }
-        for (uint32_t i = n.patchBegin; i < n.patchEnd; ++i) {
-            const auto& p = s.patches[t.patchAt(i)];
-            for (int v = 0; v < p.numVertices(); ++v) {
-                for (int k = 0; k < 3; ++k) {
-                    EXPECT_GE(p.v[v][k], n.box.lo[k]);
-                    EXPECT_LE(p.v[v][k], n.box.hi[k]);
-                }
-                EXPECT_LE(glm::length(p.v[v] - n.centroid), n.radius * (1 + 1e-12));
-            }
-            if (n.face) EXPECT_GE(glm::dot(p.normal, n.coneAxis), n.coneCos - 1e-12);
-        }
-    }
-    EXPECT_EQ(seen.size(), s.patches.size());
-    for (uint32_t p = 0; p < s.patches.size(); ++p) {
-        EXPECT_EQ(seen.count(p), 1u);
-        uint32_t c = t.patchCluster()[p];
-        ASSERT_LT(c, t.size());
-        const auto& n = t.node(c);
-        bool own = false;
-        for (uint32_t i = n.ownBegin; i < n.ownEnd; ++i) own |= t.patchAt(i) == p;
-        EXPECT_TRUE(own) << "patchCluster of " << p;
-    }
-    EXPECT_NEAR(t.node(0).area, s.totalArea(), 1e-9 * s.totalArea());
-}
-
 }  // namespace
 
 TEST(FaceClusters, TessellatedPlaneIsOneFlatFaceCluster) {
@@ -128,7 +75,7 @@ TEST(FaceClusters, TessellatedPlaneIsOneFlatFaceCluster) {
     // Balanced: 256 patches in 8 rounds of matching would be perfect.
     EXPECT_LE(f.rounds, 16);
     ClusterTree t(s, faceSettings());
-    expectTreeInvariants(s, t);
+    test::expectTreeInvariants(s, t);
     const auto& root = t.node(0);
     EXPECT_TRUE(root.face);
     EXPECT_NEAR(root.coneCos, 1.0, 1e-12);
@@ -150,7 +97,7 @@ TEST(FaceClusters, CubeFacesNeverMergeAcrossRightAngles) {
         EXPECT_EQ(f.roots.size(), 6u) << "inward " << inward;
         EXPECT_EQ(buildFaceForest(s, FaceClusterParams{}).roots.size(), 6u);
         ClusterTree t(s, faceSettings());
-        expectTreeInvariants(s, t);
+        test::expectTreeInvariants(s, t);
         // Every face cluster's patches share one normal.
         for (uint32_t c = 0; c < t.size(); ++c) {
             const auto& n = t.node(c);
@@ -218,7 +165,7 @@ TEST(FaceClusters, TwinSidesNeverShareAFaceCluster) {
     FaceForest f = buildFaceForest(s, fp);
     EXPECT_EQ(f.roots.size(), 2u);  // one per side
     ClusterTree t(s, faceSettings());
-    expectTreeInvariants(s, t);
+    test::expectTreeInvariants(s, t);
     for (uint32_t c = 0; c < t.size(); ++c) {
         const auto& n = t.node(c);
         if (!n.face) continue;
@@ -233,7 +180,7 @@ TEST(FaceClusters, InvariantsOnOfficeAndCornell) {
     for (const char* name : {"office:2", "cornell"}) {
         scene::Scene s = scene::loadScene(name);
         ClusterTree t(s, faceSettings());
-        expectTreeInvariants(s, t);
+        test::expectTreeInvariants(s, t);
         EXPECT_GT(t.numFaceNodes(), 0u) << name;
         std::cout << name << ": " << t.size() << " clusters, " << t.numFaceNodes() << " face, "
                   << t.numPlanarFaceNodes() << " planar, depth " << t.depth() << "\n";
@@ -261,7 +208,7 @@ TEST(FaceClusters, InvariantsOnSharedScenes) {
         }
         std::sort(sizes.begin(), sizes.end());
         ClusterTree t(s, faceSettings());
-        expectTreeInvariants(s, t);
+        test::expectTreeInvariants(s, t);
         uint64_t inRoots = 0;
         for (uint32_t x : sizes) inRoots += x;
         std::cout << rel << ": " << s.patches.size() << " patches, " << f.rounds << " rounds, "
@@ -389,7 +336,9 @@ TEST(FaceClusterSolve, TessellatedFurnaceStaysExact) {
         hr::HrSolver solver(s, vis, hs);
         hr::HrResult r = solver.solve();
         ASSERT_TRUE(r.clusterTree);
-        if (faces) EXPECT_GT(r.clusterTree->numPlanarFaceNodes(), 6u);
+        if (faces) {
+            EXPECT_GT(r.clusterTree->numPlanarFaceNodes(), 6u);
+        }
         const hr::Hierarchy& h = *r.hierarchy;
         double worst = 0, power = 0, area = 0;
         for (uint32_t e = 0; e < h.numElements(); ++e)
