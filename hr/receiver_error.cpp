@@ -1,10 +1,10 @@
 #include "hr/receiver_error.h"
 
-#include <algorithm>
-#include <cmath>
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
 
 namespace hrad::hr {
 
@@ -44,12 +44,23 @@ KernelSamples linkKernelSamples(const Hierarchy& h, const transport::FormFactorE
     return out;
 }
 
+KernelSamples linkResidualSamples(const Hierarchy& h, const transport::CouplingEngine& coupling,
+                                  uint32_t r, uint32_t s) {
+    KernelSamples out{};
+    transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
+    transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
+    double vals[transport::FormFactorEngine::kMaxKernelSamples];
+    int m = coupling.residualSamples(er, es, vals);
+    for (int k = 0; k < m; ++k) out[k] = float(vals[k]);
+    return out;
+}
+
 void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
                     const std::vector<Link>& pending,
                     const std::vector<KernelSamples>& pendingSamples,
                     const std::vector<uint32_t>& acceptedRecv, const std::vector<Link>& accepted,
                     const std::vector<KernelSamples>& acceptedSamples,
-                    std::vector<ReceiverError>& out) {
+                    std::vector<ReceiverError>& out, bool residualSamples) {
     const size_t np = pending.size();
     out.assign(np, ReceiverError{});
     const uint32_t n = h.numElements();
@@ -107,8 +118,11 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
                 double Fu = v > 0 ? double(l.K) / v : 0.0;
                 RGB w = rho * h.B(s) * v;  // rho_r B_s v per channel
                 double dev = 0.0, wmax = maxComponent(w);
+                // Kernel samples less the link's constant; residual samples
+                // are already less the link's polynomial.
+                const double base = residualSamples ? 0.0 : Fu;
                 for (int k = 0; k < m; ++k) {
-                    double d = vals[k] - Fu;
+                    double d = vals[k] - base;
                     D[k] += w * d;
                     dev = std::max(dev, wmax * std::fabs(d));
                 }

@@ -36,12 +36,26 @@
 // per-link test let it through at every eps. The receiver's sum over its
 // links of K_l max_c |B_c - B_l| is therefore held to eps as a whole, like
 // the kernel term (papers/README.md, "Where the darkness came from").
+//
+// Polynomial bases (hr.basis above constant, scene/basis.h). A receiver then
+// gets, from each surface link, the projection P_l(x) of the link's kernel
+// onto its basis (Galerkin: Zatz 1993; Bekaert & Willems 1995), not the
+// average F_l, so what it misses is
+//     D(x) = rho_r sum_l B_l v_l (F_l(x) - P_l(x)),
+// sampled at the same points (linkResidualSamples; the sender's polynomial
+// beyond its mean is not judged here, as the sender side above bounds the
+// sender's variation by its leaves' means). For the constant basis P_l = F_l
+// and this is the aggregate above. In a closed room the residuals of all
+// links of a receiver still sum to zero at every point (the projection of
+// sum_l F_l(x) = 1 is 1), so the furnace stays exact, and a smooth transfer
+// that the basis represents is not refined.
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
 #include "hr/hierarchy.h"
+#include "transport/coupling.h"
 #include "transport/formfactor.h"
 
 namespace hrad::hr {
@@ -67,11 +81,19 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
                     const std::vector<KernelSamples>& pendingSamples,
                     const std::vector<uint32_t>& acceptedRecv, const std::vector<Link>& accepted,
                     const std::vector<KernelSamples>& acceptedSamples,
-                    std::vector<ReceiverError>& out);
+                    std::vector<ReceiverError>& out, bool residualSamples = false);
 
 /// The kernel samples of the link from surface element s to surface element
 /// r (zeros past the receiver's sample count).
 KernelSamples linkKernelSamples(const Hierarchy& h, const transport::FormFactorEngine& engine,
                                 uint32_t r, uint32_t s);
+
+/// For a polynomial basis: F(x_k) - P(x_k) at the same points, P the
+/// projection of the link's kernel onto the receiver's basis (transport
+/// CouplingEngine::residualSamples). receiverErrors() with residualSamples
+/// = true sums these instead of F(x_k) - F: the error of the receiver's
+/// polynomial irradiance, which is what a higher-order element misses.
+KernelSamples linkResidualSamples(const Hierarchy& h, const transport::CouplingEngine& coupling,
+                                  uint32_t r, uint32_t s);
 
 }  // namespace hrad::hr

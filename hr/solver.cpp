@@ -1,13 +1,13 @@
 #include "hr/solver.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <sstream>
 #include <unordered_map>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "core/log.h"
 #include "core/rng.h"
@@ -76,8 +76,8 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.maxLinks = uint64_t(p.getInt("hr.max_links", int64_t(s.maxLinks), 1, int64_t(1) << 40));
     s.maxSeconds = p.getDouble("hr.max_seconds", s.maxSeconds, 0.0, 1e9);
     int64_t budgetMb = p.getInt("memory.budget_mb", 0, 0, int64_t(1) << 30);
-    s.memoryBudget = budgetMb > 0 ? uint64_t(budgetMb) << 20
-                                  : uint64_t(0.8 * double(physicalMemoryBytes()));
+    s.memoryBudget =
+        budgetMb > 0 ? uint64_t(budgetMb) << 20 : uint64_t(0.8 * double(physicalMemoryBytes()));
     s.ff = transport::FormFactorSettings::fromParams(p, "ff");
     s.clusterModel = cluster::parseClusterModel(
         p.getEnum("cluster.model", "auto", cluster::clusterModelNames()));
@@ -88,15 +88,18 @@ HrSettings HrSettings::fromParams(const Params& p) {
                               {"jacobi", "gauss-seidel"}) == "gauss-seidel";
     s.gsBlocks = int(p.getInt("hr.gs_blocks", s.gsBlocks, 0, 1 << 30));
     s.clusterLink = cluster::ClusterLinkSettings::fromParams(p);
-    s.openPartialReceivers = p.getEnum("cluster.partial_receivers", s.openPartialReceivers ? "open" : "keep",
-                                       {"open", "keep"}) == "open";
+    s.openPartialReceivers =
+        p.getEnum("cluster.partial_receivers", s.openPartialReceivers ? "open" : "keep",
+                  {"open", "keep"}) == "open";
     s.basisDegree = scene::basisDegree(p.getEnum("hr.basis", "constant", scene::basisNames()));
     s.basisPoints = int(p.getInt("hr.basis_points", 0, 0, 16));
-    s.basisNearLevels = int(p.getInt("hr.basis_near_levels", s.basisDegree >= 3 ? 2 : s.basisNearLevels, 0, 4));
+    s.basisNearLevels =
+        int(p.getInt("hr.basis_near_levels", s.basisDegree >= 3 ? 2 : s.basisNearLevels, 0, 4));
     if (s.gaussSeidel && s.basisDegree > 0)
-        throwInputError(p.where("hr.iteration"),
-                        "hr.iteration = gauss-seidel needs hr.basis = constant (the polynomial push-pull "
-                        "runs over all root patches at once)");
+        throwInputError(
+            p.where("hr.iteration"),
+            "hr.iteration = gauss-seidel needs hr.basis = constant (the polynomial push-pull "
+            "runs over all root patches at once)");
     // Validate the oracle settings now (unknown keys included), so a bad
     // setting fails before any work is done.
     Params probe = s.oracleParams;
@@ -109,20 +112,25 @@ HrSettings HrSettings::fromParams(const Params& p) {
 std::string HrSettings::describe() const {
     std::string sched = fmt::format("{}", fmt::join(epsSchedule, ","));
     return fmt::format(
-        "hr(oracle={}, eps_schedule=[{}], min_area={}, min_area_rel={}, max_level={}, "
-        "max_iterations={}, tolerance={}, iteration={}, {}, cluster_model={}, {}, {})",
-        oracle, sched, minArea, minAreaRel, maxLevel, maxIterations, tolerance,
-        gaussSeidel ? fmt::format("gauss-seidel/{}", gsBlocks) : std::string("jacobi"), ff.describe(),
-        cluster::clusterModelName(clusterModel), cluster.describe(), clusterLink.describe()) +
-           (basisDegree > 0 ? fmt::format(" basis={} basis_points={} basis_near_levels={}",
-                                          scene::basisName(basisDegree),
-                                          basisPoints > 0 ? basisPoints : basisDegree + 2, basisNearLevels)
-                            : std::string());
+               "hr(oracle={}, eps_schedule=[{}], min_area={}, min_area_rel={}, max_level={}, "
+               "max_iterations={}, tolerance={}, iteration={}, {}, cluster_model={}, {}, {})",
+               oracle, sched, minArea, minAreaRel, maxLevel, maxIterations, tolerance,
+               gaussSeidel ? fmt::format("gauss-seidel/{}", gsBlocks) : std::string("jacobi"),
+               ff.describe(), cluster::clusterModelName(clusterModel), cluster.describe(),
+               clusterLink.describe()) +
+           (basisDegree > 0
+                ? fmt::format(" basis={} basis_points={} basis_near_levels={}",
+                              scene::basisName(basisDegree),
+                              basisPoints > 0 ? basisPoints : basisDegree + 2, basisNearLevels)
+                : std::string());
 }
 
 HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visibility,
                    HrSettings settings)
-    : scene_(&scene), vis_(&visibility), s_(std::move(settings)), engine_(scene, &visibility, s_.ff) {
+    : scene_(&scene),
+      vis_(&visibility),
+      s_(std::move(settings)),
+      engine_(scene, &visibility, s_.ff) {
     minArea_ = s_.minArea > 0 ? s_.minArea : s_.minAreaRel * scene.totalArea();
     emittedPower_ = maxComponent(scene.emittedPower());
     if (!(emittedPower_ > 0)) emittedPower_ = 1.0;
@@ -220,10 +228,14 @@ cluster::LinkEnd HrSolver::endOf(const Hierarchy& h, uint32_t e) const {
 Decision HrSolver::forcedDecision(const Hierarchy& h, uint32_t r, uint32_t s) const {
     if (r == s) return Decision::RefineBoth;  // a cluster's self-link must be opened
     switch (linker_->opening(endOf(h, r), endOf(h, s))) {
-        case cluster::Opening::None: return Decision::Accept;
-        case cluster::Opening::Receiver: return Decision::RefineReceiver;
-        case cluster::Opening::Sender: return Decision::RefineSender;
-        case cluster::Opening::Both: return Decision::RefineBoth;
+        case cluster::Opening::None:
+            return Decision::Accept;
+        case cluster::Opening::Receiver:
+            return Decision::RefineReceiver;
+        case cluster::Opening::Sender:
+            return Decision::RefineSender;
+        case cluster::Opening::Both:
+            return Decision::RefineBoth;
     }
     return Decision::RefineBoth;
 }
@@ -421,6 +433,12 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
     return e;
 }
 
+KernelSamples HrSolver::linkSamples(const Hierarchy& h, uint32_t r, uint32_t s) const {
+    // A polynomial receiver misses only what its projection misses.
+    return coupling_ ? linkResidualSamples(h, *coupling_, r, s)
+                     : linkKernelSamples(h, engine_, r, s);
+}
+
 std::vector<KernelSamples> HrSolver::kernelSamplesOf(const Hierarchy& h,
                                                      const std::vector<uint32_t>& recv,
                                                      const std::vector<Link>& links) const {
@@ -432,7 +450,7 @@ std::vector<KernelSamples> HrSolver::kernelSamplesOf(const Hierarchy& h,
     tbb::parallel_for(tbb::blocked_range<size_t>(0, links.size(), 256), [&](const auto& range) {
         for (size_t i = range.begin(); i != range.end(); ++i)
             if (surfacePair(h, recv[i], links[i].sender))
-                out[i] = linkKernelSamples(h, engine_, recv[i], links[i].sender);
+                out[i] = linkSamples(h, recv[i], links[i].sender);
     });
     return out;
 }
@@ -442,7 +460,7 @@ double HrSolver::estimateError(const Hierarchy& h) const {
     const std::vector<Link>& links = h.links();
     std::vector<KernelSamples> samples = kernelSamplesOf(h, recv, links);
     std::vector<ReceiverError> err;
-    receiverErrors(h, recv, links, samples, {}, {}, {}, err);
+    receiverErrors(h, recv, links, samples, {}, {}, {}, err, coupling_ != nullptr);
     double sum = 0.0;
     uint32_t last = kNone;
     for (size_t i = 0; i < links.size(); ++i) {
@@ -458,8 +476,8 @@ double HrSolver::estimateError(const Hierarchy& h) const {
     return reflected > 0 ? sum / reflected : 0.0;
 }
 
-uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double eps,
-                          HrResult& res, IterationRecord& rec) {
+uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double eps, HrResult& res,
+                          IterationRecord& rec) {
     std::vector<uint32_t> recv = h.linkReceivers();
     std::vector<Link> pending = h.links();
     std::vector<uint32_t> finalRecv;
@@ -496,9 +514,10 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         if (outOfTime()) {
             // hr.max_seconds: keep the pending links as they are.
             if (!res.timeLimitHit)
-                spdlog::warn("hr.max_seconds = {} reached: refinement and iteration stop; the "
-                             "solution so far is the result",
-                             s_.maxSeconds);
+                spdlog::warn(
+                    "hr.max_seconds = {} reached: refinement and iteration stop; the "
+                    "solution so far is the result",
+                    s_.maxSeconds);
             res.timeLimitHit = true;
             for (size_t i = 0; i < n; ++i) {
                 finalRecv.push_back(recv[i]);
@@ -513,14 +532,16 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
             spdlog::warn("hr.max_links = {} reached: refinement stops here", s_.maxLinks);
         }
         if (!capHit && aggregate)
-            receiverErrors(h, recv, pending, pendingS, finalRecv, finalLinks, finalS, rerr);
+            receiverErrors(h, recv, pending, pendingS, finalRecv, finalLinks, finalS, rerr,
+                           coupling_ != nullptr);
         // Partially visible links into clusters (cluster.partial_receivers):
         // the power each may hand to unseen surfaces of its receiving
         // cluster, and their sum per receiving cluster.
         std::vector<double> misplaced;
         std::vector<double> clusterMisplaced;
         std::vector<uint32_t> clusterPartial;
-        const bool partialCheck = !capHit && s_.openPartialReceivers && checkEps > 0 && h.numClusters() > 0;
+        const bool partialCheck =
+            !capHit && s_.openPartialReceivers && checkEps > 0 && h.numClusters() > 0;
         if (partialCheck) {
             misplaced.assign(n, 0.0);
             tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const auto& range) {
@@ -532,7 +553,8 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                     oracles::LinkEstimate e = linkEstimate(h, recv[i], l, false);
                     double unseen = (l.flags & Link::kUncertain) ? 1.0 : 1.0 - e.visibility;
                     misplaced[i] = maxComponent(e.receiverRho * e.senderB) *
-                                   (e.visibility > 0 ? e.F / e.visibility : e.F) * unseen * e.receiverArea;
+                                   (e.visibility > 0 ? e.F / e.visibility : e.F) * unseen *
+                                   e.receiverArea;
                 }
             });
             clusterMisplaced.assign(h.numClusters(), 0.0);
@@ -590,8 +612,8 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                     // be known well enough: the power it may carry wrongly
                     // (its error bound) within the oracle's eps share.
                     if (d == Decision::Accept && (l.flags & Link::kSampled) && checkEps > 0 &&
-                        maxComponent(e.receiverRho * e.senderB) * e.F *
-                                (l.uncertainty / 100.0) * e.receiverArea >
+                        maxComponent(e.receiverRho * e.senderB) * e.F * (l.uncertainty / 100.0) *
+                                e.receiverArea >
                             checkEps * e.emittedPower)
                         d = forcedDecision(h, r, s);
                     // A partially visible (or all-blocked) link into a
@@ -609,7 +631,8 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                         const uint32_t c = h.clusterIndex(r);
                         const double limit = checkEps * e.emittedPower;
                         if (misplaced[i] > limit ||
-                            (clusterMisplaced[c] > limit && misplaced[i] * clusterPartial[c] >= clusterMisplaced[c]))
+                            (clusterMisplaced[c] > limit &&
+                             misplaced[i] * clusterPartial[c] >= clusterMisplaced[c]))
                             d = oracles::constrain(Decision::RefineReceiver, e);
                     }
                     decision[i] = uint8_t(d);
@@ -649,9 +672,11 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         if (s_.memoryBudget > 0) {
             uint64_t marked = 0;
             for (uint8_t m : mark) marked += m;
-            uint64_t perLink = sizeof(Link) + sizeof(uint32_t) + (aggregate ? sizeof(KernelSamples) : 0) +
-                               (coupling_ ? sizeof(uint32_t) + sizeof(float) * uint64_t(h.basisSize() * h.basisSize())
-                                          : 0);
+            uint64_t perLink =
+                sizeof(Link) + sizeof(uint32_t) + (aggregate ? sizeof(KernelSamples) : 0) +
+                (coupling_
+                     ? sizeof(uint32_t) + sizeof(float) * uint64_t(h.basisSize() * h.basisSize())
+                     : 0);
             uint64_t perElement = h.numElements() ? h.elementBytes() / h.numElements() : 64;
             uint64_t estimate = h.elementBytes() + h.linkBytes() +
                                 (finalLinks.size() + n + newCount) * perLink +
@@ -706,7 +731,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                         nlinks[o] = rc == sc && !h.isCluster(rc) ? Link{} : makeLink(h, rc, sc, nr);
                         nrecv[o] = rc;
                         if (aggregate && nlinks[o].K > 0 && surfacePair(h, rc, sc))
-                            nS[o] = linkKernelSamples(h, engine_, rc, sc);
+                            nS[o] = linkSamples(h, rc, sc);
                         localRays += nr;
                         ++o;
                     }
@@ -760,17 +785,18 @@ HrResult HrSolver::solve(bool progress) {
         s_.clusterModel = scene_->patches.size() > cluster::kAutoClusterPatches
                               ? cluster::ClusterModel::Oriented
                               : cluster::ClusterModel::None;
-        spdlog::info("cluster.model = auto: {} for {} patches", cluster::clusterModelName(s_.clusterModel),
-                     scene_->patches.size());
+        spdlog::info("cluster.model = auto: {} for {} patches",
+                     cluster::clusterModelName(s_.clusterModel), scene_->patches.size());
     }
     res.clusterModel = cluster::clusterModelName(s_.clusterModel);
     if (s_.clusterModel != cluster::ClusterModel::None) {
         res.clusterTree = std::make_unique<cluster::ClusterTree>(*scene_, s_.cluster);
         res.clusterBuildSeconds = res.clusterTree->buildSeconds();
-        spdlog::info("cluster tree ({}{}): {} clusters ({} face clusters, {} planar), depth {}, {:.3f} s",
-                     s_.cluster.builder, s_.cluster.faces ? " + faces" : "", res.clusterTree->size(),
-                     res.clusterTree->numFaceNodes(), res.clusterTree->numPlanarFaceNodes(),
-                     res.clusterTree->depth(), res.clusterBuildSeconds);
+        spdlog::info(
+            "cluster tree ({}{}): {} clusters ({} face clusters, {} planar), depth {}, {:.3f} s",
+            s_.cluster.builder, s_.cluster.faces ? " + faces" : "", res.clusterTree->size(),
+            res.clusterTree->numFaceNodes(), res.clusterTree->numPlanarFaceNodes(),
+            res.clusterTree->depth(), res.clusterBuildSeconds);
     }
     res.hierarchy = std::make_unique<Hierarchy>(*scene_, res.clusterTree.get(), s_.clusterModel,
                                                 s_.basisDegree);
@@ -822,7 +848,8 @@ HrResult HrSolver::solve(bool progress) {
             rec.refinedLinks = refine(h, *oracle, stages[stage], res, rec);
             rec.refineSeconds = tr.seconds();
             if (s_.gaussSeidel) {
-                h.sweep(s_.gsBlocks > 0 ? s_.gsBlocks : int(std::min<uint32_t>(h.numPatches(), 1u << 30)),
+                h.sweep(s_.gsBlocks > 0 ? s_.gsBlocks
+                                        : int(std::min<uint32_t>(h.numPatches(), 1u << 30)),
                         &rec.gatherSeconds, &rec.pushPullSeconds);
             } else {
                 Timer tg;
@@ -875,12 +902,13 @@ HrResult HrSolver::solve(bool progress) {
                     double scale = std::fabs(reflected[c]);
                     if (!(std::fabs(change[c]) > 1e-13 * scale)) continue;  // settled
                     double q = tailLastChange[c] != 0.0 ? change[c] / tailLastChange[c] : 0.0;
-                    double tail = q >= 1.0 ? std::numeric_limits<double>::infinity()
+                    double tail = q >= 1.0  ? std::numeric_limits<double>::infinity()
                                   : q > 0.0 ? std::fabs(change[c]) * q / (1.0 - q)
                                             : std::fabs(change[c]);
                     worst = std::max(worst, scale > 0 ? tail / scale : tail);
                 }
-                rec.iterationError = clean && tailLastClean ? worst : std::numeric_limits<double>::infinity();
+                rec.iterationError =
+                    clean && tailLastClean ? worst : std::numeric_limits<double>::infinity();
                 tailLastChange = change;
                 tailLastClean = clean;
             }
@@ -903,16 +931,17 @@ HrResult HrSolver::solve(bool progress) {
                     rec.refineSeconds + rec.gatherSeconds + rec.pushPullSeconds);
             if (hook_) hook_(h, rec);
             res.history.push_back(rec);
-            if (rec.refinedLinks == 0 && it + 1 >= s_.minIterations && rec.residual < s_.tolerance &&
-                rec.iterationError < s_.tolerance) {
+            if (rec.refinedLinks == 0 && it + 1 >= s_.minIterations &&
+                rec.residual < s_.tolerance && rec.iterationError < s_.tolerance) {
                 stageConverged = true;
                 break;
             }
             if (outOfTime()) {
                 if (!res.timeLimitHit)
-                    spdlog::warn("hr.max_seconds = {} reached after iteration {}: the solution so "
-                                 "far is the result",
-                                 s_.maxSeconds, rec.iteration);
+                    spdlog::warn(
+                        "hr.max_seconds = {} reached after iteration {}: the solution so "
+                        "far is the result",
+                        s_.maxSeconds, rec.iteration);
                 res.timeLimitHit = true;
                 break;
             }

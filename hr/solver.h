@@ -188,8 +188,8 @@ struct HrSettings {
     double receiverEps = -1.0;
     bool extrapolate = true;
     bool openPartialReceivers = true;  ///< cluster.partial_receivers
-    bool gaussSeidel = false;  ///< hr.iteration
-    int gsBlocks = 0;          ///< hr.gs_blocks (0: one block per root patch)
+    bool gaussSeidel = false;          ///< hr.iteration
+    int gsBlocks = 0;                  ///< hr.gs_blocks (0: one block per root patch)
     cluster::ClusterLinkSettings clusterLink;
     /// hr.basis as a degree: 0 constant, 1 linear, 2 quadratic, 3 cubic.
     int basisDegree = 0;
@@ -210,12 +210,12 @@ struct HrSettings {
 struct IterationRecord {
     int iteration = 0;  ///< 1-based, counted across stages
     int stage = 0;
-    double eps = 0.0;   ///< oracle eps of the stage (NaN when the oracle has none)
+    double eps = 0.0;  ///< oracle eps of the stage (NaN when the oracle has none)
     uint64_t links = 0, elements = 0, leaves = 0;
-    uint64_t refinedLinks = 0;   ///< links replaced by refinement this iteration
-    uint64_t rays = 0;           ///< occlusion rays cast this iteration
-    uint64_t formFactors = 0;    ///< form factors computed this iteration
-    double residual = 0.0;       ///< relative change of reflected power
+    uint64_t refinedLinks = 0;  ///< links replaced by refinement this iteration
+    uint64_t rays = 0;          ///< occlusion rays cast this iteration
+    uint64_t formFactors = 0;   ///< form factors computed this iteration
+    double residual = 0.0;      ///< relative change of reflected power
     /// Estimated relative error of the reflected power still to come from
     /// further iterations on the same links (the geometric tail, below);
     /// infinite when it cannot be estimated yet.
@@ -239,7 +239,8 @@ struct HrResult {
     bool memoryBudgetHit = false;  ///< refinement stopped at memory.budget_mb
     bool timeLimitHit = false;     ///< stopped at hr.max_seconds
     uint64_t initialLinks = 0;
-    uint64_t initialPairs = 0;  ///< node pairs evaluated by initial linking (k(k-1) without clusters)
+    uint64_t initialPairs =
+        0;  ///< node pairs evaluated by initial linking (k(k-1) without clusters)
     std::unique_ptr<cluster::ClusterTree> clusterTree;
     std::string clusterModel;  ///< the model used (auto resolved)
     double clusterBuildSeconds = 0.0;
@@ -302,6 +303,10 @@ class HrSolver {
     std::vector<KernelSamples> kernelSamplesOf(const Hierarchy& h,
                                                const std::vector<uint32_t>& recv,
                                                const std::vector<Link>& links) const;
+    /// The samples the receiver aggregate sums for the surface link s -> r:
+    /// the kernel's (constant basis) or its projection residual's
+    /// (polynomial basis), hr/receiver_error.h.
+    KernelSamples linkSamples(const Hierarchy& h, uint32_t r, uint32_t s) const;
     void initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vector<Link>& links,
                       HrResult& res, bool progress);
     /// One refinement pass; `eps` is the stage's oracle eps (NaN: none),
@@ -340,8 +345,8 @@ class HrSolver {
     bool progress_ = false;  ///< progress bars on stderr (solve's argument)
     Timer solveTimer_;       ///< started by solve() (hr.max_seconds)
     bool outOfTime() const { return s_.maxSeconds > 0 && solveTimer_.seconds() > s_.maxSeconds; }
-    std::unique_ptr<cluster::ClusterLinker> linker_;  ///< made by solve() with the tree
-    std::unique_ptr<scene::BasisSet> basis_;              ///< degree > 0
+    std::unique_ptr<cluster::ClusterLinker> linker_;       ///< made by solve() with the tree
+    std::unique_ptr<scene::BasisSet> basis_;               ///< degree > 0
     std::unique_ptr<transport::CouplingEngine> coupling_;  ///< degree > 0
 };
 

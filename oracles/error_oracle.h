@@ -51,6 +51,14 @@
 // are computed once per link when it is made and cached with it (36 bytes
 // per link, Hierarchy::kernelSamples); each refinement round sums them.
 //
+// Polynomial bases (hr.basis linear, quadratic, cubic). The receiver's
+// irradiance is then the projection of each link's kernel onto its basis,
+// so D(x) above sums F_l(x) - P_l(x) instead of F_l(x) - F_l (P_l the
+// projection; hr/receiver_error.h): the aggregate judges what the basis
+// misses, a higher degree refines less where the transfer is smooth, and
+// for the constant basis the rule is the one above. Links touching a
+// cluster exchange the constant term only and keep the per-link estimate.
+//
 // Settings:
 //   eps       double  1e-3     threshold (0, 1], relative as set by norm
 //   norm      string  "power"  "power" | "radiosity" (see above)

@@ -179,19 +179,28 @@ uint32_t CouplingEngine::compute(const ElementRef& r, const ElementRef& s, doubl
     return cast;
 }
 
-double CouplingEngine::projectionResidual(const ElementRef& r, const ElementRef& s) const {
+void CouplingEngine::projectColumn0(const ElementRef& r, const ElementRef& s, double* K0) const {
     const scene::Patch& pr = scene_->patches[r.patch];
-    const bool isQuad = pr.kind == scene::PatchKind::Quad;
-    const scene::QuadratureRule& q = isQuad ? quad_ : tri_;
+    const scene::QuadratureRule& q = pr.kind == scene::PatchKind::Quad ? quad_ : tri_;
     const scene::Basis& br = basis_->of(pr.kind);
     const int nb = br.size();
-    double K0[scene::kMaxBasisSize] = {}, phi[scene::kMaxBasisSize];
+    double phi[scene::kMaxBasisSize];
+    std::fill(K0, K0 + nb, 0.0);
     for (size_t i = 0; i < q.size(); ++i) {
         Vec3 x = scene::elementPoint(pr, r.dom, q.points[i].x, q.points[i].y);
         double F = ff_->pointToElement(x, pr.normal, s);
         br.eval(q.points[i].x, q.points[i].y, phi);
         for (int a = 0; a < nb; ++a) K0[a] += q.weights[i] * phi[a] * F;
     }
+}
+
+double CouplingEngine::projectionResidual(const ElementRef& r, const ElementRef& s) const {
+    const scene::Patch& pr = scene_->patches[r.patch];
+    const bool isQuad = pr.kind == scene::PatchKind::Quad;
+    const scene::Basis& br = basis_->of(pr.kind);
+    const int nb = br.size();
+    double K0[scene::kMaxBasisSize], phi[scene::kMaxBasisSize];
+    projectColumn0(r, s, K0);
     static constexpr double kQuad[9][2] = {{0, 0},   {1, 0},   {1, 1},   {0, 1},    {0.5, 0},
                                            {1, 0.5}, {0.5, 1}, {0, 0.5}, {0.5, 0.5}};
     static constexpr double kTri[7][2] = {
@@ -210,6 +219,37 @@ double CouplingEngine::projectionResidual(const ElementRef& r, const ElementRef&
         worst = std::max(worst, std::fabs(P - ff_->pointToElement(x, pr.normal, s)));
     }
     return worst;
+}
+
+int CouplingEngine::residualSamples(const ElementRef& r, const ElementRef& s,
+                                    double out[FormFactorEngine::kMaxKernelSamples]) const {
+    const scene::Patch& pr = scene_->patches[r.patch];
+    const scene::Basis& br = basis_->of(pr.kind);
+    const int nb = br.size();
+    double K0[scene::kMaxBasisSize], phi[scene::kMaxBasisSize];
+    projectColumn0(r, s, K0);
+    // The points of FormFactorEngine::kernelSamplePoints in local
+    // coordinates: corner i, the midpoint of edge (i, i+1), inset 1e-6
+    // towards the centre, then the centre.
+    const int nc = pr.kind == scene::PatchKind::Quad ? 4 : 3;
+    const Vec2 centre = pr.kind == scene::PatchKind::Quad ? Vec2(0.5) : Vec2(1.0 / 3.0);
+    Vec2 pts[FormFactorEngine::kMaxKernelSamples];
+    int m = 0;
+    for (int i = 0; i < nc; ++i) {
+        Vec2 a = scene::cornerLocal(pr.kind, i), b = scene::cornerLocal(pr.kind, (i + 1) % nc);
+        pts[m++] = a + 1e-6 * (centre - a);
+        Vec2 mid = 0.5 * (a + b);
+        pts[m++] = mid + 1e-6 * (centre - mid);
+    }
+    pts[m++] = centre;
+    for (int k = 0; k < m; ++k) {
+        Vec3 x = scene::elementPoint(pr, r.dom, pts[k].x, pts[k].y);
+        br.eval(pts[k].x, pts[k].y, phi);
+        double P = 0.0;
+        for (int a = 0; a < nb; ++a) P += phi[a] * K0[a];
+        out[k] = ff_->pointToElement(x, pr.normal, s) - P;
+    }
+    return m;
 }
 
 }  // namespace hrad::transport

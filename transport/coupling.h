@@ -80,7 +80,22 @@ class CouplingEngine {
     /// finite contour integral). Geometry only: no rays.
     double projectionResidual(const ElementRef& r, const ElementRef& s) const;
 
+    /// The same residual, signed, at the receiver's kernel sample points
+    /// (FormFactorEngine::kernelSamplePoints: corners and edge midpoints
+    /// inset 1e-6 towards the centre, then the centre, in that order):
+    /// out[k] = F(x_k) - P(x_k). Summed over a receiver's links, it is the
+    /// error of the receiver's polynomial irradiance (hr/receiver_error.h);
+    /// in a closed room the sum over senders is zero at every x_k (the
+    /// column-0 rule does not depend on the sender, and sum_s F_s(x) = 1
+    /// projects onto 1). Returns the number of points (9 quads, 7 triangles).
+    int residualSamples(const ElementRef& r, const ElementRef& s,
+                        double out[FormFactorEngine::kMaxKernelSamples]) const;
+
   private:
+    /// K0[a] = integral over the receiver of phi_a(x) F(x) (the column b = 0
+    /// of compute() without visibility, base rule).
+    void projectColumn0(const ElementRef& r, const ElementRef& s, double* K0) const;
+
     const scene::Scene* scene_;
     const Visibility* vis_;
     const FormFactorEngine* ff_;
