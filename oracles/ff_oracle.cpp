@@ -1,8 +1,8 @@
 #include "oracles/ff_oracle.h"
 
-#include <algorithm>
-
 #include <fmt/format.h>
+
+#include <algorithm>
 
 namespace hrad::oracles {
 
@@ -11,11 +11,13 @@ FormFactorOracle::Settings FormFactorOracle::Settings::fromParams(const Params& 
     s.eps = p.getDouble("eps", s.eps, 0.0, 1.0, true);
     s.minArea = p.getDouble("min_area", s.minArea, 0.0, 1e300);
     s.useBound = p.getBool("use_bound", s.useBound);
+    s.basisResidual = p.getBool("basis_residual", s.basisResidual);
     return s;
 }
 
 Decision FormFactorOracle::decide(const LinkEstimate& e) const {
     double frs = s_.useBound ? e.Fupper : e.unoccludedF;
+    if (needsBasisResidual() && e.basisResidualF >= 0.0) frs = e.basisResidualF;
     double fsr = e.senderArea > 0 ? frs * e.receiverArea / e.senderArea : 0.0;
     if (std::max(frs, fsr) < s_.eps) return Decision::Accept;
     LinkEstimate c = e;
@@ -26,7 +28,8 @@ Decision FormFactorOracle::decide(const LinkEstimate& e) const {
 }
 
 std::string FormFactorOracle::describe() const {
-    return fmt::format("ff(eps={}, min_area={}, use_bound={})", s_.eps, s_.minArea, s_.useBound);
+    return fmt::format("ff(eps={}, min_area={}, use_bound={}{})", s_.eps, s_.minArea, s_.useBound,
+                       s_.basisResidual ? "" : ", basis_residual=false");
 }
 
 }  // namespace hrad::oracles

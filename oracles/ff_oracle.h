@@ -5,8 +5,19 @@
 // neither element may be subdivided (area below A_eps); otherwise the element
 // that looks larger from the other one is subdivided.
 //
+// Polynomial bases (hr.basis linear, quadratic, cubic). F stands for the
+// error of a constant link (the whole transfer may be misplaced over the
+// receiver); a higher-order receiver misses only what the projection of the
+// kernel onto its basis misses, so the residual R_rs (LinkEstimate::
+// basisResidualF, the rule of `bfa`, oracles/bfa_oracle.h) takes F's place in
+// both tests: accept when R_rs and R_rs A_r / A_s are below F_eps. Partially
+// visible links keep F (the residual of the unoccluded kernel does not see a
+// shadow edge). basis_residual = false or use_bound restore the constant rule.
+// (`uniform` fixes the mesh by definition and stays blind to the basis.)
+//
 // Settings:
 //   eps          double  0.01   F_eps, form-factor threshold (0, 1]
+//   basis_residual bool  true   higher-order bases: judge by R_rs (above)
 //   min_area     double  0      A_eps: elements at or below this area are not
 //                               subdivided by this oracle (0: only the solver's
 //                               own minimum element area applies)
@@ -24,10 +35,12 @@ class FormFactorOracle final : public Oracle {
         double eps = 0.01;
         double minArea = 0.0;
         bool useBound = false;
+        bool basisResidual = true;
         static Settings fromParams(const Params& p);
     };
     explicit FormFactorOracle(Settings s) : s_(s) {}
     Decision decide(const LinkEstimate& e) const override;
+    bool needsBasisResidual() const override { return s_.basisResidual && !s_.useBound; }
     std::string name() const override { return "ff"; }
     std::string describe() const override;
     const Settings& settings() const { return s_; }

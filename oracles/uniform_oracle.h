@@ -5,7 +5,9 @@
 // subdivide), so the solution is the classical radiosity method on a uniform
 // mesh with all element pairs linked (Cohen & Wallace 1993, ch. 5), solved by
 // the same gather/push-pull machinery. Comparing it with `bfa` and `ff` at
-// equal accuracy isolates what hierarchy buys.
+// equal accuracy isolates what hierarchy buys. It is blind to hr.basis on
+// purpose: the mesh is the same for every basis, so that comparing bases on
+// it isolates what the basis buys (papers/studies/bases.toml).
 //
 // Settings:
 //   level   int  3   target subdivision depth of every element (0..20)

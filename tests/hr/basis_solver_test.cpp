@@ -316,13 +316,16 @@ TEST(Coupling, ResidualSamplesOfAClosedBoxCancel) {
 // the perpendicular plates at eps 1e-4: error 1,658 / 518 / 290 / 236 links,
 // kv 1,004 / 446 / 284 / 248 (constant / linear / quadratic / cubic); judged
 // like the constant basis they had the constant's links, 1,658 and 1,004.
+// ff (oracles/ff_oracle.h) judges a higher-order link by the residual form
+// factor: at F_eps 1e-2, 76,340 / 27,140 / 11,012 / 8,132 links.
 TEST(BasisSolver, ErrorOraclesRefineLessForHigherDegrees) {
     scene::Scene s = scene::makeBuiltin("plates:perpendicular:1:1:1");
     transport::Visibility vis(s);
-    for (const char* oracle : {"error", "kv"}) {
+    for (const char* oracle : {"error", "kv", "ff"}) {
         uint64_t last = UINT64_MAX, constant = 0;
+        const double eps = std::string(oracle) == "ff" ? 1e-2 : 1e-4;
         for (const char* b : {"constant", "linear", "quadratic", "cubic"}) {
-            HrResult r = HrSolver(s, vis, basisSettings(oracle, 1e-4, b)).solve();
+            HrResult r = HrSolver(s, vis, basisSettings(oracle, eps, b)).solve();
             const uint64_t links = r.hierarchy->numLinks();
             std::cout << oracle << " " << b << ": " << links << " links\n";
             EXPECT_LT(links, last) << oracle << " " << b;
@@ -371,6 +374,35 @@ TEST(BasisSolver, BfaRefinesLessForHigherDegrees) {
     uint64_t offLinks = HrSolver(s, vis, off).solve().hierarchy->numLinks();
     // Not equal: the radiosities B_s the rule multiplies differ a little.
     EXPECT_NEAR(double(offLinks), double(constantLinks), 0.02 * double(constantLinks));
+}
+
+// ff puts the residual form factor in F's place (oracles/ff_oracle.h).
+TEST(FfOracle, UsesTheBasisResidualWhenGiven) {
+    Params p;
+    p.set("eps", 1e-2);
+    auto o = oracles::createOracle("ff", p);
+    EXPECT_TRUE(o->needsBasisResidual());
+    oracles::LinkEstimate e;
+    e.F = e.unoccludedF = 0.2;
+    e.receiverArea = 1.0;
+    e.senderArea = 2.0;
+    e.receiverCanSubdivide = e.senderCanSubdivide = true;
+    EXPECT_NE(o->decide(e), oracles::Decision::Accept);  // 0.2 > 1e-2
+    e.basisResidualF = 9e-3;                             // 9e-3 and 4.5e-3 < 1e-2
+    EXPECT_EQ(o->decide(e), oracles::Decision::Accept);
+    e.senderArea = 0.5;  // R A_r / A_s = 1.8e-2 > 1e-2
+    EXPECT_NE(o->decide(e), oracles::Decision::Accept);
+    e.senderArea = 2.0;
+    Params q;
+    q.set("eps", 1e-2);
+    q.set("basis_residual", false);
+    auto off = oracles::createOracle("ff", q);
+    EXPECT_FALSE(off->needsBasisResidual());
+    EXPECT_NE(off->decide(e), oracles::Decision::Accept);
+    Params u;
+    u.set("eps", 1e-2);
+    u.set("use_bound", true);
+    EXPECT_FALSE(oracles::createOracle("ff", u)->needsBasisResidual());
 }
 
 TEST(BfaOracle, UsesTheBasisResidualWhenGiven) {
