@@ -33,6 +33,46 @@ void leafRanges(const Hierarchy& h, std::vector<RGB>& lo, std::vector<RGB>& hi) 
 }
 }  // namespace
 
+void senderTotals(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
+                  const std::vector<Link>& pending, const std::vector<uint32_t>& acceptedRecv,
+                  const std::vector<Link>& accepted, std::vector<SenderTotal>& out) {
+    const uint32_t n = h.numElements();
+    std::vector<RGB> lo, hi;
+    leafRanges(h, lo, hi);
+    auto term = [&](uint32_t r, const Link& l) -> double {
+        const uint32_t s = l.sender;
+        if (h.isCluster(r) || s == kNone || h.isCluster(s) || (l.flags & Link::kOpen) ||
+            h.firstChild(s) == kNone)
+            return -1.0;
+        const RGB spread = glm::max(hi[s] - h.B(s), h.B(s) - lo[s]);
+        return h.area(r) * double(l.K) * maxComponent(h.rho(r) * spread);
+    };
+    std::vector<double> total(n, 0.0);
+    std::vector<uint32_t> count(n, 0);
+    std::vector<float> own(pending.size(), -1.f);
+    for (size_t i = 0; i < accepted.size(); ++i) {
+        double t = term(acceptedRecv[i], accepted[i]);
+        if (t > 0.0) {
+            total[accepted[i].sender] += t;
+            ++count[accepted[i].sender];
+        }
+    }
+    for (size_t i = 0; i < pending.size(); ++i) {
+        double t = term(pendingRecv[i], pending[i]);
+        own[i] = float(t);
+        if (t > 0.0) {
+            total[pending[i].sender] += t;
+            ++count[pending[i].sender];
+        }
+    }
+    out.assign(pending.size(), SenderTotal{});
+    for (size_t i = 0; i < pending.size(); ++i) {
+        if (own[i] < 0.f) continue;
+        const uint32_t s = pending[i].sender;
+        out[i] = SenderTotal{float(total[s]), own[i], count[s]};
+    }
+}
+
 KernelSamples linkKernelSamples(const Hierarchy& h, const transport::FormFactorEngine& engine,
                                 uint32_t r, uint32_t s) {
     KernelSamples out{};

@@ -71,6 +71,29 @@ struct ReceiverError {
     float senderSum = 0.f, linkSender = 0.f;
 };
 
+/// The sender side summed per sender (hr.sender_total): a subdivided sender
+/// s whose average is gathered through surface links misplaces, over all
+/// their receivers together, the power
+///   P_s = sum over surface links l from s of A_r K_l max_c rho_r,c spread_s,c,
+/// spread_s = max(hi - B_s, B_s - lo) over its leaves' radiosities. Judged
+/// receiver by receiver (the sender aggregate above, in the power norm) each
+/// term is small when the receivers are small, but every receiver along a
+/// bright edge of the sender makes the same error and refinement makes more
+/// of them as eps falls: a floor (papers/README.md, "The constant basis's
+/// floor on the plates"). By reciprocity P_s <= rho A_s spread_s F_s, which
+/// does not grow with the number of receivers.
+struct SenderTotal {
+    float total = -1.f;  ///< P_s; negative: not evaluated (not a surface link)
+    float link = 0.f;    ///< this link's term
+    uint32_t links = 0;  ///< surface links from s with a positive term
+};
+
+/// P_s for the sender of every link of `pending` (links in `pending` and
+/// `accepted` both count), and the link's own term.
+void senderTotals(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
+                  const std::vector<Link>& pending, const std::vector<uint32_t>& acceptedRecv,
+                  const std::vector<Link>& accepted, std::vector<SenderTotal>& out);
+
 /// For every link of `pending` whose receiver and sender are surface
 /// elements: the aggregate over all surface links of its receiver, in
 /// `pending` and in `accepted` together (the links refinement has already

@@ -83,6 +83,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
         p.getEnum("cluster.model", "auto", cluster::clusterModelNames()));
     s.cluster = cluster::ClusterSettings::fromParams(p);
     s.receiverEps = p.getDouble("hr.receiver_eps", -1.0, -1.0, 1.0);
+    s.senderTotal = p.getBool("hr.sender_total", s.senderTotal);
     s.extrapolate = p.getBool("hr.extrapolate", s.extrapolate);
     s.gaussSeidel = p.getEnum("hr.iteration", s.gaussSeidel ? "gauss-seidel" : "jacobi",
                               {"jacobi", "gauss-seidel"}) == "gauss-seidel";
@@ -531,6 +532,9 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
             res.linkCapHit = true;
             spdlog::warn("hr.max_links = {} reached: refinement stops here", s_.maxLinks);
         }
+        std::vector<SenderTotal> stot;
+        if (!capHit && s_.senderTotal && oracle.needsReceiverError())
+            senderTotals(h, recv, pending, finalRecv, finalLinks, stot);
         if (!capHit && aggregate)
             receiverErrors(h, recv, pending, pendingS, finalRecv, finalLinks, finalS, rerr,
                            coupling_ != nullptr);
@@ -601,6 +605,11 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                             e.senderAggregate = rerr[i].senderSum;
                             e.linkSenderPart = rerr[i].linkSender;
                         }
+                    }
+                    if (!stot.empty() && stot[i].total >= 0.f) {
+                        e.senderTotal = stot[i].total;
+                        e.linkSenderTotal = stot[i].link;
+                        e.senderLinks = stot[i].links;
                     }
                     Decision d = oracles::constrain(oracle.decide(e), e);
                     if (d == Decision::Accept && guardEps > 0.0 && e.receiverRange >= 0.0 &&

@@ -183,6 +183,9 @@ struct HrSettings {
     transport::FormFactorSettings ff;
     cluster::ClusterModel clusterModel = cluster::ClusterModel::Auto;
     cluster::ClusterSettings cluster;
+    /// hr.sender_total: error and kv also bound the sender-side error summed
+    /// per sender over all its receivers (hr/receiver_error.h SenderTotal).
+    bool senderTotal = false;
     /// hr.receiver_eps: the receiver-aggregate check for oracles that do not
     /// judge it themselves (see solver.h header); negative = the default.
     double receiverEps = -1.0;

@@ -93,6 +93,13 @@ Decision VariationOracle::decide(const LinkEstimate& e) const {
                       e.linkSenderPart > 0.0 &&
                       e.linkSenderPart * std::max<uint32_t>(1, e.receiverLinks) >= e.senderAggregate
                 : !errorWithinEps(e.F * e.senderSpread * e.importance, s_.eps, s_.norm, e);
+        // The same error summed over every receiver of the sender (when the
+        // solver gives it, hr.sender_total): in power, against eps times
+        // the emitted power, the links with at least an even share refined.
+        if (!senderBad && e.senderTotal >= 0.0 && s_.norm == ErrorNorm::Power &&
+            e.senderTotal * e.importance > s_.eps * e.emittedPower &&
+            e.linkSenderTotal * std::max<uint32_t>(1, e.senderLinks) >= e.senderTotal)
+            senderBad = true;
         if (!receiverBad && !senderBad) return Decision::Accept;
         Decision d = receiverBad && senderBad ? Decision::RefineBoth
                      : receiverBad            ? Decision::RefineReceiver

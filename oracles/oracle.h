@@ -79,6 +79,11 @@ struct LinkEstimate {
     /// this link's own term; negative when not evaluated. The error of
     /// gathering averaged senders, which accumulates with one sign.
     double senderAggregate = -1.0, linkSenderPart = 0.0;
+    /// Sender side summed per sender over all its receivers (power, max
+    /// channel; hr/receiver_error.h SenderTotal, hr.sender_total): negative
+    /// when not evaluated; this link's term; the sender's counted links.
+    double senderTotal = -1.0, linkSenderTotal = 0.0;
+    uint32_t senderLinks = 0;
     int receiverLevel = 0, senderLevel = 0;
     bool receiverCanSubdivide = false, senderCanSubdivide = false;
     bool receiverIsCluster = false, senderIsCluster = false;
