@@ -96,6 +96,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.basisPoints = int(p.getInt("hr.basis_points", 0, 0, 16));
     s.basisNearLevels =
         int(p.getInt("hr.basis_near_levels", s.basisDegree >= 3 ? 2 : s.basisNearLevels, 0, 4));
+    s.basisCheck = p.getDouble("hr.basis_check", s.basisCheck, 0.0, 1e300);
     if (s.gaussSeidel && s.basisDegree > 0)
         throwInputError(
             p.where("hr.iteration"),
@@ -120,9 +121,10 @@ std::string HrSettings::describe() const {
                ff.describe(), cluster::clusterModelName(clusterModel), cluster.describe(),
                clusterLink.describe()) +
            (basisDegree > 0
-                ? fmt::format(" basis={} basis_points={} basis_near_levels={}",
+                ? fmt::format(" basis={} basis_points={} basis_near_levels={} basis_check={}",
                               scene::basisName(basisDegree),
-                              basisPoints > 0 ? basisPoints : basisDegree + 2, basisNearLevels)
+                              basisPoints > 0 ? basisPoints : basisDegree + 2, basisNearLevels,
+                              basisCheck)
                 : std::string());
 }
 
@@ -143,7 +145,8 @@ HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visib
         basis_ = std::make_unique<scene::BasisSet>(s_.basisDegree);
         coupling_ = std::make_unique<transport::CouplingEngine>(
             scene, &visibility, engine_, *basis_,
-            s_.basisPoints > 0 ? s_.basisPoints : s_.basisDegree + 2, s_.basisNearLevels);
+            s_.basisPoints > 0 ? s_.basisPoints : s_.basisDegree + 2, s_.basisNearLevels,
+            s_.basisCheck);
     }
 }
 
@@ -960,6 +963,11 @@ HrResult HrSolver::solve(bool progress) {
     }
     res.field = std::make_unique<HierarchyField>(h);
     Timer te;
+    if (coupling_ && coupling_->fallbacks() > 0)
+        spdlog::info(
+            "coupling: {} link evaluations kept only the sender's mean (the point-to-point "
+            "rule missed the exact form factors by more than hr.basis_check = {})",
+            coupling_->fallbacks(), s_.basisCheck);
     res.errorEstimate = estimateError(h);
     res.errorEstimateSeconds = te.seconds();
     h.reportMemory(res.memory);

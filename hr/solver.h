@@ -71,6 +71,9 @@
 //                                       today's solver, bit for bit
 //   hr.basis_points    int     0       quadrature points per axis on each element for the
 //                                       coupling coefficients (0: degree + 2)
+//   hr.basis_check     double  0.5     a link whose point-to-point rule misses the exact point
+//                                       form factors by more than this (relative, weighted)
+//                                       keeps only the sender's mean (transport/coupling.h)
 //   hr.basis_near_levels int   1       near pairs use that rule on each of 4^k sub-elements
 //                                       of both elements (transport/coupling.h); 2 for the
 //                                       cubic basis, whose coupling with one level had a
@@ -185,7 +188,7 @@ struct HrSettings {
     cluster::ClusterSettings cluster;
     /// hr.sender_total: error and kv also bound the sender-side error summed
     /// per sender over all its receivers (hr/receiver_error.h SenderTotal).
-    bool senderTotal = false;
+    bool senderTotal = true;
     /// hr.receiver_eps: the receiver-aggregate check for oracles that do not
     /// judge it themselves (see solver.h header); negative = the default.
     double receiverEps = -1.0;
@@ -201,6 +204,10 @@ struct HrSettings {
     int basisPoints = 0;
     /// hr.basis_near_levels (transport/coupling.h).
     int basisNearLevels = 1;
+    /// hr.basis_check (transport/coupling.h): relative error of the
+    /// point-to-point rule's form factors past which a link keeps only the
+    /// sender's mean.
+    double basisCheck = 0.5;
 
     /// Reads the keys above (marks "oracle.*" used only after the oracle has
     /// read them: see HrSolver). Throws InputError on bad values or an unknown

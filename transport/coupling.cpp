@@ -60,8 +60,9 @@ double elementRadius(const scene::Patch& p, const scene::Domain& d, const Vec3& 
 
 CouplingEngine::CouplingEngine(const scene::Scene& scene, const Visibility* visibility,
                                const FormFactorEngine& ff, const scene::BasisSet& basis, int points,
-                               int nearLevels)
-    : scene_(&scene),
+                               int nearLevels, double checkTolerance)
+    : checkTolerance_(checkTolerance),
+      scene_(&scene),
       vis_(visibility),
       ff_(&ff),
       basis_(&basis),
@@ -142,8 +143,16 @@ uint32_t CouplingEngine::compute(const ElementRef& r, const ElementRef& s, doubl
     std::vector<uint8_t> occ;
     double phiR[scene::kMaxBasisSize];
     // Pass 1: column 0 on the base receiver rule; pass 2: columns >= 1 on qr.
+    double kernelDev = 0.0, kernelRef = 0.0;
     for (int pass = 0; pass < 2; ++pass) {
         if (pass == 1 && nb == 1) break;
+        if (pass == 1 && kernelRef > 0.0 && kernelDev > checkTolerance_ * kernelRef) {
+            // The point-to-point rule does not reproduce the exact point form
+            // factors (a sliver next to its sender): its higher columns would
+            // be wrong, so the link carries the sender's mean only.
+            ++fallbacks_;
+            break;
+        }
         const scene::QuadratureRule& q = pass == 0 ? q0 : qr;
         for (size_t i = 0; i < q.size(); ++i) {
             Vec3 x = scene::elementPoint(pr, r.dom, q.points[i].x, q.points[i].y);
@@ -164,7 +173,10 @@ uint32_t CouplingEngine::compute(const ElementRef& r, const ElementRef& s, doubl
                 // The exact point-to-element form factor, times the
                 // kernel-weighted visible fraction of the sender points.
                 double frac = rays ? (all > 0.0 ? open / all : 0.0) : 1.0;
-                inner[0] = ff_->pointToElement(x, pr.normal, s) * frac;
+                const double exact = ff_->pointToElement(x, pr.normal, s);
+                inner[0] = exact * frac;
+                kernelDev += q.weights[i] * std::fabs(all - exact);
+                kernelRef += q.weights[i] * exact;
             }
             for (int a = 0; a < nb; ++a) {
                 double wa = q.weights[i] * phiR[a] * vconst;

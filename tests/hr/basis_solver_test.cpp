@@ -310,6 +310,49 @@ TEST(Coupling, ResidualSamplesOfAClosedBoxCancel) {
     }
 }
 
+// The check on the point-to-point rule (hr.basis_check, transport/
+// coupling.h): two slivers 7 mm x 1.2 m meeting at a right angle along their
+// long edge (the chamfers of the classroom's tables) defeat it, and the link
+// keeps its exact column 0 and no higher columns; two unit squares meeting
+// at a right angle (a Cornell box corner) are integrated well and keep all.
+TEST(Coupling, SliversKeepOnlyTheSendersMean) {
+    const double w = 0.007, len = 1.2;
+    scene::Scene s;
+    s.name = "test-sliver-groove";
+    uint32_t m = s.addMaterial({"grey", RGB(0.5), RGB(0.0)});
+    ASSERT_TRUE(s.addQuad({0, 0, 0}, {0, 0, w}, {len, 0, w}, {len, 0, 0}, m));  // normal +y
+    ASSERT_TRUE(s.addQuad({0, 0, 0}, {len, 0, 0}, {len, w, 0}, {0, w, 0}, m));  // normal +z
+    ASSERT_TRUE(s.addQuad({0, 0, 0}, {0, 0, 1}, {1, 0, 1}, {1, 0, 0}, m));      // a corner of
+    ASSERT_TRUE(s.addQuad({0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, m));      // unit squares
+    EXPECT_GT(s.patches[0].normal.y, 0.99);
+    EXPECT_GT(s.patches[1].normal.z, 0.99);
+    transport::FormFactorEngine ff(s, nullptr, transport::FormFactorSettings{});
+    for (int degree = 1; degree <= 2; ++degree) {
+        scene::BasisSet basis(degree);
+        transport::CouplingEngine ce(s, nullptr, ff, basis, degree + 2, 1, 0.5);
+        const int n = basis.size();
+        std::vector<float> K(size_t(n * n));
+        transport::ElementRef a{0, scene::Domain{}, 0}, b{1, scene::Domain{}, 1};
+        ce.compute(a, b, 1.0, false, K.data());
+        EXPECT_EQ(ce.fallbacks(), 1u);
+        EXPECT_NEAR(K[0], ff.compute(a, b).F, 1e-3 * K[0]);
+        for (int r = 0; r < n; ++r)
+            for (int c = 1; c < n; ++c) EXPECT_EQ(K[size_t(r * n + c)], 0.f) << r << "," << c;
+        transport::ElementRef c{2, scene::Domain{}, 2}, d{3, scene::Domain{}, 3};
+        ce.compute(c, d, 1.0, false, K.data());
+        EXPECT_EQ(ce.fallbacks(), 1u);  // the squares pass
+        double higher = 0;
+        for (int r = 0; r < n; ++r)
+            for (int col = 1; col < n; ++col)
+                higher = std::max(higher, double(std::fabs(K[size_t(r * n + col)])));
+        EXPECT_GT(higher, 1e-3);
+        // Off, the sliver link gets its (wrong) higher columns.
+        transport::CouplingEngine off(s, nullptr, ff, basis, degree + 2, 1, 1e300);
+        off.compute(a, b, 1.0, false, K.data());
+        EXPECT_EQ(off.fallbacks(), 0u);
+    }
+}
+
 // The error-driven oracles see the basis (oracles/error_oracle.h,
 // kv_oracle.h): a receiver is judged by what the projections of its links'
 // kernels miss, so at the same eps higher degrees refine less. Measured on
