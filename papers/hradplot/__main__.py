@@ -28,6 +28,7 @@ def main(argv=None):
     p.add_argument("--where", help="pandas query selecting runs, e.g. \"solver == 'hr'\"")
     p.add_argument("--cols", type=int, default=3, help="images: grid columns")
     p.add_argument("--max-images", type=int, default=9, help="images: at most this many runs")
+    p.add_argument("--width", type=float, help="images: figure width in inches (default: one column, 3.4)")
     p.add_argument("--error-range", type=float,
                    help="images: colour scale of the error maps, +-this relative error "
                         "(default: 95th percentile of |e|, rounded up)")
@@ -46,7 +47,7 @@ def main(argv=None):
             figures.convergence(st, a.out, where=a.where)
         elif a.kind == "images":
             figures.image_grid(st, a.out, cols=a.cols, max_images=a.max_images, where=a.where,
-                               error_range=a.error_range)
+                               error_range=a.error_range, width=a.width)
         else:
             if not a.columns:
                 p.error("table needs --columns")

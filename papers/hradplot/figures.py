@@ -21,6 +21,9 @@ LABELS = {
     "l2_rgb": "relative $L_2$ error (RGB)",
     "wall_s": "wall time per point (s)",
     "compute_s": "solve time (s)",
+    "cpu_s": "CPU time per point (s)",
+    "bytes_per_link": "solver bytes per link",
+    "basis": "basis",
     "linking_s": "initial linking time (s)",
     "refine_s": "refinement time (s)",
     "peak_rss": "peak RSS (bytes)",
@@ -44,6 +47,10 @@ SOURCES = {
     "solver_mib": ["bytes"],
     "method": ["solver", "oracle", "settings"],
     "cluster_model": ["settings"],
+    "basis": ["settings"],
+    "basis_n": ["settings"],
+    "cpu_s": ["summary"],
+    "bytes_per_link": ["summary"],
     "fm_level": ["settings"],
     "oracle_level": ["settings"],
     "patches": ["summary"],
@@ -324,8 +331,14 @@ def _caption(r):
         rays = r.get("gather_rays")
         if rec == "final-gather" and isinstance(rays, (int, float)) and not math.isnan(rays):
             short += f" {int(rays)}"
+    # The polynomial basis where the study sets it (bases_rooms): named in
+    # place of the steps (the iterations to convergence there), and the
+    # error over non-emitting surfaces beside the all-patch one.
+    basis_set = isinstance(r.get("settings"), str) and '"hr.basis"' in r["settings"]
     steps = r.get("steps")
-    if isinstance(steps, (int, float)) and not math.isnan(steps):
+    if basis_set:
+        short += ", " + str(r.get("basis", ""))
+    elif isinstance(steps, (int, float)) and not math.isnan(steps):
         short += f", {int(steps)} steps"
     eps = r.get("eps")
     if isinstance(eps, (int, float)) and not math.isnan(eps) and eps > 0:
@@ -336,6 +349,9 @@ def _caption(r):
     line2 = params.replace("eps=", r"$\varepsilon$=").replace("fm.level=", "level ")
     if isinstance(r.get("l2_lum"), float) and not math.isnan(r["l2_lum"]):
         line2 += (", " if line2 else "") + f"$L_2$ {r['l2_lum']:.2g}"
+        ne = r.get("l2_nonemitter_lum")
+        if basis_set and isinstance(ne, float) and not math.isnan(ne):
+            line2 += f" (n.e. {ne:.2g})"
     elif isinstance(r.get("error_map_l1"), float) and not math.isnan(r["error_map_l1"]):
         # no reference solution: the image L1 of the error map (e.g. against
         # a path-traced image, render.error_reference)
@@ -343,7 +359,7 @@ def _caption(r):
     return short + "\n" + line2
 
 
-def image_grid(store, stem, cols=3, max_images=9, where=None, error_range=None):
+def image_grid(store, stem, cols=3, max_images=9, where=None, error_range=None, width=None):
     """Renders in a grid, each captioned with method, parameter and error.
 
     When the runs have error maps ([outputs] error_map = true), each run is a
@@ -364,7 +380,7 @@ def image_grid(store, stem, cols=3, max_images=9, where=None, error_range=None):
     ims = ims[:max_images]
     with_maps = all("error" in f for _, f in ims)
     if not with_maps:
-        return _render_grid(store, stem, ims, cols)
+        return _render_grid(store, stem, ims, cols, width)
 
     maps = [read_error_map(f["error"]) for _, f in ims]
     finite = np.concatenate([np.abs(m[np.isfinite(m)]) for m in maps])
@@ -373,7 +389,7 @@ def image_grid(store, stem, cols=3, max_images=9, where=None, error_range=None):
         error_range = min(1.0, _nice_ceiling(p95)) if p95 > 0 else 0.01
     ncell = len(ims) + 1  # the reference first
     rows = math.ceil(ncell / cols)
-    w = style.COLUMN_WIDTH
+    w = width or style.COLUMN_WIDTH
     fig, axes = style.figure(width=w, height=w / cols * rows * 2.25 + 0.35, nrows=2 * rows,
                              ncols=cols, squeeze=False)
     for ax in axes.flat:
@@ -417,11 +433,11 @@ def image_grid(store, stem, cols=3, max_images=9, where=None, error_range=None):
     return _sidecar(stem, side)
 
 
-def _render_grid(store, stem, ims, cols):
+def _render_grid(store, stem, ims, cols, width=None):
     """Renders only (runs without error maps)."""
     import matplotlib.image as mpimg
     rows = math.ceil(len(ims) / cols)
-    w = style.COLUMN_WIDTH
+    w = width or style.COLUMN_WIDTH
     fig, axes = style.figure(width=w, height=w / cols * rows * 1.12, nrows=rows, ncols=cols,
                              squeeze=False)
     side = {"images": []}

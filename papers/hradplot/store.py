@@ -100,6 +100,11 @@ def _derive(runs):
         # the face_scaling study, as one label.
         runs["cluster_builder"] = (st.map(lambda d: d.get("cluster.builder", "bvh"))
                                    if len(runs) else [])
+        # The polynomial basis of an hr solve (hr.basis; "constant" when
+        # unset), with its number of functions n (1, 3, 6, 10) for sorting.
+        runs["basis"] = st.map(lambda d: d.get("hr.basis", "constant")) if len(runs) else []
+        runs["basis_n"] = (runs["basis"].map({"constant": 1, "linear": 3, "quadratic": 6,
+                                              "cubic": 10}).astype(float) if len(runs) else [])
 
         def clustering(d):
             faces = d.get("cluster.faces", False)
@@ -134,6 +139,11 @@ def _derive(runs):
                           ("l2_nonemitter_lum", ("error", "l2_nonemitter_lum")),
                           ("mean_ratio_nonemitter", ("error", "mean_ratio_nonemitter")),
                           ("error_estimate", ("error_estimate",)),
+                          # The point's CPU seconds (user + system) from the
+                          # sweep's wait4 (experiments/sweep.cpp), and the
+                          # solver's bytes per link (all its data / links).
+                          ("cpu_s", ("cpu_s",)),
+                          ("bytes_per_link", ("bytes_per_link", "all")),
                           ("error_map_l1", ("error_map", "l1"))):
             if col not in runs.columns:
                 runs[col] = runs["summary"].map(from_summary(path)).astype(float)
