@@ -59,6 +59,13 @@
 //                                       (bfa and ff as published). Measured on the furnace:
 //                                       bfa eps 1e-3 with hr.receiver_eps 1e-3 has L1 0.9 %
 //                                       (without: 5.2 %), for 7x the links
+//   hr.sender_total    bool    true    error and kv also bound the sender-side error (gathering
+//                                       a subdivided sender's mean) summed per sender over all
+//                                       its receivers, refining the links with at least an
+//                                       even share (hr/receiver_error.h SenderTotal). Without
+//                                       it the constant basis stalls on the perpendicular
+//                                       plates at L2 0.016 from eps 1e-5 to 1e-6 (receivers
+//                                       along the emitter's bright edge each accept its mean)
 //   hr.extrapolate     bool    true    Aitken extrapolation of the gather iteration's tail
 //                                       (below)
 //   hr.basis           string  "constant"  constant | linear | quadratic | cubic: the
