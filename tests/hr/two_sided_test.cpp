@@ -34,7 +34,9 @@ scene::Scene plateScene(bool twoSided, bool floor) {
     // Counter-clockwise seen from the side the normal points to.
     EXPECT_TRUE(s.addQuad({-1, -1, 2}, {-1, 1, 2}, {1, 1, 2}, {1, -1, 2}, ml));  // faces -z
     EXPECT_TRUE(s.addQuad({-0.5, -0.5, 1}, {0.5, -0.5, 1}, {0.5, 0.5, 1}, {-0.5, 0.5, 1}, mp));
-    if (floor) EXPECT_TRUE(s.addQuad({-2, -2, 0}, {2, -2, 0}, {2, 2, 0}, {-2, 2, 0}, mf));
+    if (floor) {
+        EXPECT_TRUE(s.addQuad({-2, -2, 0}, {2, -2, 0}, {2, 2, 0}, {-2, 2, 0}, mf));
+    }
     s.addBackSides();
     s.applyMaterials();
     return s;
