@@ -1,10 +1,10 @@
 #include "experiments/solvers.h"
 
-#include <cmath>
-#include <utility>
-
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+
+#include <cmath>
+#include <utility>
 
 #include "hr/solver.h"
 #include "reference/fullmatrix.h"
@@ -21,7 +21,7 @@ json nanToNull(double v) { return std::isnan(v) ? json(nullptr) : json(v); }
 
 // ---- hr: hierarchical radiosity (hr/solver.h) ------------------------------------
 class HrEntry final : public Solver {
-public:
+  public:
     explicit HrEntry(const Params& p) : settings_(hr::HrSettings::fromParams(p)) {}
     std::string describe() const override { return settings_.describe(); }
 
@@ -42,9 +42,10 @@ public:
         sm["cluster_model"] = res->clusterModel;
         sm["converged"] = res->converged;
         sm["residual"] = res->history.empty() ? json(nullptr) : json(res->history.back().residual);
-        sm["iteration_error"] = res->history.empty() || !std::isfinite(res->history.back().iterationError)
-                                    ? json(nullptr)
-                                    : json(res->history.back().iterationError);
+        sm["iteration_error"] =
+            res->history.empty() || !std::isfinite(res->history.back().iterationError)
+                ? json(nullptr)
+                : json(res->history.back().iterationError);
         sm["link_cap_hit"] = res->linkCapHit;
         sm["memory_budget_hit"] = res->memoryBudgetHit;
         sm["time_limit_hit"] = res->timeLimitHit;
@@ -62,6 +63,17 @@ public:
                             {"rays", res->totalRays},
                             {"form_factors", res->totalFormFactors},
                             {"iterations", res->history.size()}};
+        {
+            // Where refinement spends, by link kind (HrResult::linkCost).
+            static const char* kKinds[4] = {"ss", "sc", "cs", "cc"};
+            json ev, rays, secs;
+            for (int k = 0; k < 4; ++k) {
+                ev[kKinds[k]] = res->linkCost.evaluations[k];
+                rays[kKinds[k]] = res->linkCost.rays[k];
+                secs[kKinds[k]] = res->linkCost.seconds[k];
+            }
+            sm["link_cost"] = json{{"evaluations", ev}, {"rays", rays}, {"cpu_seconds", secs}};
+        }
         json& t = out.timings;
         if (res->clusterTree) t["cluster_build"] = res->clusterBuildSeconds;
         t["linking"] = res->linkingSeconds;
@@ -72,42 +84,43 @@ public:
         for (const auto& [k, v] : res->memory.all()) out.memory.set(k, v);
         json hist = json::array();
         for (const auto& it : res->history)
-            hist.push_back(json{{"iteration", it.iteration},
-                                {"stage", it.stage},
-                                {"eps", nanToNull(it.eps)},
-                                {"links", it.links},
-                                {"elements", it.elements},
-                                {"leaves", it.leaves},
-                                {"refined_links", it.refinedLinks},
-                                {"rays", it.rays},
-                                {"form_factors", it.formFactors},
-                                {"residual", it.residual},
-                                {"iteration_error", std::isfinite(it.iterationError) ? json(it.iterationError)
-                                                                                      : json(nullptr)},
-                                {"extrapolation", it.extrapolation},
-                                {"reflected_power", rgbJson(it.reflectedPower)},
-                                {"refine_s", it.refineSeconds},
-                                {"gather_s", it.gatherSeconds},
-                                {"push_pull_s", it.pushPullSeconds},
-                                {"element_bytes", it.elementBytes},
-                                {"link_bytes", it.linkBytes},
-                                {"l2_lum", nanToNull(it.l2Lum)}});
+            hist.push_back(
+                json{{"iteration", it.iteration},
+                     {"stage", it.stage},
+                     {"eps", nanToNull(it.eps)},
+                     {"links", it.links},
+                     {"elements", it.elements},
+                     {"leaves", it.leaves},
+                     {"refined_links", it.refinedLinks},
+                     {"rays", it.rays},
+                     {"form_factors", it.formFactors},
+                     {"residual", it.residual},
+                     {"iteration_error",
+                      std::isfinite(it.iterationError) ? json(it.iterationError) : json(nullptr)},
+                     {"extrapolation", it.extrapolation},
+                     {"reflected_power", rgbJson(it.reflectedPower)},
+                     {"refine_s", it.refineSeconds},
+                     {"gather_s", it.gatherSeconds},
+                     {"push_pull_s", it.pushPullSeconds},
+                     {"element_bytes", it.elementBytes},
+                     {"link_bytes", it.linkBytes},
+                     {"l2_lum", nanToNull(it.l2Lum)}});
         sm["history"] = hist;
         if (h.numLinks())
-            sm["bytes_per_link"] = json{
-                {"link_storage", double(h.linkBytes()) / double(h.numLinks())},
-                {"all", double(h.linkBytes() + h.elementBytes()) / double(h.numLinks())}};
+            sm["bytes_per_link"] =
+                json{{"link_storage", double(h.linkBytes()) / double(h.numLinks())},
+                     {"all", double(h.linkBytes() + h.elementBytes()) / double(h.numLinks())}};
         out.owner = std::move(res);
         return out;
     }
 
-private:
+  private:
     hr::HrSettings settings_;
 };
 
 // ---- full-matrix: all n^2 form factors (reference/fullmatrix.h) -------------------
 class FullMatrixEntry final : public Solver {
-public:
+  public:
     explicit FullMatrixEntry(const Params& p)
         : settings_(reference::FullMatrixSettings::fromParams(p, "fm")) {}
     std::string describe() const override { return settings_.describe(); }
@@ -133,13 +146,13 @@ public:
         return out;
     }
 
-private:
+  private:
     reference::FullMatrixSettings settings_;
 };
 
 // ---- progressive: progressive refinement (reference/progressive.h) ----------------
 class ProgressiveEntry final : public Solver {
-public:
+  public:
     explicit ProgressiveEntry(const Params& p)
         : settings_(reference::ProgressiveSettings::fromParams(p, "pr")) {}
     std::string describe() const override { return settings_.describe(); }
@@ -155,12 +168,10 @@ public:
             reference::solveProgressive(sc, vis, settings_, ctx.progress, hook));
         SolveOutput out;
         out.field = res->field.get();
-        out.summary["counts"] = json{{"elements", res->elements},
-                                     {"leaves", res->elements},
-                                     {"patches", res->patches},
-                                     {"form_factors", res->formFactors},
-                                     {"rays", res->rays},
-                                     {"iterations", res->shots}};
+        out.summary["counts"] =
+            json{{"elements", res->elements}, {"leaves", res->elements},
+                 {"patches", res->patches},   {"form_factors", res->formFactors},
+                 {"rays", res->rays},         {"iterations", res->shots}};
         out.summary["residual"] = res->unshotFraction;
         out.summary["converged"] = res->converged;
         out.timings["solve"] = res->seconds;
@@ -182,7 +193,7 @@ public:
         return out;
     }
 
-private:
+  private:
     reference::ProgressiveSettings settings_;
 };
 
@@ -207,7 +218,8 @@ const std::vector<Entry>& table() {
           "one record per gather iteration"},
          make<HrEntry>()},
         {{"full-matrix",
-          "uniform mesh, n^2 form factors, Jacobi / Gauss-Seidel / Southwell (Cohen & Wallace 1993)",
+          "uniform mesh, n^2 form factors, Jacobi / Gauss-Seidel / Southwell (Cohen & Wallace "
+          "1993)",
           {"fm."},
           false,
           ""},

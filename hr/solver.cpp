@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <sstream>
 #include <unordered_map>
@@ -299,6 +300,17 @@ void HrSolver::fillBounds(const Hierarchy& h, uint32_t r, const Link& l,
 }
 
 Link HrSolver::makeLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const {
+    const auto t0 = std::chrono::steady_clock::now();
+    Link l = evaluateLink(h, r, s, rays);
+    const int kind = (h.isCluster(r) ? 2 : 0) + (h.isCluster(s) ? 1 : 0);  // SS, SC, CS, CC
+    HrResult::LinkKindCost& c = linkCost_.local();
+    ++c.evaluations[kind];
+    c.rays[kind] += rays;
+    c.seconds[kind] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return l;
+}
+
+Link HrSolver::evaluateLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const {
     if (h.isCluster(r) || h.isCluster(s)) return makeClusterLink(h, r, s, rays);
     transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
     transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
@@ -793,6 +805,7 @@ HrResult HrSolver::solve(bool progress) {
     solveTimer_.reset();
     HrResult res;
     res.minArea = minArea_;
+    linkCost_.clear();
     if (s_.clusterModel == cluster::ClusterModel::Auto) {
         s_.clusterModel = scene_->patches.size() > cluster::kAutoClusterPatches
                               ? cluster::ClusterModel::Oriented
@@ -977,6 +990,21 @@ HrResult HrSolver::solve(bool progress) {
             bool sc = h.isCluster(h.link(i).sender);
             (rc ? (sc ? res.linksCC : res.linksCS) : (sc ? res.linksSC : res.linksSS))++;
         }
+    }
+    for (const HrResult::LinkKindCost& c : linkCost_)
+        for (int k = 0; k < 4; ++k) {
+            res.linkCost.evaluations[k] += c.evaluations[k];
+            res.linkCost.rays[k] += c.rays[k];
+            res.linkCost.seconds[k] += c.seconds[k];
+        }
+    {
+        const HrResult::LinkKindCost& c = res.linkCost;
+        spdlog::info(
+            "link evaluations (kept or refined away), rays, CPU s by kind: surface-surface "
+            "{} / {} / {:.2f}, surface<-cluster {} / {} / {:.2f}, cluster<-surface {} / "
+            "{} / {:.2f}, cluster-cluster {} / {} / {:.2f}",
+            c.evaluations[0], c.rays[0], c.seconds[0], c.evaluations[1], c.rays[1], c.seconds[1],
+            c.evaluations[2], c.rays[2], c.seconds[2], c.evaluations[3], c.rays[3], c.seconds[3]);
     }
     return res;
 }

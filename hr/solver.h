@@ -156,6 +156,8 @@
 // the fixed point is the same.
 #pragma once
 
+#include <tbb/enumerable_thread_specific.h>
+
 #include <functional>
 #include <limits>
 #include <memory>
@@ -264,6 +266,14 @@ struct HrResult {
     /// Links by kind after the solve: surface-surface, surface receiving from a
     /// cluster, cluster receiving from a surface, cluster-cluster.
     uint64_t linksSS = 0, linksSC = 0, linksCS = 0, linksCC = 0;
+    /// Link evaluations (form factors or cluster transfers, kept or refined
+    /// away), their visibility rays and their CPU seconds (summed over
+    /// threads), by kind in the order above: where refinement spends.
+    struct LinkKindCost {
+        uint64_t evaluations[4] = {0, 0, 0, 0};
+        uint64_t rays[4] = {0, 0, 0, 0};
+        double seconds[4] = {0, 0, 0, 0};
+    } linkCost;
     uint64_t totalRays = 0, totalFormFactors = 0;
     double linkingSeconds = 0.0, refineSeconds = 0.0, gatherSeconds = 0.0, pushPullSeconds = 0.0;
     double minArea = 0.0;
@@ -330,7 +340,10 @@ class HrSolver {
     /// against which sampled near cluster links' errors are checked.
     uint64_t refine(Hierarchy& h, const oracles::Oracle& oracle, double eps, HrResult& res,
                     IterationRecord& rec);
+    /// Evaluates the link s -> r (evaluateLink) and adds its cost to
+    /// linkCost_.
     Link makeLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
+    Link evaluateLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
     Link makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
     /// Node e as the cluster link builder sees it.
     cluster::LinkEnd endOf(const Hierarchy& h, uint32_t e) const;
@@ -361,6 +374,8 @@ class HrSolver {
     IterationHook hook_;
     bool progress_ = false;  ///< progress bars on stderr (solve's argument)
     Timer solveTimer_;       ///< started by solve() (hr.max_seconds)
+    /// Per-thread link evaluation costs of the current solve (HrResult::linkCost).
+    mutable tbb::enumerable_thread_specific<HrResult::LinkKindCost> linkCost_;
     bool outOfTime() const { return s_.maxSeconds > 0 && solveTimer_.seconds() > s_.maxSeconds; }
     std::unique_ptr<cluster::ClusterLinker> linker_;       ///< made by solve() with the tree
     std::unique_ptr<scene::BasisSet> basis_;               ///< degree > 0

@@ -1,10 +1,9 @@
 // Volume clustering inside the hierarchical solver (issue "Volume clustering").
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <cmath>
 #include <cstring>
-
-#include <tbb/global_control.h>
 
 #include "core/rng.h"
 #include "hr/solver.h"
@@ -73,7 +72,9 @@ TEST_P(ClusterModels, PushPullConservesPowerThroughClusters) {
         Vec3 u = glm::normalize(h.center(emitter) - node.centroid);
         for (uint32_t k = node.patchBegin; k < node.patchEnd; ++k) {
             const auto& p = s.patches[tree.patchAt(k)];
-            double w = GetParam() == "isotropic" ? 1.0 : std::max(0.0, double(glm::dot(glm::vec3(p.normal), glm::vec3(u))));
+            double w = GetParam() == "isotropic"
+                           ? 1.0
+                           : std::max(0.0, double(glm::dot(glm::vec3(p.normal), glm::vec3(u))));
             expected += p.area * p.rho * double(links[i].K) * w * Be;
         }
     }
@@ -208,8 +209,8 @@ TEST(ClusterTransfer, OrientedKeepsTheLightOfTheUnclusteredSolve) {
     RGB oriented = power("oriented", linksOriented);
     for (int c = 0; c < 3; ++c) {
         double rel = (oriented[c] - none[c]) / none[c];
-        std::cout << "channel " << c << ": none " << none[c] << ", oriented " << oriented[c]
-                  << " (" << 100 * rel << " %)\n";
+        std::cout << "channel " << c << ": none " << none[c] << ", oriented " << oriented[c] << " ("
+                  << 100 * rel << " %)\n";
         EXPECT_LT(std::fabs(rel), 0.01) << "channel " << c;
     }
     // Clustering must still pay: far fewer links than the unclustered solve.
@@ -244,8 +245,8 @@ TEST(ClusterTransfer, OrientedKeepsTheLightOnOffice3) {
     const double none[3] = {507.663, 411.551, 291.521};  // cluster.model = none
     for (int c = 0; c < 3; ++c) {
         double rel = (oriented[c] - none[c]) / none[c];
-        std::cout << "channel " << c << ": none " << none[c] << ", oriented " << oriented[c]
-                  << " (" << 100 * rel << " %)\n";
+        std::cout << "channel " << c << ": none " << none[c] << ", oriented " << oriented[c] << " ("
+                  << 100 * rel << " %)\n";
         EXPECT_LT(std::fabs(rel), 0.01) << "channel " << c;
     }
 }
@@ -294,8 +295,8 @@ TEST_P(NoLeaks, ClosedCavitiesStayDark) {
         double p = h.area(e) * maxComponent(h.B(e) - P.emission);
         (P.material == cavity ? leaked : lit) += p;
     }
-    std::cout << model << " " << oracle << ": reflected power " << lit << ", in cavities "
-              << leaked << "\n";
+    std::cout << model << " " << oracle << ": reflected power " << lit << ", in cavities " << leaked
+              << "\n";
     EXPECT_GT(lit, 0.0);
     if (model == "none") {
         EXPECT_EQ(leaked, 0.0);
@@ -312,10 +313,9 @@ TEST_P(NoLeaks, ClosedCavitiesStayDark) {
     }
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Oracles, NoLeaks,
-    ::testing::Combine(::testing::Values("none", "oriented"),
-                       ::testing::Values("bfa", "error", "kv")));
+INSTANTIATE_TEST_SUITE_P(Oracles, NoLeaks,
+                         ::testing::Combine(::testing::Values("none", "oriented"),
+                                            ::testing::Values("bfa", "error", "kv")));
 
 // Links into an oriented cluster from a surface element of another root
 // patch: push-pull read that element's B while another thread rewrote it, so
@@ -338,5 +338,37 @@ TEST(ClusterTransfer, BitwiseIdenticalForOneAndTwoThreads) {
         ASSERT_EQ(ha.numLinks(), hb.numLinks());
         for (uint32_t e = 0; e < ha.numElements(); ++e)
             ASSERT_EQ(std::memcmp(&ha.B(e), &hb.B(e), sizeof(RGB)), 0) << "element " << e;
+    }
+}
+
+// Where refinement spends (HrResult::linkCost): every link evaluation is
+// counted once under its kind, and its rays add up to the solve's rays (the
+// constant basis casts no other rays); without clusters every evaluation is
+// between surfaces.
+TEST(LinkCost, AccountsForEveryEvaluationByKind) {
+    scene::Scene s = scene::loadScene("office:1");
+    transport::Visibility vis(s);
+    for (const char* model : {"oriented", "none"}) {
+        HrSettings st = test::hrSettings("bfa", 1e-3);
+        st.clusterModel = cluster::parseClusterModel(model);
+        HrResult r = HrSolver(s, vis, st).solve();
+        const auto& c = r.linkCost;
+        uint64_t ev = 0, rays = 0;
+        for (int k = 0; k < 4; ++k) {
+            ev += c.evaluations[k];
+            rays += c.rays[k];
+            EXPECT_GE(c.seconds[k], 0.0);
+            if (c.evaluations[k] == 0) {
+                EXPECT_EQ(c.seconds[k], 0.0) << model << " kind " << k;
+            }
+        }
+        EXPECT_EQ(rays, r.totalRays) << model;
+        EXPECT_LE(ev, r.totalFormFactors) << model;  // self-links are skipped, not evaluated
+        EXPECT_GE(ev, r.totalFormFactors * 9 / 10) << model;
+        if (std::string(model) == "none") {
+            EXPECT_EQ(ev, c.evaluations[0]);
+        } else {
+            for (int k = 0; k < 4; ++k) EXPECT_GT(c.evaluations[k], 0u) << "kind " << k;
+        }
     }
 }
