@@ -181,6 +181,39 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
                                double& cosine) {
             double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
             cosine = 1.0;
+            if (e.isCluster && sender && !senderPrefix_.empty()) {
+                // Drawn by A_k B_k (prepareSenders), accepted by cos_k.
+                const ClusterNode& nd = tree_->node(e.cluster);
+                const double lo = senderPrefix_[nd.patchBegin], hi = senderPrefix_[nd.patchEnd];
+                if (hi > lo) {
+                    Vec3 x, best(0.0);
+                    uint32_t bestPatch = 0;
+                    double bestCos = -2.0;
+                    for (int t = 0; t < 32; ++t) {
+                        auto it = std::upper_bound(senderPrefix_.begin() + nd.patchBegin + 1,
+                                                   senderPrefix_.begin() + nd.patchEnd + 1,
+                                                   lo + a * (hi - lo));
+                        size_t idx = size_t(it - senderPrefix_.begin()) - 1;
+                        idx =
+                            std::min<size_t>(std::max<size_t>(idx, nd.patchBegin), nd.patchEnd - 1);
+                        patch = tree_->patchAt(uint32_t(idx));
+                        x = tree_->pointOnPatch(patch, b, c);
+                        Vec3 dd = towards - x;
+                        double len = glm::length(dd);
+                        double cosx =
+                            len > 0 ? glm::dot(scene_->patches[patch].normal, dd) / len : 0.0;
+                        if (rng.nextDouble() < cosx) {
+                            cosine = cosx;
+                            return x;
+                        }
+                        if (cosx > bestCos) bestCos = cosx, best = x, bestPatch = patch;
+                        a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
+                    }
+                    patch = bestPatch;
+                    cosine = bestCos;
+                    return best;
+                }
+            }
             if (e.isCluster) {
                 double bmax = sender ? e.maxB : 0.0;
                 Vec3 x, best(0.0);
@@ -254,6 +287,17 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
     out.K = K * carried;
     out.judged = judged;
     return out;
+}
+
+void ClusterLinker::prepareSenders(std::span<const RGB> rootB) {
+    if (!tree_) return;  // no clusters: nothing sends as a cluster
+    const uint32_t n = tree_->orderSize();
+    senderPrefix_.assign(size_t(n) + 1, 0.0);
+    for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t p = tree_->patchAt(i);
+        senderPrefix_[i + 1] =
+            senderPrefix_[i] + scene_->patches[p].area * std::max(0.0, maxComponent(rootB[p]));
+    }
 }
 
 Vec3 ClusterLinker::uniformPoint(const LinkEnd& e, Pcg32& rng, uint32_t& patch) const {

@@ -212,6 +212,16 @@ class ClusterLinker {
     /// ray end points are drawn in proportion to it.
     ClusterLink link(const LinkEnd& r, const LinkEnd& s, std::span<const RGB> rootB) const;
 
+    /// Prepares link() to draw a sending cluster's ray end points from the
+    /// prefix sums of A_k max_c B_k over the tree's patch order (then
+    /// accepting with probability cos_k), instead of drawing by area and
+    /// accepting with probability cos_k B_k / max B: the same density, but a
+    /// cluster whose light is on a few of its surfaces (81 lamps among Lost
+    /// Empire's 112 k quads) no longer spends up to 32 draws per end point.
+    /// Call whenever rootB changes, before the link() calls that use it (not
+    /// concurrently with them); without it link() draws the old way.
+    void prepareSenders(std::span<const RGB> rootB);
+
     ClusterModel model() const { return model_; }
     const ClusterLinkSettings& settings() const { return s_; }
 
@@ -243,6 +253,8 @@ class ClusterLinker {
     ClusterModel model_;
     const transport::Visibility* vis_;
     ClusterLinkSettings s_;
+    /// Prefix sums of A_k max_c B_k in the tree's patch order (prepareSenders).
+    std::vector<double> senderPrefix_;
 };
 
 }  // namespace hrad::cluster

@@ -504,6 +504,10 @@ Vec3 ClusterTree::samplePoint(uint32_t ci, double u0, double u1, double u2, uint
     size_t idx = size_t(it - areaPrefix_.begin()) - 1;
     idx = std::min<size_t>(std::max<size_t>(idx, c.patchBegin), c.patchEnd - 1);
     patch = order_[idx];
+    return pointOnPatch(patch, u1, u2);
+}
+
+Vec3 ClusterTree::pointOnPatch(uint32_t patch, double u1, double u2) const {
     const auto& p = scene_->patches[patch];
     // Uniform point on a triangle (a, b, c) from (u1, u2).
     auto tri = [&](const Vec3& a, const Vec3& b, const Vec3& cc) {

@@ -102,6 +102,8 @@ class ClusterTree {
     uint32_t size() const { return uint32_t(nodes_.size()); }
     uint32_t child(uint32_t c, uint32_t i) const { return children_[nodes_[c].childBegin + i]; }
     uint32_t patchAt(uint32_t i) const { return order_[i]; }
+    /// Number of patches in the tree's order (patchAt(0 .. orderSize() - 1)).
+    uint32_t orderSize() const { return uint32_t(order_.size()); }
     /// Parent cluster of every cluster (UINT32_MAX for the root).
     const std::vector<uint32_t>& parents() const { return parent_; }
     /// Leaf cluster holding each patch.
@@ -130,6 +132,8 @@ class ClusterTree {
     /// A point on the surfaces below c, chosen with probability proportional
     /// to area; `patch` receives the patch it lies on.
     Vec3 samplePoint(uint32_t c, double u0, double u1, double u2, uint32_t& patch) const;
+    /// A point on patch `patch`, uniform by area, from (u1, u2) in [0,1)^2.
+    Vec3 pointOnPatch(uint32_t patch, double u1, double u2) const;
 
   private:
     void finalize();

@@ -496,6 +496,8 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                           IterationRecord& rec) {
     std::vector<uint32_t> recv = h.linkReceivers();
     std::vector<Link> pending = h.links();
+    // Sending clusters' ray end points are drawn by this iteration's B.
+    if (linker_) linker_->prepareSenders(h.allB());
     std::vector<uint32_t> finalRecv;
     std::vector<Link> finalLinks;
     finalRecv.reserve(pending.size());
