@@ -181,15 +181,22 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
                                double& cosine) {
             double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
             cosine = 1.0;
-            if (e.isCluster && sender && !senderPrefix_.empty()) {
-                // Drawn by A_k B_k (prepareSenders), accepted by cos_k.
+            if (e.isCluster) {
+                // Senders are drawn by A_k B_k (prepareSenders) and accepted
+                // by cos_k; otherwise drawn by area and accepted by cos_k
+                // B_k / max B (cos_k alone for a receiver, or a sender that
+                // carries nothing yet).
                 const ClusterNode& nd = tree_->node(e.cluster);
-                const double lo = senderPrefix_[nd.patchBegin], hi = senderPrefix_[nd.patchEnd];
-                if (hi > lo) {
-                    Vec3 x, best(0.0);
-                    uint32_t bestPatch = 0;
-                    double bestCos = -2.0;
-                    for (int t = 0; t < 32; ++t) {
+                const bool weighted = sender && !senderPrefix_.empty() &&
+                                      senderPrefix_[nd.patchEnd] > senderPrefix_[nd.patchBegin];
+                const double lo = weighted ? senderPrefix_[nd.patchBegin] : 0.0,
+                             hi = weighted ? senderPrefix_[nd.patchEnd] : 0.0;
+                const double bmax = sender && !weighted ? e.maxB : 0.0;
+                Vec3 x, best(0.0);
+                uint32_t bestPatch = 0;
+                double bestW = -2.0, bestCos = 0.0;
+                for (int t = 0; t < 32; ++t) {
+                    if (weighted) {
                         auto it = std::upper_bound(senderPrefix_.begin() + nd.patchBegin + 1,
                                                    senderPrefix_.begin() + nd.patchEnd + 1,
                                                    lo + a * (hi - lo));
@@ -198,33 +205,13 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
                             std::min<size_t>(std::max<size_t>(idx, nd.patchBegin), nd.patchEnd - 1);
                         patch = tree_->patchAt(uint32_t(idx));
                         x = tree_->pointOnPatch(patch, b, c);
-                        Vec3 dd = towards - x;
-                        double len = glm::length(dd);
-                        double cosx =
-                            len > 0 ? glm::dot(scene_->patches[patch].normal, dd) / len : 0.0;
-                        if (rng.nextDouble() < cosx) {
-                            cosine = cosx;
-                            return x;
-                        }
-                        if (cosx > bestCos) bestCos = cosx, best = x, bestPatch = patch;
-                        a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
+                    } else {
+                        x = tree_->samplePoint(e.cluster, a, b, c, patch);
                     }
-                    patch = bestPatch;
-                    cosine = bestCos;
-                    return best;
-                }
-            }
-            if (e.isCluster) {
-                double bmax = sender ? e.maxB : 0.0;
-                Vec3 x, best(0.0);
-                uint32_t bestPatch = 0;
-                double bestW = -1.0, bestCos = 0.0;
-                for (int t = 0; t < 32; ++t) {
-                    x = tree_->samplePoint(e.cluster, a, b, c, patch);
                     Vec3 dd = towards - x;
                     double len = glm::length(dd);
                     double cosx = len > 0 ? glm::dot(scene_->patches[patch].normal, dd) / len : 0.0;
-                    double w = std::max(0.0, cosx);
+                    double w = weighted ? cosx : std::max(0.0, cosx);
                     if (bmax > 0) w *= maxComponent(rootB[patch]) / bmax;
                     if (rng.nextDouble() < w) {
                         cosine = cosx;

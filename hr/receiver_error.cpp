@@ -31,6 +31,18 @@ void leafRanges(const Hierarchy& h, std::vector<RGB>& lo, std::vector<RGB>& hi) 
         }
     }
 }
+
+/// The float samples `eval(r, s, out)` writes for the link s -> r.
+template <class Eval>
+KernelSamples linkSamplesBy(const Hierarchy& h, uint32_t r, uint32_t s, Eval eval) {
+    KernelSamples out{};
+    transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
+    transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
+    double vals[transport::FormFactorEngine::kMaxKernelSamples];
+    int m = eval(er, es, vals);
+    for (int k = 0; k < m; ++k) out[k] = float(vals[k]);
+    return out;
+}
 }  // namespace
 
 void senderTotals(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
@@ -50,21 +62,19 @@ void senderTotals(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
     std::vector<double> total(n, 0.0);
     std::vector<uint32_t> count(n, 0);
     std::vector<float> own(pending.size(), -1.f);
-    for (size_t i = 0; i < accepted.size(); ++i) {
-        double t = term(acceptedRecv[i], accepted[i]);
-        if (t > 0.0) {
-            total[accepted[i].sender] += t;
-            ++count[accepted[i].sender];
+    auto add = [&](const std::vector<uint32_t>& recv, const std::vector<Link>& links,
+                   float* ownTerm) {
+        for (size_t i = 0; i < links.size(); ++i) {
+            double t = term(recv[i], links[i]);
+            if (ownTerm) ownTerm[i] = float(t);
+            if (t > 0.0) {
+                total[links[i].sender] += t;
+                ++count[links[i].sender];
+            }
         }
-    }
-    for (size_t i = 0; i < pending.size(); ++i) {
-        double t = term(pendingRecv[i], pending[i]);
-        own[i] = float(t);
-        if (t > 0.0) {
-            total[pending[i].sender] += t;
-            ++count[pending[i].sender];
-        }
-    }
+    };
+    add(acceptedRecv, accepted, nullptr);
+    add(pendingRecv, pending, own.data());
     out.assign(pending.size(), SenderTotal{});
     for (size_t i = 0; i < pending.size(); ++i) {
         if (own[i] < 0.f) continue;
@@ -75,24 +85,16 @@ void senderTotals(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
 
 KernelSamples linkKernelSamples(const Hierarchy& h, const transport::FormFactorEngine& engine,
                                 uint32_t r, uint32_t s) {
-    KernelSamples out{};
-    transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
-    transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
-    double vals[transport::FormFactorEngine::kMaxKernelSamples];
-    int m = engine.kernelSamples(er, es, vals);
-    for (int k = 0; k < m; ++k) out[k] = float(vals[k]);
-    return out;
+    return linkSamplesBy(h, r, s, [&](const auto& er, const auto& es, double* v) {
+        return engine.kernelSamples(er, es, v);
+    });
 }
 
 KernelSamples linkResidualSamples(const Hierarchy& h, const transport::CouplingEngine& coupling,
                                   uint32_t r, uint32_t s) {
-    KernelSamples out{};
-    transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
-    transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
-    double vals[transport::FormFactorEngine::kMaxKernelSamples];
-    int m = coupling.residualSamples(er, es, vals);
-    for (int k = 0; k < m; ++k) out[k] = float(vals[k]);
-    return out;
+    return linkSamplesBy(h, r, s, [&](const auto& er, const auto& es, double* v) {
+        return coupling.residualSamples(er, es, v);
+    });
 }
 
 void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
