@@ -92,6 +92,7 @@ class HrEntry final : public Solver {
                      {"elements", it.elements},
                      {"leaves", it.leaves},
                      {"refined_links", it.refinedLinks},
+                     {"judged", it.judged},
                      {"rays", it.rays},
                      {"form_factors", it.formFactors},
                      {"residual", it.residual},

@@ -55,6 +55,17 @@ std::vector<double> parseSchedule(const std::string& text, const SourceLocation&
     return out;
 }
 
+// Lazy refinement (solver.h): true when some element's radiosity, in some
+// channel, has grown by more than the fraction g since the judging pass that
+// recorded `judged` (from zero: any growth).
+bool grownSince(const std::vector<RGB>& now, const std::vector<RGB>& judged, double g) {
+    if (now.size() != judged.size()) return true;
+    for (size_t e = 0; e < now.size(); ++e)
+        for (int c = 0; c < 3; ++c)
+            if (now[e][c] > judged[e][c] + g * std::fabs(judged[e][c])) return true;
+    return false;
+}
+
 double relativeChange(const RGB& now, const RGB& before) {
     double num = maxComponent(glm::abs(now - before));
     double den = maxComponent(glm::abs(now));
@@ -86,6 +97,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.receiverEps = p.getDouble("hr.receiver_eps", -1.0, -1.0, 1.0);
     s.senderTotal = p.getBool("hr.sender_total", s.senderTotal);
     s.extrapolate = p.getBool("hr.extrapolate", s.extrapolate);
+    s.refineGrowth = p.getDouble("hr.refine_growth", s.refineGrowth, 0.0, 1e300);
     s.gaussSeidel = p.getEnum("hr.iteration", s.gaussSeidel ? "gauss-seidel" : "jacobi",
                               {"jacobi", "gauss-seidel"}) == "gauss-seidel";
     s.gsBlocks = int(p.getInt("hr.gs_blocks", s.gsBlocks, 0, 1 << 30));
@@ -866,13 +878,21 @@ HrResult HrSolver::solve(bool progress) {
         auto oracle = oracles::createOracle(s_.oracle, op);
         res.oracleDescription = oracle->describe();
         bool stageConverged = false;
+        // The radiosities of the last judging pass (lazy refinement); a new
+        // stage (a new eps) always judges.
+        std::vector<RGB> judgedB;
+        const bool lazy = s_.refineGrowth > 0.0 && h.basisSize() == 1;
         for (int it = 0; it < s_.maxIterations; ++it) {
             IterationRecord rec;
             rec.iteration = ++iteration;
             rec.stage = int(stage);
             rec.eps = stages[stage];
             Timer tr;
-            rec.refinedLinks = refine(h, *oracle, stages[stage], res, rec);
+            rec.judged = !lazy || judgedB.empty() || grownSince(h.allB(), judgedB, s_.refineGrowth);
+            if (rec.judged) {
+                rec.refinedLinks = refine(h, *oracle, stages[stage], res, rec);
+                if (lazy) judgedB = h.allB();
+            }
             rec.refineSeconds = tr.seconds();
             if (s_.gaussSeidel) {
                 h.sweep(s_.gsBlocks > 0 ? s_.gsBlocks
@@ -954,8 +974,9 @@ HrResult HrSolver::solve(bool progress) {
                 spdlog::info(
                     "iter {:3d}  links {:>10}  elements {:>9}  refined {:>9}  residual {:.3e}  "
                     "({:.2f} s)",
-                    rec.iteration, rec.links, rec.elements, rec.refinedLinks, rec.residual,
-                    rec.refineSeconds + rec.gatherSeconds + rec.pushPullSeconds);
+                    rec.iteration, rec.links, rec.elements,
+                    rec.judged ? fmt::format("{}", rec.refinedLinks) : std::string("not judged"),
+                    rec.residual, rec.refineSeconds + rec.gatherSeconds + rec.pushPullSeconds);
             if (hook_) hook_(h, rec);
             res.history.push_back(rec);
             if (rec.refinedLinks == 0 && it + 1 >= s_.minIterations &&
