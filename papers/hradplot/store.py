@@ -180,7 +180,10 @@ def _derive(runs):
         # Non-emitter L2 with a Monte Carlo reference's own noise taken out in
         # quadrature, sqrt(L2^2 - se^2) (se: the reference's relative L2
         # standard error over the non-emitting regions); the plain L2 where
-        # the reference has no noise (full matrix); NaN where L2 < se.
+        # the reference has no noise (full matrix); NaN where L2 < 1.5 se:
+        # there the reference's noise dominates and the difference of two
+        # squares does not resolve the solve's own error (it is then only
+        # known to be below about L2).
         def denoised(s):
             try:
                 e = json.loads(s)["error"]
@@ -190,8 +193,9 @@ def _derive(runs):
             se = e.get("mc_stderr_l2_nonemitter_lum")
             if se is None:
                 return l2
-            d = l2 * l2 - float(se) ** 2
-            return float(np.sqrt(d)) if d > 0 else np.nan
+            if l2 < 1.5 * float(se):
+                return np.nan
+            return float(np.sqrt(l2 * l2 - float(se) ** 2))
         runs["l2_nonemitter_denoised"] = runs["summary"].map(denoised).astype(float)
     if "links" in runs.columns and "patches" in runs.columns and len(runs):
         runs["links_per_patch"] = runs["links"] / runs["patches"]
