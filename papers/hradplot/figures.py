@@ -38,7 +38,7 @@ LABELS = {
     "capped": "stopped by",
     "residual": "residual (rel. unshot power)",
     "iteration": "iteration",
-    "eps": r"oracle threshold $\varepsilon$",
+    "scene_short": "scene",
     "l2_nonemitter_denoised": "non-emitter $L_2$, reference noise removed",
 }
 
@@ -226,7 +226,12 @@ def eps_vs(store, stem, ys=("l2_nonemitter_lum", "l1_reflected_lum"), group=("sc
     No fit and no Pareto front: eps is a setting, not a cost."""
     ys = list(ys)
     gcols = list(group) if isinstance(group, (list, tuple)) else [group]
-    df = _rows(store, ["eps"] + ys, "eps figure", gcols)
+    # Rows are filtered per panel: a run without a value of one y (e.g. a
+    # noise-removed L2 the reference cannot resolve) still shows in the others.
+    _require_runs(store, ys, "eps figure")
+    df = _rows(store, ["eps"], "eps figure", gcols)
+    for y in ys:
+        df[y] = df[y].astype(float)
     first = sorted(df[gcols[0]].astype(str).unique(), key=lambda v: (
         df[df[gcols[0]].astype(str) == v]["patches"].min() if "patches" in df.columns else 0, v))
     second = sorted(df[gcols[1]].astype(str).unique()) if len(gcols) > 1 else [""]
@@ -258,7 +263,7 @@ def eps_vs(store, stem, ys=("l2_nonemitter_lum", "l1_reflected_lum"), group=("sc
         ax.set_yscale("log")
         ax.set_ylabel(SHORT.get(y, LABELS.get(y, y)))
     axes[0].invert_xaxis()  # tighter eps to the right
-    axes[-1].set_xlabel(LABELS["eps"] + " (tighter to the right)")
+    axes[-1].set_xlabel(r"oracle threshold $\varepsilon$ (tighter to the right)")
     from matplotlib.lines import Line2D
     handles = [Line2D([], [], **dict(style.style_for(i), ls="-")) for i in range(len(first))]
     labels = list(first)
