@@ -119,6 +119,16 @@ def main():
         check(list(zip(c["x"], c["y"])) == want, "error-vs-links curve is the store's (links, l2_lum)")
         plot(["error", "--store", store, "--out", out + "_mem", "--x", "peak_rss_mib"])
         nonempty(out + "_mem")
+        # eps: the store's (eps, links) per scene / oracle, and with the full
+        # matrix's noiseless reference the denoised L2 is the plain one.
+        plot(["eps", "--store", store, "--out", out + "_eps", "--y", "links,l2_nonemitter_denoised"])
+        nonempty(out + "_eps")
+        side = json.load(open(out + "_eps.json"))["panels"]
+        c = side["links"]["cornell / bfa"]
+        check(list(zip(c["x"], c["y"])) == sorted((r[3], r[1]) for r in rows),
+              "links-vs-eps curve is the store's (eps, links)")
+        check(len(side["l2_nonemitter_denoised"]["cornell / bfa"]["y"]) == 3,
+              "denoised non-emitter L2 present for a full-matrix reference")
         # solver_mib: the solver's memory counters without visibility and RSS.
         plot(["scaling", "--store", store, "--out", out + "_smem", "--x", "elements", "--y", "solver_mib"])
         side = json.load(open(out + "_smem.json"))["panels"]["solver_mib"]["HR bfa"]

@@ -38,6 +38,8 @@ LABELS = {
     "capped": "stopped by",
     "residual": "residual (rel. unshot power)",
     "iteration": "iteration",
+    "scene_short": "scene",
+    "l2_nonemitter_denoised": "non-emitter $L_2$, reference noise removed",
 }
 
 # Derived column -> the store columns it is computed from (store._derive).
@@ -58,6 +60,9 @@ SOURCES = {
     "clustering": ["settings"],
     "capped": ["summary"],
     "links_per_patch": ["links", "summary"],
+    "scene_short": ["scene"],
+    "floor_variant": ["settings"],
+    "l2_nonemitter_denoised": ["summary"],
 }
 
 
@@ -203,6 +208,72 @@ def scaling(store, stem, x="patches", ys=("links", "compute_s"), group="method")
         ax.set_ylabel(LABELS.get(y, y))
         ax.legend(loc="upper left")
     axes[-1].set_xlabel(LABELS.get(x, x))
+    style.save(fig, stem)
+    return _sidecar(stem, side)
+
+
+LINESTYLES = ["-", "--", ":", "-."]
+SHORT = {"l2_nonemitter_lum": "non-emitter $L_2$ (rel.)",
+         "l2_nonemitter_denoised": "non-emitter $L_2$, noise removed",
+         "l1_reflected_lum": "$L_1$ of $B-E$ (rel.)",
+         "cpu_s": "CPU s per point", "links": "links", "links_ss": "surface-surface links"}
+
+
+def eps_vs(store, stem, ys=("l2_nonemitter_lum", "l1_reflected_lum"), group=("scene_short", "oracle")):
+    """ys against the oracle's eps on log-log axes, one panel per y: colour
+    and marker by the first group column (the scene), line style by the
+    second (the oracle). Runs a limit stopped (column `capped`) are hollow.
+    No fit and no Pareto front: eps is a setting, not a cost."""
+    ys = list(ys)
+    gcols = list(group) if isinstance(group, (list, tuple)) else [group]
+    # Rows are filtered per panel: a run without a value of one y (e.g. a
+    # noise-removed L2 the reference cannot resolve) still shows in the others.
+    _require_runs(store, ys, "eps figure")
+    df = _rows(store, ["eps"], "eps figure", gcols)
+    for y in ys:
+        df[y] = df[y].astype(float)
+    first = sorted(df[gcols[0]].astype(str).unique(), key=lambda v: (
+        df[df[gcols[0]].astype(str) == v]["patches"].min() if "patches" in df.columns else 0, v))
+    second = sorted(df[gcols[1]].astype(str).unique()) if len(gcols) > 1 else [""]
+    capped = (df["capped"].fillna("") != "") if "capped" in df.columns else None
+    fig, axes = style.figure(height=2.1 * len(ys) + 0.5, nrows=len(ys), sharex=True)
+    axes = np.atleast_1d(axes)
+    side = {"x": "eps", "panels": {}}
+    for ax, y in zip(axes, ys):
+        side["panels"][y] = {}
+        for i, a in enumerate(first):
+            for j, b in enumerate(second):
+                g = df[df[gcols[0]].astype(str) == a]
+                if len(gcols) > 1:
+                    g = g[g[gcols[1]].astype(str) == b]
+                g = g.dropna(subset=[y])
+                g = g[g[y] > 0].sort_values("eps")
+                if g.empty:
+                    continue
+                st = dict(style.style_for(i), ls=LINESTYLES[j % len(LINESTYLES)])
+                cap = capped.loc[g.index] if capped is not None else np.zeros(len(g), bool)
+                ax.plot(g["eps"], g[y], **st)
+                if np.any(cap):
+                    ax.plot(g["eps"][cap], g[y][cap], ls="none", marker=st["marker"], color="white",
+                            markeredgecolor=st["color"], zorder=3)
+                label = f"{a} / {b}" if b else a
+                side["panels"][y][label] = {"x": g["eps"].tolist(), "y": g[y].tolist(),
+                                            "capped": [bool(c) for c in np.asarray(cap)]}
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_ylabel(SHORT.get(y, LABELS.get(y, y)))
+    axes[0].invert_xaxis()  # tighter eps to the right
+    axes[-1].set_xlabel(r"oracle threshold $\varepsilon$ (tighter to the right)")
+    from matplotlib.lines import Line2D
+    handles = [Line2D([], [], **dict(style.style_for(i), ls="-")) for i in range(len(first))]
+    labels = list(first)
+    if len(second) > 1:
+        handles += [Line2D([], [], color="0.3", ls=LINESTYLES[j % len(LINESTYLES)]) for j in range(len(second))]
+        labels += list(second)
+    ncol = min(4 if max(len(lb) for lb in labels) <= 12 else 2, len(labels))
+    rows = -(-len(labels) // ncol)
+    fig.tight_layout(rect=(0, (0.16 + 0.09 * rows) / (2.1 * len(ys) + 0.5), 1, 1))
+    fig.legend(handles, labels, loc="lower center", ncol=ncol, bbox_to_anchor=(0.5, 0.0))
     style.save(fig, stem)
     return _sidecar(stem, side)
 

@@ -111,6 +111,17 @@ def _derive(runs):
             faces = faces if isinstance(faces, bool) else str(faces).lower() in ("true", "1")
             return d.get("cluster.builder", "bvh") + (" + face clusters" if faces else "")
         runs["clustering"] = st.map(clustering) if len(runs) else []
+
+        def floor_variant(d):
+            # The cluster validity rule of a run (cluster/link.h; defaults
+            # separation 1.5, surface_separation 1, near open): the row sets
+            # of the eps_scenes_floor study, as one label.
+            faces = d.get("cluster.faces", False)
+            faces = faces if isinstance(faces, bool) else str(faces).lower() in ("true", "1")
+            return (f"sep {float(d.get('cluster.separation', 1.5)):g}, "
+                    f"surf {float(d.get('cluster.surface_separation', 1.0)):g}, "
+                    f"near {d.get('cluster.near', 'open')}" + (", faces" if faces else ""))
+        runs["floor_variant"] = st.map(floor_variant) if len(runs) else []
     if "summary" in runs.columns and "patches" not in runs.columns:
         def patches(s):
             try:
@@ -160,6 +171,32 @@ def _derive(runs):
                                                     ("memory_budget_hit", "memory"))
                             if v.get(key))
         runs["capped"] = runs["summary"].map(capped)
+    if "scene" in runs.columns and len(runs):
+        # A file scene by its file name without folder and extension
+        # ("../../../shared/scenes/renderpark-mgf/corridor.mgf" -> "corridor").
+        runs["scene_short"] = runs["scene"].map(
+            lambda s: os.path.splitext(os.path.basename(s))[0] if isinstance(s, str) and "/" in s else s)
+    if "summary" in runs.columns and len(runs):
+        # Non-emitter L2 with a Monte Carlo reference's own noise taken out in
+        # quadrature, sqrt(L2^2 - se^2) (se: the reference's relative L2
+        # standard error over the non-emitting regions); the plain L2 where
+        # the reference has no noise (full matrix); NaN where L2 < 1.5 se:
+        # there the reference's noise dominates and the difference of two
+        # squares does not resolve the solve's own error (it is then only
+        # known to be below about L2).
+        def denoised(s):
+            try:
+                e = json.loads(s)["error"]
+                l2 = float(e["l2_nonemitter_lum"])
+            except (TypeError, ValueError, KeyError):
+                return np.nan
+            se = e.get("mc_stderr_l2_nonemitter_lum")
+            if se is None:
+                return l2
+            if l2 < 1.5 * float(se):
+                return np.nan
+            return float(np.sqrt(l2 * l2 - float(se) ** 2))
+        runs["l2_nonemitter_denoised"] = runs["summary"].map(denoised).astype(float)
     if "links" in runs.columns and "patches" in runs.columns and len(runs):
         runs["links_per_patch"] = runs["links"] / runs["patches"]
     if "wall_s" in runs.columns:
