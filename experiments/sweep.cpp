@@ -1,10 +1,13 @@
 #include "experiments/sweep.h"
 
+#include <fmt/format.h>
 #include <signal.h>
+#include <spdlog/spdlog.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/time.h>
 #include <sys/wait.h>
+#include <tbb/global_control.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -18,10 +21,6 @@
 #include <set>
 #include <sstream>
 #include <thread>
-
-#include <fmt/format.h>
-#include <spdlog/spdlog.h>
-#include <tbb/global_control.h>
 
 #include "core/timer.h"
 #include "experiments/runner.h"
@@ -55,9 +54,11 @@ std::vector<uint64_t> readPointList(const fs::path& file, const Study& study) {
     auto flush = [&]() {
         if (token.empty()) return;
         SourceLocation where{file.string(), tokenLine, 0};
-        bool digits = token.size() <= 19 &&
-                      std::all_of(token.begin(), token.end(), [](char c) { return c >= '0' && c <= '9'; });
-        if (!digits) throwInputError(where, "expected a point index (0, 1, 2, ...), got '{}'", token);
+        bool digits = token.size() <= 19 && std::all_of(token.begin(), token.end(), [](char c) {
+                          return c >= '0' && c <= '9';
+                      });
+        if (!digits)
+            throwInputError(where, "expected a point index (0, 1, 2, ...), got '{}'", token);
         uint64_t v = std::stoull(token);
         if (v >= study.pointCount())
             throwInputError(where, "point index {} is out of range: study '{}' has {} point(s)", v,
@@ -88,7 +89,8 @@ std::vector<uint64_t> readPointList(const fs::path& file, const Study& study) {
         }
     }
     flush();
-    if (list.empty()) throwInputError(SourceLocation{file.string(), 0, 0}, "the point list is empty");
+    if (list.empty())
+        throwInputError(SourceLocation{file.string(), 0, 0}, "the point list is empty");
     return list;
 }
 
@@ -97,11 +99,16 @@ uint64_t parseBytes(const std::string& text) {
     double v = std::strtod(text.c_str(), &end);
     std::string unit = end ? std::string(end) : "";
     double mult = 1;
-    if (unit == "" || unit == "B") mult = 1;
-    else if (unit == "K" || unit == "KiB" || unit == "k") mult = 1024.0;
-    else if (unit == "M" || unit == "MiB") mult = 1024.0 * 1024;
-    else if (unit == "G" || unit == "GiB") mult = 1024.0 * 1024 * 1024;
-    else v = -1;
+    if (unit == "" || unit == "B")
+        mult = 1;
+    else if (unit == "K" || unit == "KiB" || unit == "k")
+        mult = 1024.0;
+    else if (unit == "M" || unit == "MiB")
+        mult = 1024.0 * 1024;
+    else if (unit == "G" || unit == "GiB")
+        mult = 1024.0 * 1024 * 1024;
+    else
+        v = -1;
     if (!(v >= 0) || end == text.c_str())
         throwInputError({"command line (--max-memory)", 0, 0},
                         "expected a size such as 512M or 4G, got '{}'", text);
@@ -113,7 +120,7 @@ namespace {
 struct Task {
     bool isReference = false;
     const PointSpec* point = nullptr;
-    std::string key;       ///< point key, or reference id
+    std::string key;  ///< point key, or reference id
     fs::path resultFile;
 };
 
@@ -123,8 +130,8 @@ struct Running {
 };
 
 /// The child: limits, thread count, the work, its result in a file. Never returns.
-[[noreturn]] void childMain(const Task& task, const RunContext& ctx, int threads,
-                            double maxSeconds, uint64_t maxMemory, bool progress) {
+[[noreturn]] void childMain(const Task& task, const RunContext& ctx, int threads, double maxSeconds,
+                            uint64_t maxMemory, bool progress) {
     json result;
     try {
         if (!progress) spdlog::set_level(spdlog::level::warn);
@@ -198,18 +205,30 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
     if (opt.referencesOnly) {
         std::string tmpl = (fs::temp_directory_path() / "hrad-references.XXXXXX").string();
         if (!mkdtemp(tmpl.data()))
-            throw Error(fmt::format("cannot create a temporary folder {}: {}", tmpl, std::strerror(errno)));
+            throw Error(
+                fmt::format("cannot create a temporary folder {}: {}", tmpl, std::strerror(errno)));
         work = tmpl;
     } else {
         storePtr = std::make_unique<ResultStore>(opt.store);
         ResultStore& st = *storePtr;
         int64_t existing = st.count("runs") + st.count("failures");
         if (existing > 0 && !opt.resume)
-            throw Error(fmt::format("results store {} already holds {} run(s) and {} failure(s); pass "
-                                    "--resume to continue it (finished points are skipped)",
-                                    opt.store.string(), st.count("runs"), st.count("failures")));
-        studyHash = st.addStudy(study.name,
-                                study.path.empty() ? "" : fs::absolute(study.path).string(), study.text);
+            throw Error(
+                fmt::format("results store {} already holds {} run(s) and {} failure(s); pass "
+                            "--resume to continue it (finished points are skipped)",
+                            opt.store.string(), st.count("runs"), st.count("failures")));
+        // The study file as seen from the store's folder (e.g.
+        // "../studies/x.toml"): stores are committed, and a machine's
+        // absolute path would name a folder no other machine has.
+        std::string studyPath;
+        if (!study.path.empty()) {
+            std::error_code ec;
+            fs::path rel =
+                fs::relative(fs::absolute(study.path), fs::absolute(opt.store).parent_path(), ec);
+            studyPath =
+                ec || rel.empty() ? fs::path(study.path).filename().string() : rel.generic_string();
+        }
+        studyHash = st.addStudy(study.name, studyPath, study.text);
         done = st.runKeys();
         failed = st.failureKeys();
         work = opt.store;
@@ -222,7 +241,8 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
     }
     fs::path artefactRoot =
         (opt.store.has_parent_path() ? opt.store.parent_path() : fs::path(".")) /
-        (study.pointCount() == 0 ? fs::path("runs") : fs::path(study.point(0).outputs.dir)) / study.name;
+        (study.pointCount() == 0 ? fs::path("runs") : fs::path(study.point(0).outputs.dir)) /
+        study.name;
 
     double maxSeconds = opt.maxSeconds > 0 ? opt.maxSeconds : study.limits.maxSeconds;
     uint64_t maxMemory = opt.maxMemoryBytes > 0 ? opt.maxMemoryBytes : study.limits.maxMemoryBytes;
@@ -237,14 +257,16 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
     // resubmission share its points evenly.
     std::vector<PointSpec> shardPoints;
     if (!opt.pointList.empty()) {
-        for (size_t p = size_t(opt.shardIndex); p < opt.pointList.size(); p += size_t(opt.shardCount)) {
+        for (size_t p = size_t(opt.shardIndex); p < opt.pointList.size();
+             p += size_t(opt.shardCount)) {
             if (opt.pointList[p] >= study.pointCount())
                 throw Error(fmt::format("point index {} out of range (study has {} points)",
                                         opt.pointList[p], study.pointCount()));
             shardPoints.push_back(study.point(opt.pointList[p]));
         }
     } else {
-        for (uint64_t i = uint64_t(opt.shardIndex); i < study.pointCount(); i += uint64_t(opt.shardCount))
+        for (uint64_t i = uint64_t(opt.shardIndex); i < study.pointCount();
+             i += uint64_t(opt.shardCount))
             shardPoints.push_back(study.point(i));
     }
     std::vector<Task> todo;
@@ -270,94 +292,104 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
     base.progress = opt.progress;
 
     // Runs tasks `jobs` at a time; calls finish(task, result json or failure).
-    auto runTasks = [&](std::vector<Task> tasks,
-                        const std::function<void(const Task&, const json&, uint64_t peak, double secs)>& finish,
-                        bool limited) {
-        std::deque<Task> queue(tasks.begin(), tasks.end());
-        std::map<pid_t, Running> running;
-        while (!queue.empty() || !running.empty()) {
-            while (!queue.empty() && int(running.size()) < jobs) {
-                Task t = queue.front();
-                queue.pop_front();
-                fs::remove(t.resultFile);
-                RunContext ctx = base;
-                if (!t.isReference) ctx.artefactDir = artefactRoot / t.key;
-                std::fflush(nullptr);
-                pid_t parent = getpid();
-                pid_t pid = fork();
-                if (pid < 0) throw Error(fmt::format("fork failed: {}", std::strerror(errno)));
-                if (pid == 0) {
-                    // A child dies with its parent (a sweep killed with SIGKILL
-                    // cannot stop its children itself); the check after prctl
-                    // covers a parent that died before the call, the same way.
-                    prctl(PR_SET_PDEATHSIG, SIGKILL);
-                    if (getppid() != parent) raise(SIGKILL);
+    auto runTasks =
+        [&](std::vector<Task> tasks,
+            const std::function<void(const Task&, const json&, uint64_t peak, double secs)>& finish,
+            bool limited) {
+            std::deque<Task> queue(tasks.begin(), tasks.end());
+            std::map<pid_t, Running> running;
+            while (!queue.empty() || !running.empty()) {
+                while (!queue.empty() && int(running.size()) < jobs) {
+                    Task t = queue.front();
+                    queue.pop_front();
+                    fs::remove(t.resultFile);
+                    RunContext ctx = base;
+                    if (!t.isReference) ctx.artefactDir = artefactRoot / t.key;
+                    std::fflush(nullptr);
+                    pid_t parent = getpid();
+                    pid_t pid = fork();
+                    if (pid < 0) throw Error(fmt::format("fork failed: {}", std::strerror(errno)));
+                    if (pid == 0) {
+                        // A child dies with its parent (a sweep killed with SIGKILL
+                        // cannot stop its children itself); the check after prctl
+                        // covers a parent that died before the call, the same way.
+                        prctl(PR_SET_PDEATHSIG, SIGKILL);
+                        if (getppid() != parent) raise(SIGKILL);
+                    }
+                    if (pid == 0)
+                        childMain(t, ctx, threads, limited ? maxSeconds : 0.0,
+                                  limited ? maxMemory : 0, opt.progress);
+                    running.emplace(pid, Running{t, Timer()});
                 }
-                if (pid == 0)
-                    childMain(t, ctx, threads, limited ? maxSeconds : 0.0, limited ? maxMemory : 0,
-                              opt.progress);
-                running.emplace(pid, Running{t, Timer()});
-            }
-            int status = 0;
-            rusage ru{};
-            pid_t pid = wait4(-1, &status, 0, &ru);
-            if (pid < 0) {
-                if (errno == EINTR) continue;
-                throw Error(fmt::format("wait4 failed: {}", std::strerror(errno)));
-            }
-            auto it = running.find(pid);
-            if (it == running.end()) continue;  // not ours
-            Task t = it->second.task;
-            double secs = it->second.timer.seconds();
-            running.erase(it);
-            uint64_t peak = uint64_t(ru.ru_maxrss) * 1024;  // kilobytes on Linux
-            json result;
-            if (WIFEXITED(status) && WEXITSTATUS(status) == 0 && fs::exists(t.resultFile)) {
-                std::ifstream in(t.resultFile, std::ios::binary);
-                try {
-                    result = json::parse(in);
-                } catch (const std::exception& e) {
-                    result = {{"ok", false}, {"kind", "error"},
-                              {"message", fmt::format("unreadable result: {}", e.what())}};
+                int status = 0;
+                rusage ru{};
+                pid_t pid = wait4(-1, &status, 0, &ru);
+                if (pid < 0) {
+                    if (errno == EINTR) continue;
+                    throw Error(fmt::format("wait4 failed: {}", std::strerror(errno)));
                 }
-                fs::remove(t.resultFile);
-                // The child's CPU time (user + system, all its threads) from
-                // the same wait4: on a loaded machine the phases' wall clocks
-                // grow with the load, this does not.
-                if (result.is_object() && result.contains("summary") && result["summary"].is_object())
-                    result["summary"]["cpu_s"] =
-                        double(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) +
-                        1e-6 * double(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
-            } else if (WIFSIGNALED(status) &&
-                       (WTERMSIG(status) == SIGTERM || WTERMSIG(status) == SIGINT ||
-                        WTERMSIG(status) == SIGHUP)) {
-                // Stopped from outside (scancel, a Slurm time limit, Ctrl-C):
-                // not the point's failure. Nothing is recorded, so the point
-                // stays missing and a resumed sweep runs it again; the
-                // parent, sent the same signal, ends too.
-                spdlog::warn("{} #{} stopped by signal {} ({}); not recorded, it reruns on --resume",
-                             t.isReference ? "reference of point" : "point", t.point->index,
-                             WTERMSIG(status), signalName(WTERMSIG(status)));
-                fs::remove(t.resultFile);
-                continue;
-            } else if (WIFSIGNALED(status)) {
-                int sig = WTERMSIG(status);
-                if (sig == SIGALRM)
-                    result = {{"ok", false}, {"kind", "timeout"},
-                              {"message", fmt::format("exceeded the time limit of {} s", maxSeconds)}};
-                else
-                    result = {{"ok", false}, {"kind", sig == SIGKILL ? "killed" : "signal"},
-                              {"message", fmt::format("child killed by signal {} ({}){}", sig,
-                                                      signalName(sig),
-                                                      sig == SIGKILL ? "; out of memory?" : "")}};
-            } else {
-                result = {{"ok", false}, {"kind", "error"},
-                          {"message", fmt::format("child exited with status {} without a result",
-                                                  WIFEXITED(status) ? WEXITSTATUS(status) : -1)}};
+                auto it = running.find(pid);
+                if (it == running.end()) continue;  // not ours
+                Task t = it->second.task;
+                double secs = it->second.timer.seconds();
+                running.erase(it);
+                uint64_t peak = uint64_t(ru.ru_maxrss) * 1024;  // kilobytes on Linux
+                json result;
+                if (WIFEXITED(status) && WEXITSTATUS(status) == 0 && fs::exists(t.resultFile)) {
+                    std::ifstream in(t.resultFile, std::ios::binary);
+                    try {
+                        result = json::parse(in);
+                    } catch (const std::exception& e) {
+                        result = {{"ok", false},
+                                  {"kind", "error"},
+                                  {"message", fmt::format("unreadable result: {}", e.what())}};
+                    }
+                    fs::remove(t.resultFile);
+                    // The child's CPU time (user + system, all its threads) from
+                    // the same wait4: on a loaded machine the phases' wall clocks
+                    // grow with the load, this does not.
+                    if (result.is_object() && result.contains("summary") &&
+                        result["summary"].is_object())
+                        result["summary"]["cpu_s"] =
+                            double(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) +
+                            1e-6 * double(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
+                } else if (WIFSIGNALED(status) &&
+                           (WTERMSIG(status) == SIGTERM || WTERMSIG(status) == SIGINT ||
+                            WTERMSIG(status) == SIGHUP)) {
+                    // Stopped from outside (scancel, a Slurm time limit, Ctrl-C):
+                    // not the point's failure. Nothing is recorded, so the point
+                    // stays missing and a resumed sweep runs it again; the
+                    // parent, sent the same signal, ends too.
+                    spdlog::warn(
+                        "{} #{} stopped by signal {} ({}); not recorded, it reruns on --resume",
+                        t.isReference ? "reference of point" : "point", t.point->index,
+                        WTERMSIG(status), signalName(WTERMSIG(status)));
+                    fs::remove(t.resultFile);
+                    continue;
+                } else if (WIFSIGNALED(status)) {
+                    int sig = WTERMSIG(status);
+                    if (sig == SIGALRM)
+                        result = {{"ok", false},
+                                  {"kind", "timeout"},
+                                  {"message",
+                                   fmt::format("exceeded the time limit of {} s", maxSeconds)}};
+                    else
+                        result = {
+                            {"ok", false},
+                            {"kind", sig == SIGKILL ? "killed" : "signal"},
+                            {"message",
+                             fmt::format("child killed by signal {} ({}){}", sig, signalName(sig),
+                                         sig == SIGKILL ? "; out of memory?" : "")}};
+                } else {
+                    result = {
+                        {"ok", false},
+                        {"kind", "error"},
+                        {"message", fmt::format("child exited with status {} without a result",
+                                                WIFEXITED(status) ? WEXITSTATUS(status) : -1)}};
+                }
+                finish(t, result, peak, secs);
             }
-            finish(t, result, peak, secs);
-        }
-    };
+        };
 
     // ---- references, once per (scene, reference settings) ---------------------------
     std::map<std::string, std::string> referenceFailure;  // refId -> message
@@ -366,20 +398,22 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
         int n = 0;
         report.references = byReference.size();
         for (const auto& [refId, pts] : byReference)
-            refTasks.push_back(Task{true, pts.front(), refId, work / fmt::format("reference-{}.json", n++)});
-        runTasks(refTasks,
-                 [&](const Task& t, const json& r, uint64_t, double secs) {
-                     if (r.value("ok", false)) {
-                         const json& d = r["reference"];
-                         spdlog::info("reference {}: {} ({:.2f} s)", t.key,
-                                      d.value("cached", false) ? "cached" : "computed", secs);
-                     } else {
-                         referenceFailure[t.key] = r.value("message", "?");
-                         ++report.referencesFailed;
-                         spdlog::warn("reference {} failed: {}", t.key, referenceFailure[t.key]);
-                     }
-                 },
-                 false);
+            refTasks.push_back(
+                Task{true, pts.front(), refId, work / fmt::format("reference-{}.json", n++)});
+        runTasks(
+            refTasks,
+            [&](const Task& t, const json& r, uint64_t, double secs) {
+                if (r.value("ok", false)) {
+                    const json& d = r["reference"];
+                    spdlog::info("reference {}: {} ({:.2f} s)", t.key,
+                                 d.value("cached", false) ? "cached" : "computed", secs);
+                } else {
+                    referenceFailure[t.key] = r.value("message", "?");
+                    ++report.referencesFailed;
+                    spdlog::warn("reference {} failed: {}", t.key, referenceFailure[t.key]);
+                }
+            },
+            false);
     }
 
     if (opt.referencesOnly) {
@@ -417,29 +451,40 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
             pointTasks.push_back(t);
     }
     size_t total = pointTasks.size(), count = 0;
-    runTasks(pointTasks,
-             [&](const Task& t, const json& r, uint64_t peak, double secs) {
-                 ++count;
-                 if (!r.value("ok", false)) {
-                     recordFailure(t, r.value("kind", "error"), r.value("message", "?"), secs, peak);
-                     return;
-                 }
-                 json summary = r["summary"];
-                 // The child's own VmHWM is in memory.peak_rss; wait4's value
-                 // is the same measure taken by the kernel at exit.
-                 summary["memory"]["peak_rss_wait4"] = peak;
-                 store.addRun(t.key, studyHash, int64_t(t.point->index), summary);
-                 ++report.finished;
-                 std::string vary;
-                 for (const auto& [k, v] : t.point->varying) vary += fmt::format(" {}={}", k, v);
-                 json l2 = summary.contains("error") ? summary["error"].value("l2_lum", json(nullptr))
-                                                     : json(nullptr);
-                 spdlog::info("[{}/{}] #{} {}{}: {:.2f} s{}", count, total, t.point->index,
-                              t.point->sceneLabel, vary, summary.value("wall_seconds", 0.0),
-                              l2.is_number() ? fmt::format(", L2(lum) {:.4g}", l2.get<double>()) : "");
-                 if (opt.onPointDone) opt.onPointDone(*t.point, true);
-             },
-             true);
+    runTasks(
+        pointTasks,
+        [&](const Task& t, const json& r, uint64_t peak, double secs) {
+            ++count;
+            if (!r.value("ok", false)) {
+                recordFailure(t, r.value("kind", "error"), r.value("message", "?"), secs, peak);
+                return;
+            }
+            json summary = r["summary"];
+            // The child's own VmHWM is in memory.peak_rss; wait4's value
+            // is the same measure taken by the kernel at exit.
+            summary["memory"]["peak_rss_wait4"] = peak;
+            // Artefact files as seen from the store's folder (stores are
+            // committed; see the study path above).
+            if (summary.contains("artefacts") && summary["artefacts"].is_object())
+                for (auto& [name, file] : summary["artefacts"].items()) {
+                    if (!file.is_string()) continue;
+                    std::error_code ec;
+                    fs::path rel = fs::relative(fs::absolute(file.get<std::string>()),
+                                                fs::absolute(opt.store).parent_path(), ec);
+                    if (!ec && !rel.empty()) file = rel.generic_string();
+                }
+            store.addRun(t.key, studyHash, int64_t(t.point->index), summary);
+            ++report.finished;
+            std::string vary;
+            for (const auto& [k, v] : t.point->varying) vary += fmt::format(" {}={}", k, v);
+            json l2 = summary.contains("error") ? summary["error"].value("l2_lum", json(nullptr))
+                                                : json(nullptr);
+            spdlog::info("[{}/{}] #{} {}{}: {:.2f} s{}", count, total, t.point->index,
+                         t.point->sceneLabel, vary, summary.value("wall_seconds", 0.0),
+                         l2.is_number() ? fmt::format(", L2(lum) {:.4g}", l2.get<double>()) : "");
+            if (opt.onPointDone) opt.onPointDone(*t.point, true);
+        },
+        true);
     std::error_code ec;
     fs::remove(work, ec);  // only when empty
     return report;

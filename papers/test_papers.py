@@ -69,6 +69,38 @@ def nonempty(stem, exts=("pdf", "png", "json")):
         check(ok, f"{os.path.basename(f)} exists, non-empty, right format")
 
 
+def check_committed_stores():
+    """The stores under papers/results and bench/results are committed: they
+    name their study files and run files relative to themselves, never by a
+    machine's absolute path, and the study files they name exist."""
+    bad = []
+    stores = 0
+    for root in (os.path.join(HERE, "results"), os.path.join(HERE, "..", "bench", "results")):
+        if not os.path.isdir(root):
+            continue
+        for name in sorted(os.listdir(root)):
+            if not name.endswith(".sqlite"):
+                continue
+            stores += 1
+            store = os.path.join(root, name)
+            con = sqlite3.connect(f"file:{store}?mode=ro&immutable=1", uri=True)
+            try:
+                for (path,) in con.execute("select path from studies"):
+                    if not path or os.path.isabs(path):
+                        bad.append(f"{name}: study path {path!r} is not relative")
+                    elif not os.path.exists(os.path.join(root, path)):
+                        bad.append(f"{name}: study file {path} not found")
+                for scene, summary in con.execute("select scene, summary from runs"):
+                    if os.path.isabs(scene):
+                        bad.append(f"{name}: scene {scene!r} is an absolute path")
+                    arts = (json.loads(summary) if summary else {}).get("artefacts") or {}
+                    bad += [f"{name}: artefact {k} {v!r} is an absolute path"
+                            for k, v in arts.items() if isinstance(v, str) and os.path.isabs(v)]
+            finally:
+                con.close()
+    check(not bad, f"{stores} committed stores name files relative to themselves: {bad[:5]}")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--hrad", required=True)
@@ -82,6 +114,7 @@ def main():
         print(f"SKIP: {sys.executable} lacks {e.name} (apt-get install python3-matplotlib python3-pandas)")
         return SKIP
 
+    check_committed_stores()
     work = a.keep or tempfile.mkdtemp(prefix="hrad-papers-")
     os.makedirs(work, exist_ok=True)
     try:

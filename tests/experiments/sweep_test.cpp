@@ -1,23 +1,21 @@
 // Sweeps into a results store: every point runs in a child process, so these
 // tests exercise the real fork / wait / commit path on tiny scenes (the
 // furnace and two plates; full-matrix references at level 1).
-#include <sys/prctl.h>
+#include "experiments/sweep.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
-
 #include <signal.h>
 #include <sqlite3.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <fstream>
-
-#include <fmt/format.h>
 #include <set>
 
 #include "experiments/store.h"
 #include "render/error_map.h"
-#include "experiments/sweep.h"
 #include "tests/test_util.h"
 
 namespace hrad::experiments {
@@ -88,6 +86,33 @@ TEST(Sweep, RunsEveryPointWithMetricsAndHistory) {
     sqlite3_finalize(st);
 }
 
+// A store is committed with the study it ran: it names the study file as seen
+// from the store's folder, never by this machine's absolute path.
+TEST(Sweep, StoreNamesItsStudyRelativeToItself) {
+    auto dir = test::tempDir("sweep_path");
+    fs::create_directories(dir / "papers" / "studies");
+    fs::create_directories(dir / "papers" / "results");
+    {
+        std::ofstream f(dir / "papers" / "studies" / "tiny.toml");
+        f << "name = \"tiny\"\nscenes = [\"furnace\"]\n[solver]\n\"hr.max_iterations\" = 2\n"
+          << "[outputs]\nsolution = true\n";
+    }
+    Study study = loadStudy(dir / "papers" / "studies" / "tiny.toml");
+    SweepReport r = runSweep(study, options(dir / "papers" / "results", "tiny.sqlite"));
+    EXPECT_EQ(r.finished, 1u);
+    std::set<std::string> paths =
+        keysOf(dir / "papers" / "results" / "tiny.sqlite", "SELECT path FROM studies");
+    ASSERT_EQ(paths.size(), 1u);
+    EXPECT_EQ(*paths.begin(), "../studies/tiny.toml");
+    // So are the run's files.
+    std::set<std::string> files = keysOf(dir / "papers" / "results" / "tiny.sqlite",
+                                         "SELECT json_extract(summary, '$.artefacts.solution') "
+                                         "FROM runs");
+    ASSERT_EQ(files.size(), 1u);
+    EXPECT_EQ(files.begin()->rfind("runs/tiny/", 0), 0u) << *files.begin();
+    EXPECT_TRUE(fs::exists(dir / "papers" / "results" / *files.begin())) << *files.begin();
+}
+
 // outputs.history_error: the L2 error after every iteration is stored, and
 // the last iteration's error is the run's final error.
 TEST(Sweep, HistoryErrorIsRecordedPerIteration) {
@@ -108,9 +133,8 @@ history_error = true
     ASSERT_EQ(r.finished, 1u);
     ResultStore s(dir / "hist.sqlite", true);
     sqlite3_stmt* st = nullptr;
-    sqlite3_prepare_v2(s.handle(),
-                       "SELECT COUNT(*), SUM(i.l2_lum IS NULL) FROM iterations i", -1, &st,
-                       nullptr);
+    sqlite3_prepare_v2(s.handle(), "SELECT COUNT(*), SUM(i.l2_lum IS NULL) FROM iterations i", -1,
+                       &st, nullptr);
     ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
     EXPECT_GT(sqlite3_column_int(st, 0), 1);
     EXPECT_EQ(sqlite3_column_int(st, 1), 0) << "every iteration has an error";
@@ -156,8 +180,9 @@ history_error = true
     ResultStore s(dir / "pr.sqlite", true);
     EXPECT_GT(s.count("iterations"), 2);
     sqlite3_stmt* st = nullptr;
-    sqlite3_prepare_v2(s.handle(), "SELECT iteration, residual, l2_lum FROM iterations ORDER BY iteration",
-                       -1, &st, nullptr);
+    sqlite3_prepare_v2(s.handle(),
+                       "SELECT iteration, residual, l2_lum FROM iterations ORDER BY iteration", -1,
+                       &st, nullptr);
     double prevResidual = 2.0, lastL2 = -1;
     int prevIter = -1;
     while (sqlite3_step(st) == SQLITE_ROW) {
@@ -200,7 +225,7 @@ kind = "full-matrix"
 [outputs]
 error_map = true
 )",
-                       "maps.toml", dir);
+                             "maps.toml", dir);
     SweepReport r = runSweep(study, options(dir, "maps.sqlite"));
     ASSERT_EQ(r.finished, 2u);
     ResultStore s(dir / "maps.sqlite", true);
@@ -212,7 +237,8 @@ error_map = true
         ++rows;
         std::string key = reinterpret_cast<const char*>(sqlite3_column_text(st, 0));
         std::string solver = reinterpret_cast<const char*>(sqlite3_column_text(st, 1));
-        auto summary = nlohmann::json::parse(reinterpret_cast<const char*>(sqlite3_column_text(st, 2)));
+        auto summary =
+            nlohmann::json::parse(reinterpret_cast<const char*>(sqlite3_column_text(st, 2)));
         fs::path run = dir / "runs" / "maps" / key;
         for (const char* f : {"image.png", "reference.png", "error.png", "error_fc.png"})
             EXPECT_TRUE(fs::exists(run / f)) << solver << " " << f;
@@ -292,8 +318,9 @@ TEST(Sweep, ChildrenDieWithAKilledParent) {
     auto dir = test::tempDir("sweep_parent_killed");
     // Points that take a while (a second or more each), so that the children
     // are mid-solve when the parent is killed.
-    Study study = parseStudy("name = \"slow\"\nscenes = [\"cornell\"]\n[sweep]\n\"oracle.eps\" = [0.0005, 0.0006]\n",
-                             "slow.toml", dir);
+    Study study = parseStudy(
+        "name = \"slow\"\nscenes = [\"cornell\"]\n[sweep]\n\"oracle.eps\" = [0.0005, 0.0006]\n",
+        "slow.toml", dir);
     SweepOptions o = options(dir, "killed.sqlite");
     o.jobs = 2;
     ASSERT_EQ(prctl(PR_SET_CHILD_SUBREAPER, 1), 0);
@@ -421,9 +448,9 @@ TEST(Store, ErrorColumnsAndOlderStores) {
     {
         sqlite3* db = nullptr;
         ASSERT_EQ(sqlite3_open((dir / "old.sqlite").string().c_str(), &db), SQLITE_OK);
-        for (const char* c : {"l1_reflected_lum", "l2_reflected_lum", "l1_nonemitter_lum",
-                              "l2_nonemitter_lum", "mean_ratio_nonemitter", "error_estimate",
-                              "residual"})
+        for (const char* c :
+             {"l1_reflected_lum", "l2_reflected_lum", "l1_nonemitter_lum", "l2_nonemitter_lum",
+              "mean_ratio_nonemitter", "error_estimate", "residual"})
             ASSERT_EQ(sqlite3_exec(db, fmt::format("ALTER TABLE runs DROP COLUMN {}", c).c_str(),
                                    nullptr, nullptr, nullptr),
                       SQLITE_OK);
@@ -434,8 +461,9 @@ TEST(Store, ErrorColumnsAndOlderStores) {
         ResultStore merged(dir / "merged.sqlite");
         EXPECT_EQ(merged.mergeFrom(dir / "old.sqlite"), n);
     }
-    EXPECT_EQ(keysOf(dir / "merged.sqlite", "SELECT printf('%d', l1_reflected_lum IS NULL) FROM runs"),
-              std::set<std::string>{"1"});
+    EXPECT_EQ(
+        keysOf(dir / "merged.sqlite", "SELECT printf('%d', l1_reflected_lum IS NULL) FROM runs"),
+        std::set<std::string>{"1"});
     // Opened for writing, the older store gets the columns.
     { ResultStore upgraded(dir / "old.sqlite"); }
     EXPECT_EQ(keysOf(dir / "old.sqlite", "SELECT printf('%d', error_estimate IS NULL) FROM runs"),
@@ -460,10 +488,11 @@ scenes = ["furnace"]
         return line;
     };
     std::string runs = header("runs");
-    for (const char* col : {"key", "scene", "solver", "oracle", "settings", "version", "host",
-                            "wall_s", "load_s", "visibility_s", "refine_s", "gather_s",
-                            "push_pull_s", "peak_rss", "elements", "links", "rays", "iterations",
-                            "l1_lum", "l2_lum", "linf_lum", "l2_rgb", "mc_stderr_l2_lum"})
+    for (const char* col : {"key",      "scene",    "solver",          "oracle",   "settings",
+                            "version",  "host",     "wall_s",          "load_s",   "visibility_s",
+                            "refine_s", "gather_s", "push_pull_s",     "peak_rss", "elements",
+                            "links",    "rays",     "iterations",      "l1_lum",   "l2_lum",
+                            "linf_lum", "l2_rgb",   "mc_stderr_l2_lum"})
         EXPECT_NE(runs.find(col), std::string::npos) << col;
     EXPECT_NE(header("iterations").find("residual"), std::string::npos);
     EXPECT_NE(header("failures").find("message"), std::string::npos);
