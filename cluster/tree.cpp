@@ -350,14 +350,21 @@ struct TreeBuilder {
     }
 };
 
-ClusterTree::ClusterTree(const scene::Scene& scene, const ClusterSettings& settings)
+ClusterTree::ClusterTree(const scene::Scene& scene, const ClusterSettings& settings,
+                         const std::vector<uint8_t>& include)
     : scene_(&scene), settings_(settings) {
     faceConeCos_ = std::cos(settings.faceCone * kPi / 180.0);
     Timer timer;
-    size_t n = scene.patches.size();
+    if (!include.empty() && !settings.faces) {
+        HRAD_CHECK(include.size() == scene.patches.size());
+        for (uint32_t p = 0; p < uint32_t(include.size()); ++p)
+            if (include[p]) order_.push_back(p);
+    } else {
+        order_.resize(scene.patches.size());
+        std::iota(order_.begin(), order_.end(), 0u);
+    }
+    size_t n = order_.size();
     HRAD_CHECK(n > 0);
-    order_.resize(n);
-    std::iota(order_.begin(), order_.end(), 0u);
     TreeBuilder b(*this, scene, settings);
     nodes_.reserve(2 * n / size_t(std::max(1, settings.leafSize)) + 16);
     if (settings.builder == "bvh" && settings.faces) {

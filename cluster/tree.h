@@ -95,7 +95,12 @@ class ClusterTree {
   public:
     /// Builds the tree with the selected builder. Throws InputError for an
     /// unknown builder (listing the valid ones).
-    ClusterTree(const scene::Scene& scene, const ClusterSettings& settings);
+    /// `include` (empty: every patch) leaves out the patches with include[p]
+    /// == 0 (hr.reach_rays: patches light cannot reach); they then have no
+    /// cluster (patchCluster() UINT32_MAX). Face clusters (settings.faces)
+    /// always hold every patch: the mask is ignored there.
+    ClusterTree(const scene::Scene& scene, const ClusterSettings& settings,
+                const std::vector<uint8_t>& include = {});
 
     const std::vector<ClusterNode>& nodes() const { return nodes_; }
     const ClusterNode& node(uint32_t c) const { return nodes_[c]; }

@@ -56,6 +56,8 @@ class HrEntry final : public Solver {
                             {"links", h.numLinks()},
                             {"initial_links", res->initialLinks},
                             {"initial_pairs", res->initialPairs},
+                            {"unreachable_patches", res->unreachablePatches},
+                            {"reach_rays", res->reachRays},
                             {"links_ss", res->linksSS},
                             {"links_sc", res->linksSC},
                             {"links_cs", res->linksCS},
@@ -76,6 +78,7 @@ class HrEntry final : public Solver {
         }
         json& t = out.timings;
         if (res->clusterTree) t["cluster_build"] = res->clusterBuildSeconds;
+        t["reachability"] = res->reachSeconds;
         t["linking"] = res->linkingSeconds;
         t["refine"] = res->refineSeconds;
         t["gather"] = res->gatherSeconds;

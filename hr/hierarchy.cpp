@@ -44,7 +44,11 @@ Hierarchy::Hierarchy(const scene::Scene& scene, const cluster::ClusterTree* tree
         B_[i] = scene.patches[i].emission;
     }
     if (tree_) {
-        for (uint32_t p = 0; p < k; ++p) parent_[p] = k + tree_->patchCluster()[p];
+        // Patches the tree leaves out (light cannot reach them) have no parent.
+        for (uint32_t p = 0; p < k; ++p) {
+            const uint32_t c = tree_->patchCluster()[p];
+            parent_[p] = c == UINT32_MAX ? kNone : k + c;
+        }
         for (uint32_t c = 0; c < numClusters_; ++c) {
             uint32_t pc = tree_->parents()[c];
             parent_[k + c] = pc == UINT32_MAX ? kNone : k + pc;
@@ -387,6 +391,8 @@ std::vector<RGB> Hierarchy::clusterIrradianceToRoots() const {
     }
     auto fromClusters = [&](uint32_t root) {
         const scene::Patch& P = scene_->patches[root];
+        // A patch the tree leaves out (hr.reach_rays) has no cluster above it.
+        if (parent_[root] == kNone) return RGB(0.0);
         RGB h = clusterDown[parent_[root] - np];
         if (model_ == cluster::ClusterModel::Oriented) {
             // Each link into an ancestor cluster lights this patch with its

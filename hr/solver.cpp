@@ -15,6 +15,7 @@
 #include "core/timer.h"
 #include "hr/receiver_error.h"
 #include "oracles/registry.h"
+#include "transport/reachability.h"
 
 namespace hrad::hr {
 
@@ -98,6 +99,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.senderTotal = p.getBool("hr.sender_total", s.senderTotal);
     s.extrapolate = p.getBool("hr.extrapolate", s.extrapolate);
     s.refineGrowth = p.getDouble("hr.refine_growth", s.refineGrowth, 0.0, 1e300);
+    s.reachRays = int(p.getInt("hr.reach_rays", s.reachRays, 0, 1 << 20));
     s.gaussSeidel = p.getEnum("hr.iteration", s.gaussSeidel ? "gauss-seidel" : "jacobi",
                               {"jacobi", "gauss-seidel"}) == "gauss-seidel";
     s.gsBlocks = int(p.getInt("hr.gs_blocks", s.gsBlocks, 0, 1 << 30));
@@ -365,8 +367,12 @@ void HrSolver::initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vect
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, k, 4), [&](const auto& range) {
         for (uint32_t r = range.begin(); r != range.end(); ++r) {
             uint64_t localRays = 0, localFf = 0;
+            if (!included_.empty() && !included_[r]) {
+                bar.add(1);
+                continue;
+            }
             for (uint32_t s = 0; s < k; ++s) {
-                if (s == r) continue;
+                if (s == r || (!included_.empty() && !included_[s])) continue;
                 uint32_t nr = 0;
                 Link l = makeLink(h, r, s, nr);
                 localRays += nr;
@@ -828,8 +834,26 @@ HrResult HrSolver::solve(bool progress) {
                      cluster::clusterModelName(s_.clusterModel), scene_->patches.size());
     }
     res.clusterModel = cluster::clusterModelName(s_.clusterModel);
+    included_.clear();
+    if (s_.reachRays > 0) {
+        transport::Reachability reach = transport::reachablePatches(*scene_, *vis_, s_.reachRays);
+        res.unreachablePatches = reach.unreachable;
+        res.reachRays = reach.rays;
+        res.reachSeconds = reach.seconds;
+        // Without a lit patch there is nothing to leave out (the solution is
+        // zero anyway).
+        if (reach.unreachable > 0 && reach.unreachable < scene_->patches.size()) {
+            included_ = std::move(reach.reachable);
+            for (uint32_t p = 0; p < uint32_t(included_.size()); ++p)
+                if (scene_->patches[p].isEmitter()) included_[p] = 1;
+        }
+        spdlog::info(
+            "reachability: {} of {} patches cannot be reached by light ({} rays each, {:.2f} s){}",
+            reach.unreachable, scene_->patches.size(), s_.reachRays, reach.seconds,
+            included_.empty() ? "" : ": left out of the transport");
+    }
     if (s_.clusterModel != cluster::ClusterModel::None) {
-        res.clusterTree = std::make_unique<cluster::ClusterTree>(*scene_, s_.cluster);
+        res.clusterTree = std::make_unique<cluster::ClusterTree>(*scene_, s_.cluster, included_);
         res.clusterBuildSeconds = res.clusterTree->buildSeconds();
         spdlog::info(
             "cluster tree ({}{}): {} clusters ({} face clusters, {} planar), depth {}, {:.3f} s",
@@ -868,8 +892,10 @@ HrResult HrSolver::solve(bool progress) {
     RGB lastChange(0.0), lastRatio(0.0);
     // Geometric-tail estimate (see solver.h "Stopping"): the previous change
     // of reflected power, and whether it came from a plain iteration.
-    RGB tailLastChange(0.0);
-    bool tailLastClean = false;
+    // The last changes of a run of clean iterations (no refinement, no
+    // extrapolation), newest last, at most kTailWindow + 1 of them.
+    constexpr size_t kTailWindow = 4;
+    std::vector<RGB> cleanChanges;
     int quietIterations = 0, sinceExtrapolation = 2;
     res.converged = false;
     for (size_t stage = 0; stage < stages.size(); ++stage) {
@@ -944,20 +970,34 @@ HrResult HrSolver::solve(bool progress) {
             {
                 RGB change = reflected - lastReflected;
                 bool clean = rec.refinedLinks == 0 && rec.extrapolation == 0.0;
+                if (!clean)
+                    cleanChanges.clear();
+                else {
+                    if (cleanChanges.size() > kTailWindow) cleanChanges.erase(cleanChanges.begin());
+                    cleanChanges.push_back(change);
+                }
                 double worst = 0.0;
-                for (int c = 0; c < 3 && clean && tailLastClean; ++c) {
+                const size_t w = cleanChanges.empty() ? 0 : cleanChanges.size() - 1;
+                for (int c = 0; c < 3 && w > 0; ++c) {
                     double scale = std::fabs(reflected[c]);
                     if (!(std::fabs(change[c]) > 1e-13 * scale)) continue;  // settled
-                    double q = tailLastChange[c] != 0.0 ? change[c] / tailLastChange[c] : 0.0;
+                    const double last = cleanChanges[w - 1][c];
+                    // A step that does not contract (q >= 1) is judged by the
+                    // ratio over the window (up to kTailWindow steps): a
+                    // channel whose changes shrink irregularly (two modes of
+                    // similar size: graz.mgf two-sided, where a single step's
+                    // ratio crossed 1 again and again while the changes fell
+                    // 300x in 50 iterations) still has a contraction rate.
+                    const double first = cleanChanges[0][c];
+                    double q = last != 0.0 ? change[c] / last : 0.0;
+                    if (q >= 1.0 && first != 0.0 && w > 1)
+                        q = std::pow(std::fabs(change[c] / first), 1.0 / double(w));
                     double tail = q >= 1.0  ? std::numeric_limits<double>::infinity()
                                   : q > 0.0 ? std::fabs(change[c]) * q / (1.0 - q)
                                             : std::fabs(change[c]);
                     worst = std::max(worst, scale > 0 ? tail / scale : tail);
                 }
-                rec.iterationError =
-                    clean && tailLastClean ? worst : std::numeric_limits<double>::infinity();
-                tailLastChange = change;
-                tailLastClean = clean;
+                rec.iterationError = w > 0 ? worst : std::numeric_limits<double>::infinity();
             }
             lastReflected = reflected;
             rec.links = h.numLinks();

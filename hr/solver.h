@@ -68,6 +68,16 @@
 //                                       along the emitter's bright edge each accept its mean)
 //   hr.extrapolate     bool    true    Aitken extrapolation of the gather iteration's tail
 //                                       (below)
+//   hr.reach_rays      int     64      rays per patch of the pass that finds the patches light
+//                                       cannot reach (transport/reachability.h): inside closed
+//                                       boxes, cavities between slabs, faces pressed against the
+//                                       back of a wall. Non-emitting ones are left out of the
+//                                       transport (no cluster holds them, no link reaches them),
+//                                       so they stay dark as they physically are, instead of
+//                                       receiving light that links into clusters spread over
+//                                       every surface facing the sender; a patch that sees lit
+//                                       surfaces through a fraction x of its hemisphere is
+//                                       missed with probability (1 - x)^rays. 0: off
 //   hr.refine_growth   double  0.05    lazy refinement (below): an iteration re-judges the
 //                                       links only when some element's radiosity (any
 //                                       channel) has grown by more than this fraction since
@@ -129,11 +139,17 @@
 // change is d q / (1 - q) (the geometric tail). Measured: the furnace at
 // rho 0.99 without extrapolation stopped on a change below 1e-4 with its
 // reflected power 1.0 % below the exact value. The solve now also requires
-// the tail estimate, per channel, with q the ratio of the last two changes
-// (taken only when neither came from refinement or extrapolation), to be
-// below `tolerance`; it is recorded per iteration (iteration_error) and in
-// the summary. Oscillating channels (q < 0) use the change itself; q >= 1
-// (not contracting) never stops the solve.
+// the tail estimate, per channel, to be below `tolerance`, with q the ratio
+// of the last two changes of a run of iterations in which nothing was
+// refined or extrapolated. Where that step does not contract (q >= 1), q is
+// taken over the last up to 4 steps of the run, (|d_i| / |d_{i-w}|)^(1/w),
+// so that a channel whose changes shrink irregularly still has a rate
+// (two-sided graz.mgf: single-step ratios crossed 1 again and again while
+// the changes fell 300x in 50 iterations, and the solve ran to the
+// iteration cap). It is recorded per iteration (iteration_error) and in the
+// summary. Oscillating channels (last two changes of opposite sign) use the
+// change itself; q >= 1 over the window (not contracting) never stops the
+// solve.
 //
 // Lazy refinement (hr.refine_growth = g). Every oracle's test is linear in
 // the sender's radiosity or does not read it: bfa's rho_r B_s F A_r, the
@@ -227,6 +243,8 @@ struct HrSettings {
     bool extrapolate = true;
     /// hr.refine_growth: lazy refinement (above); 0: judge every iteration.
     double refineGrowth = 0.05;
+    /// hr.reach_rays: rays per patch of the reachability pass (0: off).
+    int reachRays = 64;
     bool openPartialReceivers = true;  ///< cluster.partial_receivers
     bool gaussSeidel = false;          ///< hr.iteration
     int gsBlocks = 0;                  ///< hr.gs_blocks (0: one block per root patch)
@@ -288,6 +306,11 @@ struct HrResult {
     uint64_t initialLinks = 0;
     uint64_t initialPairs =
         0;  ///< node pairs evaluated by initial linking (k(k-1) without clusters)
+    /// Patches light cannot reach (hr.reach_rays; transport/reachability.h),
+    /// left out of the transport, the rays and seconds of that pass.
+    uint32_t unreachablePatches = 0;
+    uint64_t reachRays = 0;
+    double reachSeconds = 0.0;
     std::unique_ptr<cluster::ClusterTree> clusterTree;
     std::string clusterModel;  ///< the model used (auto resolved)
     double clusterBuildSeconds = 0.0;
@@ -404,6 +427,8 @@ class HrSolver {
     Timer solveTimer_;       ///< started by solve() (hr.max_seconds)
     /// Per-thread link evaluation costs of the current solve (HrResult::linkCost).
     mutable tbb::enumerable_thread_specific<HrResult::LinkKindCost> linkCost_;
+    /// Patches the transport includes (hr.reach_rays; empty: all).
+    std::vector<uint8_t> included_;
     bool outOfTime() const { return s_.maxSeconds > 0 && solveTimer_.seconds() > s_.maxSeconds; }
     std::unique_ptr<cluster::ClusterLinker> linker_;       ///< made by solve() with the tree
     std::unique_ptr<scene::BasisSet> basis_;               ///< degree > 0

@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "core/log.h"
 #include "core/rng.h"
+#include "core/sampling.h"
 #include "core/timer.h"
 #include "scene/element.h"
 
@@ -106,24 +107,10 @@ struct EmitterTable {
     }
 };
 
-/// Orthonormal basis around unit n (Duff et al. 2017, "Building an
-/// Orthonormal Basis, Revisited").
-void basis(const Vec3& n, Vec3& t, Vec3& b) {
-    double sign = std::copysign(1.0, n.z);
-    double a = -1.0 / (sign + n.z);
-    double c = n.x * n.y * a;
-    t = Vec3(1.0 + sign * n.x * n.x * a, sign * c, -sign * n.x);
-    b = Vec3(c, sign + n.y * n.y * a, -n.y);
-}
-
-/// Cosine-weighted direction about n (Malley's method), pdf cos t / pi.
+/// Cosine-weighted direction about n, pdf cos t / pi (core/sampling.h).
 Vec3 sampleCosine(const Vec3& n, Pcg32& rng) {
     double u1 = rng.nextDouble(), u2 = rng.nextDouble();
-    double r = std::sqrt(u1), phi = 2.0 * kPi * u2;
-    double z = std::sqrt(std::max(0.0, 1.0 - u1));
-    Vec3 t, b;
-    basis(n, t, b);
-    return glm::normalize(r * std::cos(phi) * t + r * std::sin(phi) * b + z * n);
+    return cosineDirection(n, u1, u2);
 }
 
 /// One region's random walks. Not shared between tasks.

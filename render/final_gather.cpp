@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/sampling.h"
 #include "scene/element.h"
 
 namespace hrad::render {
@@ -12,24 +13,17 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-/// Orthonormal basis around n (Duff et al. 2017).
-void frame(const Vec3& n, Vec3& t, Vec3& b) {
-    double sign = std::copysign(1.0, n.z);
-    double a = -1.0 / (sign + n.z);
-    double bb = n.x * n.y * a;
-    t = Vec3(1.0 + sign * n.x * n.x * a, sign * bb, -sign * n.x);
-    b = Vec3(bb, sign + n.y * n.y * a, -n.y);
-}
-
 /// Cosine-distributed direction (Malley's method) from (r1, r2) in [0,1)^2.
 Vec3 cosineDir(const Vec3& n, double r1, double r2) {
     Vec3 t, b;
-    frame(n, t, b);
+    orthonormalBasis(n, t, b);
     double phi = 2 * kPi * r1, s = std::sqrt(r2);
     return std::cos(phi) * s * t + std::sin(phi) * s * b + std::sqrt(std::max(0.0, 1 - r2)) * n;
 }
 
-bool isEmitter(const scene::Patch& p) { return p.emission.r > 0 || p.emission.g > 0 || p.emission.b > 0; }
+bool isEmitter(const scene::Patch& p) {
+    return p.emission.r > 0 || p.emission.g > 0 || p.emission.b > 0;
+}
 
 }  // namespace
 
