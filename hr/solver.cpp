@@ -13,6 +13,7 @@
 #include "core/log.h"
 #include "core/rng.h"
 #include "core/timer.h"
+#include "hr/iteration_tail.h"
 #include "hr/receiver_error.h"
 #include "oracles/registry.h"
 #include "transport/reachability.h"
@@ -890,12 +891,8 @@ HrResult HrSolver::solve(bool progress) {
     // the last change of reflected power and its ratio, per channel.
     std::vector<RGB> previousB, previousHi;
     RGB lastChange(0.0), lastRatio(0.0);
-    // Geometric-tail estimate (see solver.h "Stopping"): the previous change
-    // of reflected power, and whether it came from a plain iteration.
-    // The last changes of a run of clean iterations (no refinement, no
-    // extrapolation), newest last, at most kTailWindow + 1 of them.
-    constexpr size_t kTailWindow = 4;
-    std::vector<RGB> cleanChanges;
+    // Geometric-tail estimate of the error still to come (solver.h "Stopping").
+    IterationTail tail;
     int quietIterations = 0, sinceExtrapolation = 2;
     res.converged = false;
     for (size_t stage = 0; stage < stages.size(); ++stage) {
@@ -967,38 +964,8 @@ HrResult HrSolver::solve(bool progress) {
             }
             rec.reflectedPower = reflected;
             rec.residual = relativeChange(reflected, lastReflected);
-            {
-                RGB change = reflected - lastReflected;
-                bool clean = rec.refinedLinks == 0 && rec.extrapolation == 0.0;
-                if (!clean)
-                    cleanChanges.clear();
-                else {
-                    if (cleanChanges.size() > kTailWindow) cleanChanges.erase(cleanChanges.begin());
-                    cleanChanges.push_back(change);
-                }
-                double worst = 0.0;
-                const size_t w = cleanChanges.empty() ? 0 : cleanChanges.size() - 1;
-                for (int c = 0; c < 3 && w > 0; ++c) {
-                    double scale = std::fabs(reflected[c]);
-                    if (!(std::fabs(change[c]) > 1e-13 * scale)) continue;  // settled
-                    const double last = cleanChanges[w - 1][c];
-                    // A step that does not contract (q >= 1) is judged by the
-                    // ratio over the window (up to kTailWindow steps): a
-                    // channel whose changes shrink irregularly (two modes of
-                    // similar size: graz.mgf two-sided, where a single step's
-                    // ratio crossed 1 again and again while the changes fell
-                    // 300x in 50 iterations) still has a contraction rate.
-                    const double first = cleanChanges[0][c];
-                    double q = last != 0.0 ? change[c] / last : 0.0;
-                    if (q >= 1.0 && first != 0.0 && w > 1)
-                        q = std::pow(std::fabs(change[c] / first), 1.0 / double(w));
-                    double tail = q >= 1.0  ? std::numeric_limits<double>::infinity()
-                                  : q > 0.0 ? std::fabs(change[c]) * q / (1.0 - q)
-                                            : std::fabs(change[c]);
-                    worst = std::max(worst, scale > 0 ? tail / scale : tail);
-                }
-                rec.iterationError = w > 0 ? worst : std::numeric_limits<double>::infinity();
-            }
+            rec.iterationError = tail.add(reflected - lastReflected, reflected,
+                                          rec.refinedLinks == 0 && rec.extrapolation == 0.0);
             lastReflected = reflected;
             rec.links = h.numLinks();
             rec.elements = h.numElements();
