@@ -189,6 +189,13 @@ std::string signalName(int sig) {
 }  // namespace
 
 SweepReport runSweep(const Study& study, const SweepOptions& opt) {
+    // A path as seen from the store's folder ("" when it cannot be made
+    // relative): what the store records of files (stores are committed).
+    auto relativeToStore = [&](const fs::path& file) {
+        std::error_code ec;
+        fs::path rel = fs::relative(fs::absolute(file), fs::absolute(opt.store).parent_path(), ec);
+        return ec ? std::string() : rel.generic_string();
+    };
     validateStudy(study);
     SweepReport report;
     report.points = study.pointCount();
@@ -222,11 +229,8 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
         // absolute path would name a folder no other machine has.
         std::string studyPath;
         if (!study.path.empty()) {
-            std::error_code ec;
-            fs::path rel =
-                fs::relative(fs::absolute(study.path), fs::absolute(opt.store).parent_path(), ec);
-            studyPath =
-                ec || rel.empty() ? fs::path(study.path).filename().string() : rel.generic_string();
+            studyPath = relativeToStore(study.path);
+            if (studyPath.empty()) studyPath = fs::path(study.path).filename().string();
         }
         studyHash = st.addStudy(study.name, studyPath, study.text);
         done = st.runKeys();
@@ -468,10 +472,8 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
             if (summary.contains("artefacts") && summary["artefacts"].is_object())
                 for (auto& [name, file] : summary["artefacts"].items()) {
                     if (!file.is_string()) continue;
-                    std::error_code ec;
-                    fs::path rel = fs::relative(fs::absolute(file.get<std::string>()),
-                                                fs::absolute(opt.store).parent_path(), ec);
-                    if (!ec && !rel.empty()) file = rel.generic_string();
+                    std::string rel = relativeToStore(file.get<std::string>());
+                    if (!rel.empty()) file = rel;
                 }
             store.addRun(t.key, studyHash, int64_t(t.point->index), summary);
             ++report.finished;

@@ -841,13 +841,10 @@ HrResult HrSolver::solve(bool progress) {
         res.unreachablePatches = reach.unreachable;
         res.reachRays = reach.rays;
         res.reachSeconds = reach.seconds;
-        // Without a lit patch there is nothing to leave out (the solution is
-        // zero anyway).
-        if (reach.unreachable > 0 && reach.unreachable < scene_->patches.size()) {
+        // Emitters are always reachable. Without a lit patch there is nothing
+        // to leave out (the solution is zero anyway).
+        if (reach.unreachable > 0 && reach.unreachable < scene_->patches.size())
             included_ = std::move(reach.reachable);
-            for (uint32_t p = 0; p < uint32_t(included_.size()); ++p)
-                if (scene_->patches[p].isEmitter()) included_[p] = 1;
-        }
         spdlog::info(
             "reachability: {} of {} patches cannot be reached by light ({} rays each, {:.2f} s){}",
             reach.unreachable, scene_->patches.size(), s_.reachRays, reach.seconds,
