@@ -102,6 +102,8 @@ class HrEntry final : public Solver {
                      {"iteration_error",
                       std::isfinite(it.iterationError) ? json(it.iterationError) : json(nullptr)},
                      {"extrapolation", it.extrapolation},
+                     {"relaxed_patches", it.relaxedPatches},
+                     {"relax_sweeps", it.relaxSweeps},
                      {"reflected_power", rgbJson(it.reflectedPower)},
                      {"refine_s", it.refineSeconds},
                      {"gather_s", it.gatherSeconds},

@@ -60,43 +60,46 @@ Hierarchy::Hierarchy(const scene::Scene& scene, const cluster::ClusterTree* tree
     linkOffsets_.assign(size_t(n) + 1, 0);
 }
 
-void Hierarchy::pullClusters() {
-    uint32_t np = numPatches(), nc = numClusters_;
-    bool oriented = model_ == cluster::ClusterModel::Oriented;
-    if (oriented) moments_.assign(nc, RadiantMoments{});
-    maxB_.resize(nc);
-    // Children before parents (pre-order indices, so walk backwards).
-    for (uint32_t c = nc; c-- > 0;) {
-        uint32_t e = np + c;
-        RGB sum(0.0), mx(0.0);
-        RadiantMoments mom;
-        for (uint32_t i = 0; i < numChildren(e); ++i) {
-            uint32_t ch = child(e, i);
-            sum += area_[ch] * B_[ch];
-            mx = glm::max(mx, isCluster(ch) ? maxB_[ch - np] : B_[ch]);
-            if (!oriented) continue;
-            if (isCluster(ch)) {
-                const RadiantMoments& cm = moments_[ch - np];
-                mom.ab += cm.ab;
-                for (int k = 0; k < 3; ++k) {
-                    mom.s[k] += cm.s[k];
-                    for (int j = 0; j < 6; ++j) mom.m[k][j] += cm.m[k][j];
-                }
-            } else {
-                const Vec3& n = scene_->patches[patch_[ch]].normal;
-                RGB w = area_[ch] * B_[ch];
-                mom.ab += w;
-                double nn[6] = {n.x * n.x, n.x * n.y, n.x * n.z, n.y * n.y, n.y * n.z, n.z * n.z};
-                for (int k = 0; k < 3; ++k) {
-                    mom.s[k] += w[k] * n;
-                    for (int j = 0; j < 6; ++j) mom.m[k][j] += w[k] * nn[j];
-                }
+void Hierarchy::pullCluster(uint32_t c) {
+    const uint32_t np = numPatches();
+    const bool oriented = model_ == cluster::ClusterModel::Oriented;
+    const uint32_t e = np + c;
+    RGB sum(0.0), mx(0.0);
+    RadiantMoments mom;
+    for (uint32_t i = 0; i < numChildren(e); ++i) {
+        uint32_t ch = child(e, i);
+        sum += area_[ch] * B_[ch];
+        mx = glm::max(mx, isCluster(ch) ? maxB_[ch - np] : B_[ch]);
+        if (!oriented) continue;
+        if (isCluster(ch)) {
+            const RadiantMoments& cm = moments_[ch - np];
+            mom.ab += cm.ab;
+            for (int k = 0; k < 3; ++k) {
+                mom.s[k] += cm.s[k];
+                for (int j = 0; j < 6; ++j) mom.m[k][j] += cm.m[k][j];
+            }
+        } else {
+            const Vec3& n = scene_->patches[patch_[ch]].normal;
+            RGB w = area_[ch] * B_[ch];
+            mom.ab += w;
+            double nn[6] = {n.x * n.x, n.x * n.y, n.x * n.z, n.y * n.y, n.y * n.z, n.z * n.z};
+            for (int k = 0; k < 3; ++k) {
+                mom.s[k] += w[k] * n;
+                for (int j = 0; j < 6; ++j) mom.m[k][j] += w[k] * nn[j];
             }
         }
-        B_[e] = area_[e] > 0 ? sum / area_[e] : RGB(0.0);
-        maxB_[c] = mx;
-        if (oriented) moments_[c] = mom;
     }
+    B_[e] = area_[e] > 0 ? sum / area_[e] : RGB(0.0);
+    maxB_[c] = mx;
+    if (oriented) moments_[c] = mom;
+}
+
+void Hierarchy::pullClusters() {
+    const uint32_t nc = numClusters_;
+    if (model_ == cluster::ClusterModel::Oriented) moments_.assign(nc, RadiantMoments{});
+    maxB_.resize(nc);
+    // Children before parents (pre-order indices, so walk backwards).
+    for (uint32_t c = nc; c-- > 0;) pullCluster(c);
 }
 
 RGB Hierarchy::directionalB(uint32_t e, const Vec3& d) const {
@@ -301,6 +304,13 @@ std::vector<uint32_t> Hierarchy::linkReceivers() const {
 
 void Hierarchy::gatherRow(uint32_t r) {
     const bool oriented = model_ == cluster::ClusterModel::Oriented && numClusters_ > 0;
+    if (oriented && patch_[r] == kNone) {
+        // An oriented cluster gathers nothing as a whole: its links light
+        // each surface below it with that surface's cosine when pushed
+        // (clusterIrradianceToRoots).
+        gathered_[r] = RGB(0.0);
+        return;
+    }
     RGB sum(0.0);
     // Higher coefficients gathered over coupling matrices (degree > 0).
     RGB sumHi[scene::kMaxBasisSize];
@@ -356,20 +366,52 @@ void Hierarchy::gather() {
     });
 }
 
+std::vector<RGB> Hierarchy::clusterDown() const {
+    // Irradiance that clusters hand down to their descendants (radiosity
+    // units, before a patch's reflectance): the isotropic part gathered by a
+    // cluster and its ancestors. Pre-order: parents before children.
+    const uint32_t np = numPatches(), nc = numClusters_;
+    std::vector<RGB> down(nc, RGB(0.0));
+    for (uint32_t c = 0; c < nc; ++c) {
+        uint32_t parent = parent_[np + c];
+        down[c] = gathered_[np + c] + (parent == kNone ? RGB(0.0) : down[parent - np]);
+    }
+    return down;
+}
+
+RGB Hierarchy::clusterIrradianceAt(uint32_t root, const std::vector<RGB>& down,
+                                   const glm::vec3* sent) const {
+    const uint32_t np = numPatches();
+    const scene::Patch& P = scene_->patches[root];
+    // A patch the tree leaves out (hr.reach_rays) has no cluster above it.
+    if (parent_[root] == kNone) return RGB(0.0);
+    RGB h = down[parent_[root] - np];
+    if (model_ == cluster::ClusterModel::Oriented) {
+        // Each link into an ancestor cluster lights this patch with its own
+        // cosine (Smits et al. 1994); what the link sends is K times the
+        // sender's radiosity towards the receiving cluster (`sent`, or
+        // evaluated here when it is null).
+        glm::vec3 n(P.normal);
+        for (uint32_t c = parent_[root]; c != kNone; c = parent_[c]) {
+            for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i) {
+                const glm::vec3& dir = clusterLinkDir_[i - clusterLinkBase_];
+                double cosine = glm::dot(n, dir);
+                if (!(cosine > 0)) continue;
+                h += cosine *
+                     (sent ? RGB(sent[i - clusterLinkBase_])
+                           : double(links_[i].K) * directionalB(links_[i].sender, -Vec3(dir)));
+            }
+        }
+    }
+    return P.rho * h;
+}
+
 std::vector<RGB> Hierarchy::clusterIrradianceToRoots() const {
     uint32_t np = numPatches();
     uint32_t nc = numClusters_;
     std::vector<RGB> fromAbove;
     if (!nc) return fromAbove;
-    // Irradiance that clusters hand down to each root patch (radiosity
-    // units, before the patch's reflectance).
-    std::vector<RGB> clusterDown(nc, RGB(0.0));
-    // Pre-order: parents before children.
-    for (uint32_t c = 0; c < nc; ++c) {
-        uint32_t parent = parent_[np + c];
-        clusterDown[c] =
-            gathered_[np + c] + (parent == kNone ? RGB(0.0) : clusterDown[parent - np]);
-    }
+    std::vector<RGB> down = clusterDown();
     // What each link into a cluster sends, K times the sender's radiosity
     // towards that cluster, once per link rather than once per patch below
     // it (directionalB evaluates the sender's radiant moments).
@@ -389,24 +431,6 @@ std::vector<RGB> Hierarchy::clusterIrradianceToRoots() const {
                                                -Vec3(clusterLinkDir_[i - clusterLinkBase_])));
         });
     }
-    auto fromClusters = [&](uint32_t root) {
-        const scene::Patch& P = scene_->patches[root];
-        // A patch the tree leaves out (hr.reach_rays) has no cluster above it.
-        if (parent_[root] == kNone) return RGB(0.0);
-        RGB h = clusterDown[parent_[root] - np];
-        if (model_ == cluster::ClusterModel::Oriented) {
-            // Each link into an ancestor cluster lights this patch with its
-            // own cosine (Smits et al. 1994).
-            glm::vec3 n(P.normal);
-            for (uint32_t c = parent_[root]; c != kNone; c = parent_[c]) {
-                for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i) {
-                    double cosine = glm::dot(n, clusterLinkDir_[i - clusterLinkBase_]);
-                    if (cosine > 0) h += cosine * RGB(sent[i - clusterLinkBase_]);
-                }
-            }
-        }
-        return P.rho * h;
-    };
     // Computed for all patches before any B is overwritten: a link into an
     // ancestor cluster may come from a surface element of another root patch,
     // whose B the push-pull rewrites (reading it there made the result depend
@@ -414,7 +438,7 @@ std::vector<RGB> Hierarchy::clusterIrradianceToRoots() const {
     fromAbove.resize(np);
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, np, 64), [&](const auto& range) {
         for (uint32_t root = range.begin(); root != range.end(); ++root)
-            fromAbove[root] = fromClusters(root);
+            fromAbove[root] = clusterIrradianceAt(root, down, sent.empty() ? nullptr : sent.data());
     });
     return fromAbove;
 }
@@ -517,6 +541,90 @@ void Hierarchy::sweep(int blocks, double* gatherSeconds, double* pushPullSeconds
     tp += t.seconds();
     if (gatherSeconds) *gatherSeconds = tg;
     if (pushPullSeconds) *pushPullSeconds = tp;
+}
+
+Hierarchy::RelaxResult Hierarchy::relax(const std::vector<uint32_t>& roots, int maxSweeps,
+                                        uint64_t linkBudget, double target) {
+    HRAD_CHECK(nb_ == 1);
+    RelaxResult out;
+    if (roots.empty() || maxSweeps <= 0) return out;
+    const uint32_t np = numPatches();
+    // The local system: the rows below each root, and the clusters above the
+    // roots (ancestors), whose radiosities and moments the roots change and
+    // whose links hand the roots irradiance.
+    std::vector<uint32_t> rows, rowBegin, stack, ancestors;
+    uint64_t linksPerSweep = 0;
+    for (uint32_t root : roots) {
+        rowBegin.push_back(uint32_t(rows.size()));
+        stack.assign(1, root);
+        while (!stack.empty()) {
+            uint32_t e = stack.back();
+            stack.pop_back();
+            rows.push_back(e);
+            linksPerSweep += linkEnd(e) - linkBegin(e);
+            if (firstChild_[e] != kNone)
+                for (uint32_t c = 0; c < 4; ++c) stack.push_back(firstChild_[e] + c);
+        }
+        for (uint32_t c = parent_[root]; c != kNone; c = parent_[c]) ancestors.push_back(c);
+    }
+    rowBegin.push_back(uint32_t(rows.size()));
+    std::sort(ancestors.begin(), ancestors.end());
+    ancestors.erase(std::unique(ancestors.begin(), ancestors.end()), ancestors.end());
+    const bool isotropic = model_ == cluster::ClusterModel::Isotropic;
+    if (isotropic)
+        for (uint32_t c : ancestors) linksPerSweep += linkEnd(c) - linkBegin(c);
+    else
+        for (uint32_t root : roots)  // oriented: every link into an ancestor, per root
+            for (uint32_t c = parent_[root]; c != kNone; c = parent_[c])
+                linksPerSweep += linkEnd(c) - linkBegin(c);
+    std::vector<RGB> down = numClusters_ ? clusterDown() : std::vector<RGB>();
+    std::vector<RGB> fromAbove(roots.size(), RGB(0.0));
+    std::vector<PushFrame> frames;
+    double c1 = 0.0, c2 = 0.0;  // the changes of the last two sweeps
+    while (out.sweeps < maxSweeps && out.linkGathers + linksPerSweep <= linkBudget) {
+        if (!ancestors.empty()) {
+            // Clusters above the roots: pull (children first: pre-order
+            // indices, so backwards), gather (isotropic clusters gather as a
+            // whole), hand down (parents first).
+            for (size_t i = ancestors.size(); i-- > 0;) pullCluster(ancestors[i] - np);
+            if (isotropic) {
+                for (uint32_t c : ancestors) gatherRow(c);
+                for (uint32_t c : ancestors) {
+                    uint32_t parent = parent_[c];
+                    down[c - np] = gathered_[c] + (parent == kNone ? RGB(0.0) : down[parent - np]);
+                }
+            }
+            for (size_t k = 0; k < roots.size(); ++k)
+                fromAbove[k] = clusterIrradianceAt(roots[k], down, nullptr);
+        }
+        // Gauss-Seidel over the roots: each gathers from the radiosities the
+        // roots before it have just computed, then pushes and pulls.
+        double change = 0.0;
+        for (size_t k = 0; k < roots.size(); ++k) {
+            for (uint32_t i = rowBegin[k]; i < rowBegin[k + 1]; ++i) gatherRow(rows[i]);
+            const RGB before = B_[roots[k]];
+            pushPullRoot(roots[k], fromAbove[k], frames);
+            change += area_[roots[k]] * maxComponent(glm::abs(B_[roots[k]] - before));
+        }
+        ++out.sweeps;
+        out.linkGathers += linksPerSweep;
+        out.change = change;
+        // The change still to come: a geometric tail with the rate over two
+        // sweeps (a pair of facing surfaces alternates within one).
+        bool done = change == 0.0;
+        if (out.sweeps >= 3 && c2 > 0.0) {
+            double q = std::sqrt(change / c2);
+            done = done || (q < 1.0 && change * q / (1.0 - q) < target);
+        }
+        c2 = c1;
+        c1 = change;
+        if (done) {
+            out.reached = true;
+            break;
+        }
+    }
+    if (numClusters_) pullClusters();
+    return out;
 }
 
 void Hierarchy::pushPullPolynomial(const std::vector<RGB>& fromAbove) {

@@ -48,13 +48,13 @@ inline constexpr uint32_t kNone = UINT32_MAX;
 /// One link, stored in the receiver's row. 16 bytes.
 struct Link {
     uint32_t sender = kNone;
-    float K = 0.f;             ///< transfer coefficient: F_rs with visibility
-    float Fupper = 0.f;        ///< upper bound on the unoccluded F_rs
+    float K = 0.f;       ///< transfer coefficient: F_rs with visibility
+    float Fupper = 0.f;  ///< upper bound on the unoccluded F_rs
     /// Visibility fraction, quantised to 1/65535. For links touching a
     /// cluster it is the estimate the oracle judges with, from rays
     /// independent of those in K (hr/solver.h).
     uint16_t visibility = 0;
-    uint8_t flags = 0;         ///< kPartial | kOpen | kUncertain | kSampled
+    uint8_t flags = 0;  ///< kPartial | kOpen | kUncertain | kSampled
     /// kSampled links: twice the relative standard error of the judged
     /// transfer, in percent, rounded up (255: 2.55 or more).
     uint8_t uncertainty = 0;
@@ -134,7 +134,9 @@ class Hierarchy {
     uint32_t numClusters() const { return numClusters_; }
     cluster::ClusterModel clusterModel() const { return model_; }
     const cluster::ClusterTree* clusterTree() const { return tree_; }
-    bool isCluster(uint32_t e) const { return e >= numPatches() && e < numPatches() + numClusters_; }
+    bool isCluster(uint32_t e) const {
+        return e >= numPatches() && e < numPatches() + numClusters_;
+    }
     /// Cluster tree index of a cluster node.
     uint32_t clusterIndex(uint32_t e) const { return e - numPatches(); }
     uint32_t rootCluster() const { return numPatches(); }
@@ -186,8 +188,12 @@ class Hierarchy {
     const std::vector<KernelSamples>& kernelSamples() const { return samples_; }
     uint64_t numLinks() const { return links_.size(); }
     /// Links of receiver e: [linkBegin(e), linkEnd(e)).
-    uint64_t linkBegin(uint32_t e) const { return e < linkOffsets_.size() - 1 ? linkOffsets_[e] : links_.size(); }
-    uint64_t linkEnd(uint32_t e) const { return e < linkOffsets_.size() - 1 ? linkOffsets_[e + 1] : links_.size(); }
+    uint64_t linkBegin(uint32_t e) const {
+        return e < linkOffsets_.size() - 1 ? linkOffsets_[e] : links_.size();
+    }
+    uint64_t linkEnd(uint32_t e) const {
+        return e < linkOffsets_.size() - 1 ? linkOffsets_[e + 1] : links_.size();
+    }
     const Link& link(uint64_t i) const { return links_[i]; }
     const std::vector<Link>& links() const { return links_; }
     /// Receiver of every link (expanded from CSR).
@@ -215,6 +221,25 @@ class Hierarchy {
     /// clusters pull at the end. With one block it is gather() + pushPull().
     /// `gatherSeconds` and `pushPullSeconds` receive the time of each phase.
     void sweep(int blocks, double* gatherSeconds = nullptr, double* pushPullSeconds = nullptr);
+    /// What relax() did.
+    struct RelaxResult {
+        int sweeps = 0;
+        uint64_t linkGathers = 0;  ///< links gathered, all sweeps together
+        double change = 0.0;   ///< sum over the roots of A max_c |change of B| in the last sweep
+        bool reached = false;  ///< stopped because the tail fell below `target`
+    };
+    /// Relaxes a few root patches alone (hr.relax_share, HrSolver): Gauss-
+    /// Seidel sweeps over `roots`, each root gathering its rows from the
+    /// current radiosities and pushing and pulling at once, with everything
+    /// else held (other patches, and the irradiance clusters hand these
+    /// roots). Stops after `maxSweeps`, before the links gathered would pass
+    /// `linkBudget`, or when the change still to come, a geometric tail
+    /// with the rate over two sweeps, is below `target` (power: A times
+    /// radiosity, max channel). Clusters pull at the end. The fixed point is
+    /// the solve's own, so it only changes how fast the iteration gets there.
+    /// Constant basis only.
+    RelaxResult relax(const std::vector<uint32_t>& roots, int maxSweeps, uint64_t linkBudget,
+                      double target);
     /// Moves every leaf's radiosity along the change from `previous` (the
     /// B of the same elements one iteration earlier), per channel:
     /// B += factor_c (B - previous), then pulls the averages up again
@@ -257,6 +282,13 @@ class Hierarchy {
     /// Irradiance the clusters hand each root patch after their rows have
     /// gathered (reflectance applied); empty without clusters.
     std::vector<RGB> clusterIrradianceToRoots() const;
+    /// Per cluster, the isotropic irradiance it and its ancestors gathered.
+    std::vector<RGB> clusterDown() const;
+    /// The irradiance clusters hand root patch `root` (reflectance applied):
+    /// `down` from clusterDown(); `sent` what every link into a cluster sends
+    /// (oriented), or null to evaluate it here.
+    RGB clusterIrradianceAt(uint32_t root, const std::vector<RGB>& down,
+                            const glm::vec3* sent) const;
     /// Push-pull below one root patch: leaves get E + gathered on the path
     /// (plus `fromAbove`), inner elements the area average of their children.
     void pushPullRoot(uint32_t root, const RGB& fromAbove, std::vector<PushFrame>& stack);
@@ -268,6 +300,8 @@ class Hierarchy {
     /// Bottom-up over clusters: area-weighted mean B and, for the oriented
     /// model, the radiosity-weighted normal moments used by directionalB().
     void pullClusters();
+    /// Pulls cluster c (tree index) from its children: B, maxB, moments.
+    void pullCluster(uint32_t c);
     const scene::Scene* scene_;
     const cluster::ClusterTree* tree_ = nullptr;
     cluster::ClusterModel model_ = cluster::ClusterModel::None;

@@ -68,6 +68,46 @@ bool grownSince(const std::vector<RGB>& now, const std::vector<RGB>& judged, dou
     return false;
 }
 
+/// The root patches that carry at least `share` of the change of the last
+/// two iterations (A_p max_c |B_p - previous_p| plus `lastChange`_p, the
+/// same one iteration earlier, which it updates; two iterations, so that both
+/// surfaces of a facing pair whose light alternates between them are
+/// found), the fewest that do, when they are at most `fraction` of all root
+/// patches; empty otherwise. In index order.
+std::vector<uint32_t> concentratedChange(const Hierarchy& h, const std::vector<RGB>& previous,
+                                         std::vector<double>& lastChange, double share,
+                                         double fraction) {
+    const uint32_t np = uint32_t(previous.size());
+    const uint32_t most = uint32_t(std::min<double>(fraction * double(np), double(np)));
+    std::vector<uint32_t> hot;
+    lastChange.resize(np, 0.0);
+    std::vector<double> d(np);
+    double total = 0.0;
+    for (uint32_t p = 0; p < np; ++p) {
+        const double now = h.area(p) * maxComponent(glm::abs(h.B(p) - previous[p]));
+        d[p] = now + lastChange[p];
+        lastChange[p] = now;
+        total += d[p];
+    }
+    if (most == 0) return hot;
+    if (!(total > 0.0)) return hot;
+    std::vector<uint32_t> idx(np);
+    for (uint32_t p = 0; p < np; ++p) idx[p] = p;
+    auto larger = [&](uint32_t a, uint32_t b) { return d[a] > d[b] || (d[a] == d[b] && a < b); };
+    std::nth_element(idx.begin(), idx.begin() + (most - 1), idx.end(), larger);
+    idx.resize(most);
+    std::sort(idx.begin(), idx.end(), larger);
+    double sum = 0.0;
+    for (uint32_t p : idx) {
+        hot.push_back(p);
+        sum += d[p];
+        if (sum >= share * total) break;
+    }
+    if (sum < share * total) hot.clear();
+    std::sort(hot.begin(), hot.end());
+    return hot;
+}
+
 double relativeChange(const RGB& now, const RGB& before) {
     double num = maxComponent(glm::abs(now - before));
     double den = maxComponent(glm::abs(now));
@@ -99,6 +139,9 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.receiverEps = p.getDouble("hr.receiver_eps", -1.0, -1.0, 1.0);
     s.senderTotal = p.getBool("hr.sender_total", s.senderTotal);
     s.extrapolate = p.getBool("hr.extrapolate", s.extrapolate);
+    s.relaxShare = p.getDouble("hr.relax_share", s.relaxShare, 0.0, 1.0);
+    s.relaxFraction = p.getDouble("hr.relax_fraction", s.relaxFraction, 0.0, 1.0);
+    s.relaxSweeps = int(p.getInt("hr.relax_sweeps", s.relaxSweeps, 1, 1 << 20));
     s.refineGrowth = p.getDouble("hr.refine_growth", s.refineGrowth, 0.0, 1e300);
     s.reachRays = int(p.getInt("hr.reach_rays", s.reachRays, 0, 1 << 20));
     s.gaussSeidel = p.getEnum("hr.iteration", s.gaussSeidel ? "gauss-seidel" : "jacobi",
@@ -891,6 +934,13 @@ HrResult HrSolver::solve(bool progress) {
     // Geometric-tail estimate of the error still to come (solver.h "Stopping").
     IterationTail tail;
     int quietIterations = 0, sinceExtrapolation = 2;
+    // Relaxation (hr.relax_share): the root patches' radiosities after the
+    // previous iteration.
+    const uint32_t np = uint32_t(scene_->patches.size());
+    const bool relaxOn =
+        s_.relaxShare > 0.0 && h.basisSize() == 1 && uint64_t(s_.relaxFraction * double(np)) > 0;
+    std::vector<RGB> prevRoots;
+    std::vector<double> prevRootChange;
     res.converged = false;
     for (size_t stage = 0; stage < stages.size(); ++stage) {
         Params op = s_.oracleParams;
@@ -925,6 +975,28 @@ HrResult HrSolver::solve(bool progress) {
                 Timer tp;
                 h.pushPull();
                 rec.pushPullSeconds = tp.seconds();
+            }
+            // Relaxation of the few patches that carry most of the change.
+            if (relaxOn && rec.refinedLinks == 0 && prevRoots.size() == np) {
+                std::vector<uint32_t> hot = concentratedChange(h, prevRoots, prevRootChange,
+                                                               s_.relaxShare, s_.relaxFraction);
+                if (!hot.empty()) {
+                    Timer tx;
+                    const double target =
+                        0.1 * s_.tolerance * maxComponent(glm::abs(h.reflectedPower()));
+                    Hierarchy::RelaxResult rx =
+                        h.relax(hot, s_.relaxSweeps, std::max<uint64_t>(h.numLinks(), 1), target);
+                    rec.gatherSeconds += tx.seconds();
+                    if (rx.sweeps > 0) {
+                        rec.relaxedPatches = uint32_t(hot.size());
+                        rec.relaxSweeps = rx.sweeps;
+                        // A relaxation that did not reach its target leaves
+                        // the sequence irregular: no tail estimate from it,
+                        // no extrapolation right after it.
+                        rec.relaxIncomplete = !rx.reached;
+                        if (rec.relaxIncomplete) sinceExtrapolation = 0;
+                    }
+                }
             }
             RGB reflected = h.reflectedPower();
             if (s_.extrapolate) {
@@ -961,8 +1033,13 @@ HrResult HrSolver::solve(bool progress) {
             }
             rec.reflectedPower = reflected;
             rec.residual = relativeChange(reflected, lastReflected);
-            rec.iterationError = tail.add(reflected - lastReflected, reflected,
-                                          rec.refinedLinks == 0 && rec.extrapolation == 0.0);
+            rec.iterationError =
+                tail.add(reflected - lastReflected, reflected,
+                         rec.refinedLinks == 0 && rec.extrapolation == 0.0 && !rec.relaxIncomplete);
+            if (relaxOn) {
+                prevRoots.resize(np);
+                for (uint32_t p = 0; p < np; ++p) prevRoots[p] = h.B(p);
+            }
             lastReflected = reflected;
             rec.links = h.numLinks();
             rec.elements = h.numElements();
@@ -981,6 +1058,9 @@ HrResult HrSolver::solve(bool progress) {
                     rec.iteration, rec.links, rec.elements,
                     rec.judged ? fmt::format("{}", rec.refinedLinks) : std::string("not judged"),
                     rec.residual, rec.refineSeconds + rec.gatherSeconds + rec.pushPullSeconds);
+            if (progress && rec.relaxedPatches > 0)
+                spdlog::info("          relaxed {} patches alone ({} sweeps)", rec.relaxedPatches,
+                             rec.relaxSweeps);
             if (hook_) hook_(h, rec);
             res.history.push_back(rec);
             if (rec.refinedLinks == 0 && it + 1 >= s_.minIterations &&
