@@ -1,6 +1,6 @@
-#include <cstdio>
-
 #include <fmt/format.h>
+
+#include <cstdio>
 
 #include "apps/commands.h"
 #include "core/memory.h"
@@ -20,21 +20,25 @@ int runInfo(const std::string& spec, Params& params) {
     fmt::print("patches        {} ({} triangles, {} quads)\n", s.patches.size(),
                s.count(scene::PatchKind::Triangle), s.count(scene::PatchKind::Quad));
     if (size_t twins = s.numBackSides())
-        fmt::print("two-sided      {} patches have a back-side twin (counted above, and twice in "
-                   "the area)\n",
-                   twins);
+        fmt::print(
+            "two-sided      {} patches have a back-side twin (counted above, and twice in "
+            "the area)\n",
+            twins);
     fmt::print("input faces    {}\n", st.inputFaces);
     fmt::print("triangulated   {} faces\n", st.triangulatedFaces);
     fmt::print("dropped        {} degenerate faces\n", st.droppedDegenerate);
+    fmt::print("split          {} patches passing through others, into {} triangles\n",
+               st.splitPatches, st.splitPieces);
     if (st.defaultMaterialFaces)
         fmt::print("default mat.   {} faces had no material\n", st.defaultMaterialFaces);
     if (st.ignoredStatements) fmt::print("ignored        {} statements\n", st.ignoredStatements);
     {
         scene::CoplanarOverlaps ov(s);
         if (!ov.empty())
-            fmt::print("stacked faces  {} pairs of coplanar overlapping faces; {} patches are hidden "
-                       "in part (the emitting, else the smaller, face is in front: scene/coplanar.h)\n",
-                       ov.numPairs(), ov.numHiddenPatches());
+            fmt::print(
+                "stacked faces  {} pairs of coplanar overlapping faces; {} patches are hidden "
+                "in part (the emitting, else the smaller, face is in front: scene/coplanar.h)\n",
+                ov.numPairs(), ov.numHiddenPatches());
     }
     fmt::print("emitters       {} patches\n", s.numEmitters());
     fmt::print("total area     {:.6g}\n", s.totalArea());
@@ -43,13 +47,15 @@ int runInfo(const std::string& spec, Params& params) {
     fmt::print("bounds         ({:.6g}, {:.6g}, {:.6g}) .. ({:.6g}, {:.6g}, {:.6g})\n", b.lo.x,
                b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
     if (s.camera)
-        fmt::print("camera         eye ({:.4g}, {:.4g}, {:.4g}) target ({:.4g}, {:.4g}, {:.4g}) fov {:.4g}\n",
-                   s.camera->eye.x, s.camera->eye.y, s.camera->eye.z, s.camera->target.x,
-                   s.camera->target.y, s.camera->target.z, s.camera->fovYDegrees);
+        fmt::print(
+            "camera         eye ({:.4g}, {:.4g}, {:.4g}) target ({:.4g}, {:.4g}, {:.4g}) fov "
+            "{:.4g}\n",
+            s.camera->eye.x, s.camera->eye.y, s.camera->eye.z, s.camera->target.x,
+            s.camera->target.y, s.camera->target.z, s.camera->fovYDegrees);
     if (s.camera && s.camera->filmWidth > 0) {
         static const char* kAxis[] = {"x", "y", "diagonal", "smaller", "larger"};
-        fmt::print("film           {} x {} (fov axis {}; the default image size)\n", s.camera->filmWidth,
-                   s.camera->filmHeight, kAxis[int(s.camera->fovAxis)]);
+        fmt::print("film           {} x {} (fov axis {}; the default image size)\n",
+                   s.camera->filmWidth, s.camera->filmHeight, kAxis[int(s.camera->fovAxis)]);
     }
     fmt::print("load time      {:.3f} s\n", st.loadSeconds);
     fmt::print("peak RSS       {}\n", formatBytes(peakRssBytes()));
@@ -65,9 +71,10 @@ int runInfo(const std::string& spec, Params& params) {
     fmt::print("  {:<28} {:>8} {:>12}  {:<26} {}\n", "name", "patches", "area", "rho", "E");
     for (size_t m = 0; m < s.materials.size(); ++m) {
         const auto& mat = s.materials[m];
-        fmt::print("  {:<28} {:>8} {:>12.5g}  ({:.3f}, {:.3f}, {:.3f})    ({:.4g}, {:.4g}, {:.4g})\n",
-                   mat.name, uses[m], area[m], mat.rho.r, mat.rho.g, mat.rho.b, mat.emission.r,
-                   mat.emission.g, mat.emission.b);
+        fmt::print(
+            "  {:<28} {:>8} {:>12.5g}  ({:.3f}, {:.3f}, {:.3f})    ({:.4g}, {:.4g}, {:.4g})\n",
+            mat.name, uses[m], area[m], mat.rho.r, mat.rho.g, mat.rho.b, mat.emission.r,
+            mat.emission.g, mat.emission.b);
     }
     for (const auto& w : st.warnings) fmt::print("warning        {}\n", w);
     return 0;

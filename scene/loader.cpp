@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "core/error.h"
+#include "core/log.h"
 #include "core/timer.h"
 #include "scene/builtin.h"
 #include "scene/gltf_loader.h"
@@ -13,6 +14,7 @@
 #include "scene/mitsuba_loader.h"
 #include "scene/obj_loader.h"
 #include "scene/ply_loader.h"
+#include "scene/triangulate.h"
 
 namespace hrad::scene {
 
@@ -29,7 +31,8 @@ MgfOptions mgfOptions(const Params& params) {
     MgfOptions mgf;
     mgf.resolution = int(params.getInt("mgf.resolution", mgf.resolution, 3, 4096));
     mgf.whitePoint = params.getEnum("mgf.white_point", mgf.whitePoint, {"E", "D65"});
-    mgf.maxFaces = size_t(params.getInt("mgf.max_faces", int64_t(mgf.maxFaces), 1, int64_t(1) << 40));
+    mgf.maxFaces =
+        size_t(params.getInt("mgf.max_faces", int64_t(mgf.maxFaces), 1, int64_t(1) << 40));
     mgf.defaultSides = int(params.getInt("mgf.default_sides", mgf.defaultSides, 1, 2));
     return mgf;
 }
@@ -60,7 +63,8 @@ GltfOptions gltfOptions(const Params& params) {
         throwInputError(params.where("gltf.default_rho"), "setting 'gltf.default_rho' must be < 1");
     gltf.clampRho = params.getDouble("gltf.clamp_rho", gltf.clampRho, 0.0, 0.999999);
     gltf.emissionScale = params.getDouble("gltf.emission_scale", gltf.emissionScale, 0.0, 1e30);
-    gltf.maxFaces = size_t(params.getInt("gltf.max_faces", int64_t(gltf.maxFaces), 1, int64_t(1) << 40));
+    gltf.maxFaces =
+        size_t(params.getInt("gltf.max_faces", int64_t(gltf.maxFaces), 1, int64_t(1) << 40));
     return gltf;
 }
 
@@ -70,9 +74,11 @@ MitsubaOptions mitsubaOptions(const Params& params) {
     m.clampRho = params.getDouble("mitsuba.clamp_rho", m.clampRho, 0.0, 0.999999);
     m.defaultRho = params.getDouble("mitsuba.default_rho", m.defaultRho, 0.0, 0.999999);
     m.textureRho = params.getDouble("mitsuba.texture_rho", m.textureRho, 0.0, 0.999999);
-    m.maxFaces = uint64_t(params.getInt("mitsuba.max_faces", int64_t(m.maxFaces), 1, int64_t(1) << 40));
+    m.maxFaces =
+        uint64_t(params.getInt("mitsuba.max_faces", int64_t(m.maxFaces), 1, int64_t(1) << 40));
     Params sub = params.subset("mitsuba.param");
-    for (const auto& [key, entry] : sub.entries()) m.params[key] = Params::valueToString(entry.value);
+    for (const auto& [key, entry] : sub.entries())
+        m.params[key] = Params::valueToString(entry.value);
     params.markUsedPrefix("mitsuba.param");
     return m;
 }
@@ -82,16 +88,28 @@ MitsubaOptions mitsubaOptions(const Params& params) {
 // The format registry: a new loader adds its files in scene/ and one line here.
 const std::vector<SceneFormat>& sceneFormats() {
     static const std::vector<SceneFormat> formats = {
-        {"obj", {".obj"}, [](const Params& p) { (void)objOptions(p); },
+        {"obj",
+         {".obj"},
+         [](const Params& p) { (void)objOptions(p); },
          [](const std::string& path, const Params& p) { return loadObj(path, objOptions(p)); }},
-        {"mgf", {".mgf"}, [](const Params& p) { (void)mgfOptions(p); },
+        {"mgf",
+         {".mgf"},
+         [](const Params& p) { (void)mgfOptions(p); },
          [](const std::string& path, const Params& p) { return loadMgf(path, mgfOptions(p)); }},
-        {"ply", {".ply"}, [](const Params& p) { (void)plyOptions(p); },
+        {"ply",
+         {".ply"},
+         [](const Params& p) { (void)plyOptions(p); },
          [](const std::string& path, const Params& p) { return loadPly(path, plyOptions(p)); }},
-        {"gltf", {".gltf", ".glb"}, [](const Params& p) { (void)gltfOptions(p); },
+        {"gltf",
+         {".gltf", ".glb"},
+         [](const Params& p) { (void)gltfOptions(p); },
          [](const std::string& path, const Params& p) { return loadGltf(path, gltfOptions(p)); }},
-        {"mitsuba", {".xml"}, [](const Params& p) { (void)mitsubaOptions(p); },
-         [](const std::string& path, const Params& p) { return loadMitsuba(path, mitsubaOptions(p)); }},
+        {"mitsuba",
+         {".xml"},
+         [](const Params& p) { (void)mitsubaOptions(p); },
+         [](const std::string& path, const Params& p) {
+             return loadMitsuba(path, mitsubaOptions(p));
+         }},
     };
     return formats;
 }
@@ -103,6 +121,7 @@ Scene loadScene(const std::string& spec, const Params& params) {
     for (const SceneFormat& f : sceneFormats()) f.readSettings(params);
     const std::string twoSided = params.getEnum("two_sided", "auto", {"auto", "all", "none"});
     bool validate = params.getBool("validate", true);
+    const bool split = params.getBool("split_intersections", false);
 
     Scene scene;
     if (isBuiltinName(spec)) {
@@ -131,9 +150,23 @@ Scene loadScene(const std::string& spec, const Params& params) {
             throwInputError(SourceLocation{spec, 0, 0}, "scene file not found{}",
                             ec ? " (" + ec.message() + ")" : std::string());
         if (!std::filesystem::is_regular_file(path, ec))
-            throwInputError(SourceLocation{spec, 0, 0}, "scene path is not a regular file (a folder or device)");
+            throwInputError(SourceLocation{spec, 0, 0},
+                            "scene path is not a regular file (a folder or device)");
         scene = format->load(spec, params);
         scene.name = spec;
+    }
+    // Patches that pass through one another are cut along the intersection
+    // (before back sides are made, so both sides get the same pieces).
+    if (split) {
+        Timer ts;
+        SplitStats st = splitIntersections(scene);
+        scene.stats.splitPatches = st.splitPatches;
+        scene.stats.splitPieces = st.pieces;
+        if (st.splitPatches > 0)
+            spdlog::info(
+                "split {} patches that pass through others into {} triangles ({} "
+                "crossings, {:.2f} s)",
+                st.splitPatches, st.pieces, st.crossings, ts.seconds());
     }
     // Two-sided materials become front/back patch pairs (scene.h, Patch::twin).
     if (twoSided == "none") {

@@ -32,6 +32,15 @@
 //                                  sided (MGF sides 2, ...); "all": every
 //                                  surface; "none": ignore the flags (one-sided)
 //   validate         bool   true   run Scene::validate() (rho range, emitter)
+//   split_intersections bool false split patches that pass through one another
+//                                  along their intersection lines, so parts inside
+//                                  another object become patches of their own
+//                                  (scene/triangulate.h splitIntersections). Off by
+//                                  default: real scenes cross a lot (classroom.mgf
+//                                  5,826 -> 11,817 patches, graz.mgf 27,896 ->
+//                                  62,245, the bathroom 734 k -> 1.76 M with its
+//                                  back sides) and its effect on their error is not
+//                                  measured yet
 //
 // Every key is read whatever the format, so callers may reportUnused().
 #pragma once

@@ -121,6 +121,8 @@ struct LoadStats {
     uint64_t triangulatedFaces = 0;  ///< faces that had to be triangulated
     uint64_t defaultMaterialFaces = 0;
     uint64_t ignoredStatements = 0;  ///< e.g. MGF rs/ts
+    uint64_t splitPatches = 0;       ///< patches cut where others pass through them
+    uint64_t splitPieces = 0;        ///< the triangles that replaced them
     double loadSeconds = 0.0;
     std::vector<std::string> warnings;
 };

@@ -1,15 +1,18 @@
 // Polygon intake (see triangulate.h). The only file of hrad that includes CGAL.
 #include "scene/triangulate.h"
 
-#include <algorithm>
-#include <cmath>
-#include <list>
-#include <set>
-
+#include <CGAL/Box_intersection_d/Box_with_info_d.h>
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Triangulation_face_base_with_info_2.h>
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
+#include <CGAL/box_intersection_d.h>
+
+#include <algorithm>
+#include <cmath>
+#include <list>
+#include <set>
+#include <unordered_map>
 
 namespace hrad::scene {
 
@@ -225,6 +228,214 @@ size_t addPolygon(Scene& scene, const std::vector<Vec3>& input, uint32_t materia
     size_t added = 0;
     for (const auto& t : tris) added += scene.addTriangle(t[0], t[1], t[2], material) ? 1 : 0;
     return added;
+}
+
+namespace {
+
+/// The triangles of a patch (a quad is two, split along v0-v2).
+int patchTriangles(const Patch& p, std::array<Vec3, 3> (&t)[2]) {
+    t[0] = {p.v[0], p.v[1], p.v[2]};
+    if (p.kind != PatchKind::Quad) return 1;
+    t[1] = {p.v[0], p.v[2], p.v[3]};
+    return 2;
+}
+
+/// The part of triangle a on the plane (n, d) (n unit): false unless it is
+/// a segment (a point, nothing, or the whole triangle otherwise).
+bool planeCut(const std::array<Vec3, 3>& a, const Vec3& n, double d, double tol, Vec3& p0,
+              Vec3& p1) {
+    double s[3];
+    for (int i = 0; i < 3; ++i) {
+        s[i] = glm::dot(n, a[size_t(i)]) - d;
+        if (std::fabs(s[i]) <= tol) s[i] = 0.0;
+    }
+    if ((s[0] > 0 && s[1] > 0 && s[2] > 0) || (s[0] < 0 && s[1] < 0 && s[2] < 0)) return false;
+    if (s[0] == 0 && s[1] == 0 && s[2] == 0) return false;  // in the plane
+    Vec3 pts[3];
+    int m = 0;
+    for (int i = 0; i < 3; ++i) {
+        const int j = (i + 1) % 3;
+        if (s[i] == 0) pts[m++] = a[size_t(i)];
+        if (s[i] * s[j] < 0 && m < 3)
+            pts[m++] = a[size_t(i)] + (a[size_t(j)] - a[size_t(i)]) * (s[i] / (s[i] - s[j]));
+    }
+    if (m < 2) return false;
+    p0 = pts[0];
+    p1 = pts[1];
+    return glm::length(p1 - p0) > tol;
+}
+
+/// The segment two non-parallel triangles share, if any (Moeller 1997: each
+/// triangle cut by the other's plane, the two cuts overlapped along the line
+/// of the planes).
+bool crossSegment(const std::array<Vec3, 3>& a, const std::array<Vec3, 3>& b, double tol, Vec3& s0,
+                  Vec3& s1) {
+    Vec3 na = glm::cross(a[1] - a[0], a[2] - a[0]), nb = glm::cross(b[1] - b[0], b[2] - b[0]);
+    const double la = glm::length(na), lb = glm::length(nb);
+    if (!(la > 0) || !(lb > 0)) return false;
+    na /= la;
+    nb /= lb;
+    Vec3 a0, a1, b0, b1;
+    if (!planeCut(a, nb, glm::dot(nb, b[0]), tol, a0, a1)) return false;
+    if (!planeCut(b, na, glm::dot(na, a[0]), tol, b0, b1)) return false;
+    Vec3 dir = glm::cross(na, nb);
+    const double ld = glm::length(dir);
+    if (!(ld > 0)) return false;
+    dir /= ld;
+    double ta0 = glm::dot(a0, dir), ta1 = glm::dot(a1, dir);
+    if (ta0 > ta1) {
+        std::swap(ta0, ta1);
+        std::swap(a0, a1);
+    }
+    const double tb0 = std::min(glm::dot(b0, dir), glm::dot(b1, dir));
+    const double tb1 = std::max(glm::dot(b0, dir), glm::dot(b1, dir));
+    const double lo = std::max(ta0, tb0), hi = std::min(ta1, tb1);
+    if (!(hi - lo > tol) || !(ta1 - ta0 > 0)) return false;
+    s0 = a0 + (a1 - a0) * ((lo - ta0) / (ta1 - ta0));
+    s1 = a0 + (a1 - a0) * ((hi - ta0) / (ta1 - ta0));
+    return std::isfinite(s0.x + s0.y + s0.z + s1.x + s1.y + s1.z);
+}
+
+/// Whether segment [a, b] lies along one edge of patch p (within tol).
+bool alongBoundary(const Patch& p, const Vec3& a, const Vec3& b, double tol) {
+    const int n = p.numVertices();
+    for (int i = 0; i < n; ++i) {
+        const Vec3& e0 = p.v[size_t(i)];
+        const Vec3& e1 = p.v[size_t((i + 1) % n)];
+        Vec3 d = e1 - e0;
+        double len2 = glm::dot(d, d);
+        if (!(len2 > 0)) continue;
+        auto dist = [&](const Vec3& x) {
+            double t = std::clamp(glm::dot(x - e0, d) / len2, 0.0, 1.0);
+            return glm::length(x - (e0 + t * d));
+        };
+        if (dist(a) <= tol && dist(b) <= tol) return true;
+    }
+    return false;
+}
+
+/// Retriangulates patch p with the segments as constraints (constrained
+/// Delaunay in its plane); triangles counter-clockwise around p's normal.
+bool splitPatch(const Patch& p, const std::vector<std::pair<Vec3, Vec3>>& segments,
+                std::vector<std::array<Vec3, 3>>& out) {
+    const Vec3 n = p.normal;
+    const int nv = p.numVertices();
+    Vec3 u = p.v[1] - p.v[0];
+    u = glm::normalize(u - glm::dot(u, n) * n);
+    const Vec3 w = glm::cross(n, u);  // (u, w, n) right-handed: CCW in 2D is CCW around n
+    const Vec3 origin = p.v[0];
+    const double offset = glm::dot(origin, n);
+    auto to2 = [&](const Vec3& x) {
+        return K::Point_2(glm::dot(x - origin, u), glm::dot(x - origin, w));
+    };
+    std::vector<K::Point_2> poly;
+    for (int i = 0; i < nv; ++i) poly.push_back(to2(p.v[size_t(i)]));
+    // Inside the convex polygon (counter-clockwise), with a relative slack.
+    auto inside = [&](const K::Point_2& q) {
+        for (int i = 0; i < nv; ++i)
+            if (CGAL::orientation(poly[size_t(i)], poly[size_t((i + 1) % nv)], q) ==
+                CGAL::RIGHT_TURN)
+                return false;
+        return true;
+    };
+    try {
+        CDT cdt;
+        for (int i = 0; i < nv; ++i)
+            cdt.insert_constraint(poly[size_t(i)], poly[size_t((i + 1) % nv)]);
+        for (const auto& [a, b] : segments) {
+            K::Point_2 pa = to2(a), pb = to2(b);
+            if (pa != pb) cdt.insert_constraint(pa, pb);
+        }
+        for (CDT::Face_handle f : cdt.finite_face_handles()) {
+            K::Point_2 c =
+                CGAL::centroid(f->vertex(0)->point(), f->vertex(1)->point(), f->vertex(2)->point());
+            if (!inside(c)) continue;
+            std::array<Vec3, 3> t;
+            for (int k = 0; k < 3; ++k) {
+                const K::Point_2& q = f->vertex(k)->point();
+                Vec3 x = origin + q.x() * u + q.y() * w;
+                t[size_t(k)] = x + (offset - glm::dot(x, n)) * n;
+            }
+            out.push_back(t);
+        }
+    } catch (const std::exception&) {
+        out.clear();
+        return false;
+    }
+    return out.size() > 1;
+}
+
+}  // namespace
+
+SplitStats splitIntersections(Scene& scene) {
+    SplitStats st;
+    const uint32_t np = uint32_t(scene.patches.size());
+    if (np < 2) return st;
+    const double diag = scene.bounds().diagonal();
+    const double tol = 1e-7 * diag;
+    // Candidate pairs: overlapping bounding boxes (CGAL box intersection).
+    using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 3, uint32_t>;
+    std::vector<Box> boxes;
+    boxes.reserve(np);
+    for (uint32_t i = 0; i < np; ++i) {
+        const Patch& p = scene.patches[i];
+        double lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = hi[a] = p.v[0][a];
+            for (int k = 1; k < p.numVertices(); ++k) {
+                lo[a] = std::min(lo[a], p.v[size_t(k)][a]);
+                hi[a] = std::max(hi[a], p.v[size_t(k)][a]);
+            }
+            lo[a] -= tol;
+            hi[a] += tol;
+        }
+        boxes.emplace_back(lo, hi, i);
+    }
+    std::unordered_map<uint32_t, std::vector<std::pair<Vec3, Vec3>>> cuts;
+    auto test = [&](const Box& ba, const Box& bb) {
+        const uint32_t i = ba.info(), j = bb.info();
+        const Patch& P = scene.patches[i];
+        const Patch& Q = scene.patches[j];
+        // Parallel planes cross nowhere (coplanar overlaps: scene/coplanar.h).
+        if (std::fabs(glm::dot(P.normal, Q.normal)) > 1.0 - 1e-9) return;
+        std::array<Vec3, 3> tp[2], tq[2];
+        const int mp = patchTriangles(P, tp), mq = patchTriangles(Q, tq);
+        for (int a = 0; a < mp; ++a) {
+            for (int b = 0; b < mq; ++b) {
+                Vec3 s0, s1;
+                if (!crossSegment(tp[a], tq[b], tol, s0, s1)) continue;
+                // Touching (an edge of one lying on the other, a box standing
+                // on a floor) lets no light through; only a crossing does.
+                if (alongBoundary(P, s0, s1, tol) || alongBoundary(Q, s0, s1, tol)) continue;
+                cuts[i].emplace_back(s0, s1);
+                cuts[j].emplace_back(s0, s1);
+                ++st.crossings;
+            }
+        }
+    };
+    CGAL::box_self_intersection_d(boxes.begin(), boxes.end(), test);
+    if (cuts.empty()) return st;
+    std::vector<Patch> old = std::move(scene.patches);
+    scene.patches.clear();
+    scene.patches.reserve(old.size() + 4 * cuts.size());
+    std::vector<std::array<Vec3, 3>> tris;
+    for (uint32_t i = 0; i < uint32_t(old.size()); ++i) {
+        auto it = cuts.find(i);
+        tris.clear();
+        if (it == cuts.end() || !splitPatch(old[i], it->second, tris)) {
+            scene.patches.push_back(old[i]);
+            continue;
+        }
+        ++st.splitPatches;
+        for (const auto& t : tris) {
+            if (!scene.addTriangle(t[0], t[1], t[2], old[i].material)) continue;
+            Patch& added = scene.patches.back();
+            added.rho = old[i].rho;
+            added.emission = old[i].emission;
+            ++st.pieces;
+        }
+    }
+    return st;
 }
 
 }  // namespace hrad::scene

@@ -50,4 +50,33 @@ Vec3 newellNormal(const std::vector<Vec3>& vertices);
 bool triangulatePolygon(const std::vector<Vec3>& vertices,
                         std::vector<std::array<Vec3, 3>>& triangles);
 
+/// What splitIntersections() did.
+struct SplitStats {
+    uint64_t crossings = 0;     ///< triangle pairs that cross (one segment each)
+    uint64_t splitPatches = 0;  ///< patches replaced by their pieces
+    uint64_t pieces = 0;        ///< triangles that replaced them
+};
+
+/// Splits the patches that pass through one another (interpenetrating
+/// meshes: a frame sunk into a mirror, a leg through a floor) along their
+/// lines of intersection, so that the part of a patch inside another object
+/// becomes a patch of its own. Radiosity gives a patch one value over all
+/// its points: a patch half inside a closed object carries the light of its
+/// outer half to the object's inner faces, which then hold light no path can
+/// bring there (the bathroom's mirror is a closed two-sided slab 7 mm thick
+/// whose wooden frame cuts through it; its inner faces were lit). Split, the
+/// inner pieces see only the inside and the reachability pass
+/// (transport/reachability.h) leaves them dark. Setting split_intersections
+/// (scene/loader.h), off by default.
+/// Candidate pairs come from CGAL's box intersection (Zomorodian &
+/// Edelsbrunner 2002), each pair's segment from CGAL's triangle-triangle
+/// intersection, and each cut patch is retriangulated by a constrained
+/// Delaunay triangulation in its plane with the segments as constraints.
+/// Only crossings count: a segment along an edge of either patch (a box
+/// standing on a floor, meshes sharing an edge) is touching and cuts
+/// nothing; parallel patches (coplanar overlaps, scene/coplanar.h) are left
+/// alone. Pieces keep the patch's material, reflectance and emission, so
+/// areas and emitted power are unchanged. Call before addBackSides().
+SplitStats splitIntersections(Scene& scene);
+
 }  // namespace hrad::scene

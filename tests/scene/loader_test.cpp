@@ -1,8 +1,9 @@
 // loadScene dispatch and settings (scene/loader.h).
+#include "scene/loader.h"
+
 #include <gtest/gtest.h>
 
 #include "core/error.h"
-#include "scene/loader.h"
 #include "tests/test_util.h"
 
 namespace hrad::scene {
@@ -50,6 +51,22 @@ TEST(Loader, ValidateFalseSkipsTheEmitterCheck) {
     Scene s = loadScene("furnace:0.5:0", p);
     EXPECT_EQ(s.numEmitters(), 0u);
     EXPECT_THROW(loadScene("furnace:0.5:0"), InputError);
+}
+
+TEST(Loader, SplitIntersectionsIsASetting) {
+    // office:N:T's furniture meshes pass through one another (legs through
+    // seats); split_intersections cuts them, keeping area and emission.
+    Params off;
+    Scene whole = loadScene("office:1:1", off);
+    EXPECT_EQ(whole.stats.splitPatches, 0u);
+    Params on;
+    on.set("split_intersections", true);
+    Scene cut = loadScene("office:1:1", on);
+    EXPECT_GT(cut.stats.splitPatches, 0u);
+    EXPECT_EQ(cut.patches.size(),
+              whole.patches.size() - cut.stats.splitPatches + cut.stats.splitPieces);
+    EXPECT_NEAR(cut.totalArea() / whole.totalArea(), 1.0, 1e-9);
+    EXPECT_NEAR(cut.emittedPower().g / whole.emittedPower().g, 1.0, 1e-9);
 }
 
 }  // namespace

@@ -1,0 +1,119 @@
+// Patches that pass through one another (scene/triangulate.h
+// splitIntersections): a lit plate half sunk into a closed two-sided box.
+// As one patch, the plate's radiosity is an average over both halves and its
+// inner half hands it to the box's inner faces, where no path from the lamp
+// can bring light; cut along the box's wall, the inner piece sees only the
+// inside and stays dark, and so does the inside of the box.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "hr/solver.h"
+#include "scene/triangulate.h"
+#include "tests/scenes.h"
+#include "transport/visibility.h"
+
+namespace hrad {
+namespace {
+
+/// Room [0,1]^3 (inward, 0.5, ceiling emitting), a closed box [0.3,0.6]^3
+/// whose faces are two-sided (0.9), and a plate at z = 0.45 over x in
+/// [0.5, 0.8], y in [0.35, 0.55], facing up: x < 0.6 is inside the box.
+scene::Scene sunkPlate() {
+    scene::Scene s;
+    s.name = "sunk-plate";
+    const uint32_t wall = s.addMaterial({"wall", RGB(0.5), RGB(0.0)});
+    const uint32_t lamp = s.addMaterial({"lamp", RGB(0.5), RGB(1.0)});
+    scene::Material boxMat{"box", RGB(0.9), RGB(0.0)};
+    boxMat.twoSided = true;
+    const uint32_t box = s.addMaterial(boxMat);
+    const uint32_t plate = s.addMaterial({"plate", RGB(0.8), RGB(0.0)});
+    test::addBox(s, Vec3(0), Vec3(1), {wall, wall, wall, wall, wall, lamp}, true);
+    test::addBox(s, Vec3(0.3), Vec3(0.6), {box, box, box, box, box, box}, false);
+    test::addQuadFacing(s, Vec3(0.5, 0.35, 0.45), Vec3(0.8, 0.35, 0.45), Vec3(0.8, 0.55, 0.45),
+                        Vec3(0.5, 0.55, 0.45), plate, Vec3(0.65, 0.45, 1.0));
+    s.applyMaterials();
+    return s;
+}
+
+/// Solves, returns the reflected power on patches inside the box (centroid
+/// strictly inside, or a back side of the box).
+double powerInside(const scene::Scene& s) {
+    transport::Visibility vis(s);
+    Params p;
+    p.set("hr.oracle", std::string("uniform"));
+    p.set("oracle.level", int64_t(2));
+    p.set("cluster.model", std::string("none"));
+    hr::HrSettings settings = hr::HrSettings::fromParams(p);
+    p.reportUnused();
+    hr::HrResult r = hr::HrSolver(s, vis, settings).solve();
+    EXPECT_TRUE(r.converged);
+    double inside = 0.0;
+    for (uint32_t i = 0; i < s.patches.size(); ++i) {
+        const Vec3 c = s.patches[i].centroid();
+        const bool in = c.x > 0.3 + 1e-9 && c.x < 0.6 - 1e-9 && c.y > 0.3 + 1e-9 &&
+                        c.y < 0.6 - 1e-9 && c.z > 0.3 + 1e-9 && c.z < 0.6 - 1e-9;
+        const bool boxBack = s.patches[i].backSide;
+        if (in || boxBack) inside += s.patches[i].area * maxComponent(r.hierarchy->B(i));
+    }
+    return inside;
+}
+
+TEST(SplitIntersections, CutsTheSunkPlateAlongTheWall) {
+    scene::Scene s = sunkPlate();
+    const size_t before = s.patches.size();
+    const double area = s.totalArea();
+    const RGB power = s.emittedPower();
+    scene::SplitStats st = scene::splitIntersections(s);
+    // The plate crosses the box's +x wall: those two are cut, nothing else.
+    EXPECT_EQ(st.splitPatches, 2u);
+    EXPECT_GE(st.crossings, 1u);
+    EXPECT_EQ(s.patches.size(), before - 2 + st.pieces);
+    EXPECT_NEAR(s.totalArea(), area, 1e-12);
+    EXPECT_NEAR(s.emittedPower().g, power.g, 1e-12);
+    // Every piece of the plate lies on one side of the wall x = 0.6.
+    for (const scene::Patch& p : s.patches) {
+        if (s.materials[p.material].name == "plate") {
+            const Vec3 c = p.centroid();
+            for (int k = 0; k < 3; ++k) {
+                if (c.x < 0.6) {
+                    EXPECT_LE(p.v[size_t(k)].x, 0.6 + 1e-12);
+                } else {
+                    EXPECT_GE(p.v[size_t(k)].x, 0.6 - 1e-12);
+                }
+            }
+        }
+    }
+}
+
+TEST(SplitIntersections, TouchingCutsNothing) {
+    // A box standing on the floor of a room: its walls end on the floor.
+    scene::Scene s;
+    const uint32_t wall = s.addMaterial({"wall", RGB(0.5), RGB(0.0)});
+    const uint32_t lamp = s.addMaterial({"lamp", RGB(0.5), RGB(1.0)});
+    test::addBox(s, Vec3(0), Vec3(1), {wall, wall, wall, wall, lamp, wall}, true);
+    test::addBox(s, Vec3(0.3, 0.3, 0.0), Vec3(0.6, 0.6, 0.3), {wall, wall, wall, wall, wall, wall},
+                 false);
+    s.applyMaterials();
+    const size_t before = s.patches.size();
+    scene::SplitStats st = scene::splitIntersections(s);
+    EXPECT_EQ(st.splitPatches, 0u);
+    EXPECT_EQ(s.patches.size(), before);
+}
+
+TEST(SplitIntersections, TheInsideOfTheBoxStaysDark) {
+    // Not cut: the plate's inner half lights the inside of the box.
+    scene::Scene whole = sunkPlate();
+    whole.addBackSides();
+    const double leaked = powerInside(whole);
+    EXPECT_GT(leaked, 0.0);
+    // Cut: the inner piece, the box's inner faces and the wall's inner
+    // pieces are out of light's reach, exactly dark.
+    scene::Scene cut = sunkPlate();
+    scene::splitIntersections(cut);
+    cut.addBackSides();
+    EXPECT_EQ(powerInside(cut), 0.0);
+}
+
+}  // namespace
+}  // namespace hrad
