@@ -976,7 +976,9 @@ HrResult HrSolver::solve(bool progress) {
                 h.pushPull();
                 rec.pushPullSeconds = tp.seconds();
             }
-            // Relaxation of the few patches that carry most of the change.
+            // Relaxation of the few patches that carry most of the change
+            // (the change history restarts after a refinement).
+            if (rec.refinedLinks > 0) prevRootChange.clear();
             if (relaxOn && rec.refinedLinks == 0 && prevRoots.size() == np) {
                 std::vector<uint32_t> hot = concentratedChange(h, prevRoots, prevRootChange,
                                                                s_.relaxShare, s_.relaxFraction);

@@ -37,7 +37,7 @@
 //                                  another object become patches of their own
 //                                  (scene/triangulate.h splitIntersections). Off by
 //                                  default: real scenes cross a lot (classroom.mgf
-//                                  5,826 -> 11,817 patches, graz.mgf 27,896 ->
+//                                  5,826 -> 11,817 patches, graz.mgf 13,948 ->
 //                                  62,245, the bathroom 734 k -> 1.76 M with its
 //                                  back sides) and its effect on their error is not
 //                                  measured yet
