@@ -2,6 +2,7 @@
 // computes a reference through the on-disk cache (reference/cache.h), or
 // finds it there, and prints where it is cached.
 #include <fmt/format.h>
+
 #include <nlohmann/json.hpp>
 
 #include "apps/commands.h"
@@ -37,6 +38,17 @@ int runReference(const ReferenceCliOptions& o, Params& params) {
             "non-emitting patches only)\n",
             r["mc_stderr_l2_lum"].get<double>(), r["mc_stderr_l2_rgb"].get<double>(),
             r["mc_stderr_l2_nonemitter_lum"].get<double>());
+    if (r.contains("reflected_power")) {
+        const auto& pw = r["reflected_power"];
+        fmt::print("reflected power: ({:.6g}, {:.6g}, {:.6g})", pw[0].get<double>(),
+                   pw[1].get<double>(), pw[2].get<double>());
+        if (r.contains("reflected_power_stderr")) {
+            const auto& se = r["reflected_power_stderr"];
+            fmt::print(" +- ({:.3g}, {:.3g}, {:.3g}) (one standard error)", se[0].get<double>(),
+                       se[1].get<double>(), se[2].get<double>());
+        }
+        fmt::print(" [sum of A (B - E), RGB]\n");
+    }
     fmt::print("cache file: {} ({:.2f} s)\n", r.value("cache_file", r.value("cache_dir", "")),
                r.value("seconds", 0.0));
     return 0;

@@ -1,14 +1,13 @@
 #include "experiments/runner.h"
 
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cmath>
 #include <ctime>
 #include <optional>
-
-#include <fmt/format.h>
-#include <spdlog/spdlog.h>
 
 #include "core/memory.h"
 #include "core/timer.h"
@@ -19,20 +18,18 @@
 #include "reference/montecarlo.h"
 #include "render/camera.h"
 #include "render/error_map.h"
-#include "render/image.h"
 #include "render/gltf_export.h"
+#include "render/image.h"
 #include "render/ply_export.h"
 #include "render/render.h"
 #include "render/residual.h"
 #include "scene/loader.h"
 #include "transport/visibility.h"
 
-
 namespace hrad::experiments {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-
 
 std::string buildType() { return HRAD_BUILD_TYPE; }
 std::string codeVersion() { return HRAD_VERSION; }
@@ -64,12 +61,19 @@ json paramsJson(const Params& p) {
 }
 
 json metricsJson(const reference::ErrorMetrics& m) {
-    return json{{"l1_lum", m.l1Lum}, {"l2_lum", m.l2Lum}, {"linf_lum", m.linfLum},
-                {"l1_rgb", m.l1Rgb}, {"l2_rgb", m.l2Rgb}, {"linf_rgb", m.linfRgb},
-                {"l1_reflected_lum", m.l1ReflLum}, {"l2_reflected_lum", m.l2ReflLum},
-                {"l1_nonemitter_lum", m.l1NonEmitLum}, {"l2_nonemitter_lum", m.l2NonEmitLum},
+    return json{{"l1_lum", m.l1Lum},
+                {"l2_lum", m.l2Lum},
+                {"linf_lum", m.linfLum},
+                {"l1_rgb", m.l1Rgb},
+                {"l2_rgb", m.l2Rgb},
+                {"linf_rgb", m.linfRgb},
+                {"l1_reflected_lum", m.l1ReflLum},
+                {"l2_reflected_lum", m.l2ReflLum},
+                {"l1_nonemitter_lum", m.l1NonEmitLum},
+                {"l2_nonemitter_lum", m.l2NonEmitLum},
                 {"mean_ratio_nonemitter", m.meanRatioNonEmit},
-                {"dark_reflected_fraction", m.darkReflectedFraction}, {"dark_regions", m.darkRegions},
+                {"dark_reflected_fraction", m.darkReflectedFraction},
+                {"dark_regions", m.darkRegions},
                 {"regions", m.regions}};
 }
 
@@ -80,8 +84,8 @@ struct Resolved {
     std::shared_ptr<const Solver> solverImpl;  ///< from the registry (experiments/solvers.h)
     render::RenderSettings render;
     double exposure = 0.0;
-    double errorFloor = 0.01, errorRange = 0.25;  // render.error_floor, render.error_range
-    bool errorOnRegions = true;                   // render.error_mode = regions | pixels
+    double errorFloor = 0.01, errorRange = 0.25;       // render.error_floor, render.error_range
+    bool errorOnRegions = true;                        // render.error_mode = regions | pixels
     std::optional<render::ResidualSettings> residual;  // metrics.residual = true
     // render.error_reference = path-traced: the error map compares the
     // solution's image with a path-traced image of the same camera
@@ -106,7 +110,8 @@ void checkPathTracedBudget(const Resolved& r) {
         throwInputError(r.pathTracedWhere,
                         "path-traced reference: {}x{} pixels x {} spp = {} samples, more than "
                         "render.max_samples = {}",
-                        r.render.width, r.render.height, r.pathTracedSpp, samples, r.render.maxSamples);
+                        r.render.width, r.render.height, r.pathTracedSpp, samples,
+                        r.render.maxSamples);
 }
 
 Resolved resolve(const PointSpec& p) {
@@ -118,10 +123,11 @@ Resolved resolve(const PointSpec& p) {
     r.exposure = s.getDouble("render.exposure", 0.0, 0.0, 1e300);
     r.errorFloor = s.getDouble("render.error_floor", 0.01, 1e-9, 1.0);
     r.errorRange = s.getDouble("render.error_range", 0.25, 1e-6, 1.0);
-    r.errorOnRegions = s.getEnum("render.error_mode", "regions", {"regions", "pixels"}) == "regions";
+    r.errorOnRegions =
+        s.getEnum("render.error_mode", "regions", {"regions", "pixels"}) == "regions";
     if (s.getBool("metrics.residual", false)) r.residual = render::ResidualSettings::fromParams(s);
-    r.errorVsPathTraced =
-        s.getEnum("render.error_reference", "solution", {"solution", "path-traced"}) == "path-traced";
+    r.errorVsPathTraced = s.getEnum("render.error_reference", "solution",
+                                    {"solution", "path-traced"}) == "path-traced";
     if (r.errorVsPathTraced) {
         if (s.has("render.error_mode") && r.errorOnRegions)
             throwInputError(s.where("render.error_mode"),
@@ -136,10 +142,11 @@ Resolved resolve(const PointSpec& p) {
     const Params& ref = p.reference;
     r.refKind = ref.getEnum("kind", "none", {"none", "full-matrix", "montecarlo"});
     if (p.outputs.errorMap && r.refKind == "none" && !r.errorVsPathTraced)
-        throw InputError(p.outputs.errorMapWhere,
-                         "an error map needs a reference ([reference] kind = \"full-matrix\" or "
-                         "\"montecarlo\"; hrad solve: --reference-level; or render.error_reference = "
-                         "\"path-traced\")");
+        throw InputError(
+            p.outputs.errorMapWhere,
+            "an error map needs a reference ([reference] kind = \"full-matrix\" or "
+            "\"montecarlo\"; hrad solve: --reference-level; or render.error_reference = "
+            "\"path-traced\")");
     if (r.refKind == "full-matrix") r.refFm = reference::FullMatrixSettings::fromParams(ref, "fm");
     if (r.refKind == "montecarlo") r.refMc = reference::MonteCarloSettings::fromParams(ref, "mc");
     ref.reportUnused();
@@ -167,8 +174,9 @@ void requireSolvable(const scene::Scene& sc, const Params& settings) {
     try {
         sc.validate();
     } catch (const InputError& e) {
-        throw InputError(e.where(), e.message() + " (validate = false skips this check when loading, "
-                                                  "but a solve or reference needs it)");
+        throw InputError(e.where(), e.message() +
+                                        " (validate = false skips this check when loading, "
+                                        "but a solve or reference needs it)");
     }
 }
 
@@ -199,7 +207,7 @@ Reference computeReference(const scene::Scene& sc, const transport::Visibility& 
         reference::FullMatrixResult res;
         if (useCache)
             res = reference::cachedFullMatrix(sc, vis, *r.refFm, cacheDirFor(ctx), &out.cached,
-                                             ctx.progress);
+                                              ctx.progress);
         else
             res = reference::solveFullMatrix(sc, vis, *r.refFm, ctx.progress);
         out.field = std::move(res.field);
@@ -211,7 +219,7 @@ Reference computeReference(const scene::Scene& sc, const transport::Visibility& 
         reference::MonteCarloResult res;
         if (useCache)
             res = reference::cachedMonteCarlo(sc, vis, *r.refMc, cacheDirFor(ctx), &out.cached,
-                                             ctx.progress);
+                                              ctx.progress);
         else
             res = reference::solveMonteCarlo(sc, vis, *r.refMc, ctx.progress);
         out.field = std::move(res.field);
@@ -241,7 +249,9 @@ std::pair<double, double> mcUncertainty(const Reference& ref) {
         numC += a * double(glm::dot(s, s));
         denC += a * double(glm::dot(v, v));
     }
-    auto ratio = [](double n, double d) { return d > 0 ? std::sqrt(n / d) : (n > 0 ? INFINITY : 0.0); };
+    auto ratio = [](double n, double d) {
+        return d > 0 ? std::sqrt(n / d) : (n > 0 ? INFINITY : 0.0);
+    };
     return {ratio(numL, denL), ratio(numC, denC)};
 }
 
@@ -288,10 +298,9 @@ json prepareReference(const PointSpec& p, const RunContext& ctx) {
     out["reference"] = referenceDescription(r);
     out["cached"] = ref.cached;
     out["cache_dir"] = cacheDirFor(ctx);
-    std::string key = r.refFm ? reference::referenceCacheKey(sc, reference::kFullMatrixKind,
-                                                             r.refFm->describe())
-                              : reference::referenceCacheKey(sc, reference::kMonteCarloKind,
-                                                             r.refMc->describe());
+    std::string key =
+        r.refFm ? reference::referenceCacheKey(sc, reference::kFullMatrixKind, r.refFm->describe())
+                : reference::referenceCacheKey(sc, reference::kMonteCarloKind, r.refMc->describe());
     out["cache_file"] =
         reference::referenceCacheFile(cacheDirFor(ctx), r.refFm ? "fullmatrix" : "montecarlo", key)
             .string();
@@ -302,6 +311,25 @@ json prepareReference(const PointSpec& p, const RunContext& ctx) {
         out["mc_stderr_l2_lum"] = uLum;
         out["mc_stderr_l2_rgb"] = uRgb;
         out["mc_stderr_l2_nonemitter_lum"] = mcUncertaintyNonEmitters(ref, sc);
+    }
+    // The reference's reflected power, sum over regions of A (B - E), and
+    // (Monte Carlo) its standard error from the regions' independent errors:
+    // a total any solve of the same geometry can be held to, however its
+    // patches are cut.
+    {
+        const scene::UniformField& f = *ref.field;
+        RGB power(0.0), var(0.0);
+        for (uint32_t q = 0; q < sc.patches.size(); ++q) {
+            for (size_t k = f.offset(q); k < f.offset(q) + f.count(q); ++k) {
+                const double a = f.area(k);
+                power += a * (f.value(k) - sc.patches[q].emission);
+                if (k < ref.stdError.size()) var += a * a * ref.stdError[k] * ref.stdError[k];
+            }
+        }
+        out["reflected_power"] = json::array({power.r, power.g, power.b});
+        if (r.refMc)
+            out["reflected_power_stderr"] =
+                json::array({std::sqrt(var.r), std::sqrt(var.g), std::sqrt(var.b)});
     }
     return out;
 }
@@ -338,7 +366,8 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                                  {"emitted_power", rgbJson(sc.emittedPower())},
                                  {"dropped_degenerate", sc.stats.droppedDegenerate}};
     spdlog::info("loaded {}: {} patches in {:.2f} s", sc.name, sc.patches.size(), loadSeconds);
-    if ((p.outputs.exr || p.outputs.ply || p.outputs.glb || p.outputs.errorMap || p.outputs.solution) &&
+    if ((p.outputs.exr || p.outputs.ply || p.outputs.glb || p.outputs.errorMap ||
+         p.outputs.solution) &&
         ctx.artefactDir.empty())
         throw Error("outputs requested but no artefact folder given");
 
@@ -399,17 +428,17 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
 
     // ---- the solution's transport residual (render/residual.h) ----------------
     if (r.residual) {
-        render::ResidualSummary res = render::computeResidual(sc, vis, *field, *r.residual, ctx.progress);
-        summary["transport_residual"] = json{{"l1", res.l1},
-                                             {"l1_noise", res.l1Noise},
-                                             {"ratio", res.ratio()},
-                                             {"leaves", res.leaves.size()},
-                                             {"rays", res.rays},
-                                             {"seconds", res.seconds}};
+        render::ResidualSummary res =
+            render::computeResidual(sc, vis, *field, *r.residual, ctx.progress);
+        summary["transport_residual"] = json{{"l1", res.l1},         {"l1_noise", res.l1Noise},
+                                             {"ratio", res.ratio()}, {"leaves", res.leaves.size()},
+                                             {"rays", res.rays},     {"seconds", res.seconds}};
         timings["residual"] = res.seconds;
         summary["timings"] = timings;
-        spdlog::info("transport residual: L1 = {:.4g} (noise {:.2g}), solution / gathered reflected = {:.4f}",
-                     res.l1, res.l1Noise, res.ratio());
+        spdlog::info(
+            "transport residual: L1 = {:.4g} (noise {:.2g}), solution / gathered reflected = "
+            "{:.4f}",
+            res.l1, res.l1Noise, res.ratio());
         if (!ctx.artefactDir.empty()) {
             fs::create_directories(ctx.artefactDir);
             fs::path csv = ctx.artefactDir / "residual.csv";
@@ -451,7 +480,8 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     }
     if (p.outputs.historyError)
         summary["history_error"] =
-            !info.keepsHistory  ? fmt::format("not computed: the {} solver keeps no history", r.solver)
+            !info.keepsHistory
+                ? fmt::format("not computed: the {} solver keeps no history", r.solver)
             : r.refKind == "none" ? "not computed: the study has no reference"
                                   : "history[].l2_lum: L2 (luminance) after every iteration "
                                     "(progressive: every pr.history_every shots)";
@@ -477,12 +507,13 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         if (images) {
             Timer tr;
             scene::Camera cam = render::chooseCamera(sc, vis, r.render);
-            summary["camera"] = json{{"eye", json::array({cam.eye.x, cam.eye.y, cam.eye.z})},
-                                     {"target", json::array({cam.target.x, cam.target.y, cam.target.z})},
-                                     {"up", json::array({cam.up.x, cam.up.y, cam.up.z})},
-                                     {"fov_y_degrees", cam.fovYDegreesFor(r.render.width, r.render.height)},
-                                     {"image_size", json::array({r.render.width, r.render.height})},
-                                     {"explicit", r.render.camera.has_value()}};
+            summary["camera"] =
+                json{{"eye", json::array({cam.eye.x, cam.eye.y, cam.eye.z})},
+                     {"target", json::array({cam.target.x, cam.target.y, cam.target.z})},
+                     {"up", json::array({cam.up.x, cam.up.y, cam.up.z})},
+                     {"fov_y_degrees", cam.fovYDegreesFor(r.render.width, r.render.height)},
+                     {"image_size", json::array({r.render.width, r.render.height})},
+                     {"explicit", r.render.camera.has_value()}};
             // With an error map, the reference (and, for regions, the
             // solution's averages over the reference's regions: what the
             // L1/L2 metrics compare) go through the same camera in the same
@@ -527,23 +558,24 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                 artefacts["reference_png"] = refPng.string();
                 artefacts["error_map"] = data.string();
                 artefacts["error_false_colour"] = fc.string();
-                summary["error_map"] = json{{"mode", r.errorOnRegions ? "regions" : "pixels"},
-                                            {"reference", r.errorVsPathTraced
-                                                              ? fmt::format("path-traced, {} spp",
-                                                                            r.pathTracedSpp)
-                                                              : std::string("solution")},
-                                            {"pixels", em.pixels},
-                                            {"floor", em.floor},
-                                            {"floor_fraction", r.errorFloor},
-                                            {"mean_abs", em.meanAbs},
-                                            {"p95_abs", em.p95Abs},
-                                            {"max_abs", em.maxAbs},
-                                            {"l1", em.l1},
-                                            {"l2", em.l2},
-                                            {"false_colour_range", r.errorRange},
-                                            {"exposure", exposure}};
-                spdlog::info("error map: mean |e| = {:.4g}, 95th percentile {:.4g}, image L1 {:.4g}",
-                             em.meanAbs, em.p95Abs, em.l1);
+                summary["error_map"] =
+                    json{{"mode", r.errorOnRegions ? "regions" : "pixels"},
+                         {"reference", r.errorVsPathTraced
+                                           ? fmt::format("path-traced, {} spp", r.pathTracedSpp)
+                                           : std::string("solution")},
+                         {"pixels", em.pixels},
+                         {"floor", em.floor},
+                         {"floor_fraction", r.errorFloor},
+                         {"mean_abs", em.meanAbs},
+                         {"p95_abs", em.p95Abs},
+                         {"max_abs", em.maxAbs},
+                         {"l1", em.l1},
+                         {"l2", em.l2},
+                         {"false_colour_range", r.errorRange},
+                         {"exposure", exposure}};
+                spdlog::info(
+                    "error map: mean |e| = {:.4g}, 95th percentile {:.4g}, image L1 {:.4g}",
+                    em.meanAbs, em.p95Abs, em.l1);
             }
             fs::path exr = ctx.artefactDir / "image.exr", png = ctx.artefactDir / "image.png";
             render::writeExr(img, exr.string());

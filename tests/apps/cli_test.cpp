@@ -432,3 +432,32 @@ TEST(Cli, SweepSlurmDryRunStatusAndBadSlurmSettings) {
     EXPECT_EQ(r.code, 2) << r.output;
     EXPECT_NE(r.output.find("p.txt:2"), std::string::npos) << r.output;
 }
+
+// `hrad reference` states the reference's reflected power, sum of A (B - E):
+// in the furnace (unit cube, rho 0.5, E 1) B = 2 everywhere, so 6 per channel;
+// the Monte Carlo one within its own stated standard error.
+TEST(Cli, ReferencePrintsItsReflectedPower) {
+    auto dir = hrad::test::tempDir("cli_reference_power");
+    auto parse = [](const std::string& out, double& value, double& err) {
+        size_t at = out.find("reflected power: (");
+        if (at == std::string::npos) return false;
+        value = std::stod(out.substr(at + 18));
+        err = 0.0;
+        size_t pm = out.find("+- (", at);
+        if (pm != std::string::npos) err = std::stod(out.substr(pm + 4));
+        return true;
+    };
+    double v = 0, e = 0;
+    Result fm = run("--set fm.level=1 reference furnace --kind full-matrix --cache " + dir.string());
+    ASSERT_EQ(fm.code, 0) << fm.output;
+    ASSERT_TRUE(parse(fm.output, v, e)) << fm.output;
+    EXPECT_NEAR(v, 6.0, 1e-4);
+    Result mc = run("--set mc.level=0 --set mc.samples=256 --set mc.seed=1 reference furnace --kind "
+                    "montecarlo --cache " + dir.string());
+    ASSERT_EQ(mc.code, 0) << mc.output;
+    ASSERT_TRUE(parse(mc.output, v, e)) << mc.output;
+    EXPECT_GT(e, 0.0);
+    EXPECT_LT(e, 0.1);
+    EXPECT_NEAR(v, 6.0, 4.0 * e);
+    std::filesystem::remove_all(dir);
+}
