@@ -144,6 +144,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.relaxSweeps = int(p.getInt("hr.relax_sweeps", s.relaxSweeps, 1, 1 << 20));
     s.refineGrowth = p.getDouble("hr.refine_growth", s.refineGrowth, 0.0, 1e300);
     s.reachRays = int(p.getInt("hr.reach_rays", s.reachRays, 0, 1 << 20));
+    s.reachRetryRays = int(p.getInt("hr.reach_retry_rays", s.reachRetryRays, 0, 1 << 20));
     s.gaussSeidel = p.getEnum("hr.iteration", s.gaussSeidel ? "gauss-seidel" : "jacobi",
                               {"jacobi", "gauss-seidel"}) == "gauss-seidel";
     s.gsBlocks = int(p.getInt("hr.gs_blocks", s.gsBlocks, 0, 1 << 30));
@@ -880,7 +881,8 @@ HrResult HrSolver::solve(bool progress) {
     res.clusterModel = cluster::clusterModelName(s_.clusterModel);
     included_.clear();
     if (s_.reachRays > 0) {
-        transport::Reachability reach = transport::reachablePatches(*scene_, *vis_, s_.reachRays);
+        transport::Reachability reach =
+            transport::reachablePatches(*scene_, *vis_, s_.reachRays, 1, s_.reachRetryRays);
         res.unreachablePatches = reach.unreachable;
         res.reachRays = reach.rays;
         res.reachSeconds = reach.seconds;

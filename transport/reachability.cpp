@@ -13,72 +13,90 @@
 namespace hrad::transport {
 
 Reachability reachablePatches(const scene::Scene& scene, const Visibility& vis, int rays,
-                              uint64_t seed) {
+                              uint64_t seed, int retryRays) {
     Timer timer;
     const uint32_t n = uint32_t(scene.patches.size());
     const int m = std::max(1, rays);
     // sources[p]: the distinct patches whose fronts p's rays hit first (light
     // can go from each of them to p).
     std::vector<std::vector<uint32_t>> sources(n);
+    // Casts `count` rays from patch p (random stream `stream`) and merges the
+    // patches whose fronts they hit into sources[p].
+    auto cast = [&](uint32_t p, int count, uint64_t stream, std::vector<uint32_t>& hits) {
+        const scene::Patch& P = scene.patches[p];
+        Pcg32 rng(seed, stream);
+        hits.assign(sources[p].begin(), sources[p].end());
+        for (int i = 0; i < count; ++i) {
+            double u = rng.nextDouble(), v = rng.nextDouble();
+            if (P.kind == scene::PatchKind::Triangle && u + v > 1) {
+                u = 1 - u;
+                v = 1 - v;
+            }
+            Vec3 x = P.point(u, v);
+            Vec3 dir = cosineDirection(P.normal, rng.nextDouble(), rng.nextDouble());
+            RayHit h = vis.intersect(x, dir, 0.0, 1e300, p);
+            // The ray must arrive at the hit patch's front: a one-sided
+            // patch seen from behind sends nothing this way.
+            if (h.hit && glm::dot(scene.patches[h.patch].normal, dir) < 0) hits.push_back(h.patch);
+        }
+        std::sort(hits.begin(), hits.end());
+        hits.erase(std::unique(hits.begin(), hits.end()), hits.end());
+        sources[p].assign(hits.begin(), hits.end());
+    };
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 64), [&](const auto& range) {
         std::vector<uint32_t> hits;
-        for (uint32_t p = range.begin(); p != range.end(); ++p) {
-            const scene::Patch& P = scene.patches[p];
-            Pcg32 rng(seed, 2 * uint64_t(p) + 1);
-            hits.clear();
-            for (int i = 0; i < m; ++i) {
-                double u = rng.nextDouble(), v = rng.nextDouble();
-                if (P.kind == scene::PatchKind::Triangle && u + v > 1) {
-                    u = 1 - u;
-                    v = 1 - v;
-                }
-                Vec3 x = P.point(u, v);
-                Vec3 dir = cosineDirection(P.normal, rng.nextDouble(), rng.nextDouble());
-                RayHit h = vis.intersect(x, dir, 0.0, 1e300, p);
-                // The ray must arrive at the hit patch's front: a one-sided
-                // patch seen from behind sends nothing this way.
-                if (h.hit && glm::dot(scene.patches[h.patch].normal, dir) < 0)
-                    hits.push_back(h.patch);
-            }
-            std::sort(hits.begin(), hits.end());
-            hits.erase(std::unique(hits.begin(), hits.end()), hits.end());
-            sources[p].assign(hits.begin(), hits.end());
-        }
+        for (uint32_t p = range.begin(); p != range.end(); ++p)
+            cast(p, m, 2 * uint64_t(p) + 1, hits);
     });
-    // Edges source -> receiver, as offsets (counting sort by source).
-    std::vector<uint64_t> offset(size_t(n) + 1, 0);
-    for (uint32_t p = 0; p < n; ++p)
-        for (uint32_t s : sources[p]) ++offset[s + 1];
-    for (uint32_t s = 0; s < n; ++s) offset[s + 1] += offset[s];
-    std::vector<uint32_t> receivers(offset[n]);
-    {
-        std::vector<uint64_t> fill(offset.begin(), offset.end() - 1);
-        for (uint32_t p = 0; p < n; ++p)
-            for (uint32_t s : sources[p]) receivers[fill[s]++] = p;
-    }
-    sources.clear();
-    sources.shrink_to_fit();
-
     Reachability out;
-    out.reachable.assign(n, 0);
-    std::vector<uint32_t> queue;
-    for (uint32_t p = 0; p < n; ++p)
-        if (scene.patches[p].isEmitter()) {
-            out.reachable[p] = 1;
-            queue.push_back(p);
+    out.rays = uint64_t(n) * uint64_t(m);
+    // Breadth-first search from the emitters along the edges source ->
+    // receiver (as offsets: counting sort by source).
+    auto search = [&]() {
+        std::vector<uint64_t> offset(size_t(n) + 1, 0);
+        for (uint32_t p = 0; p < n; ++p)
+            for (uint32_t s : sources[p]) ++offset[s + 1];
+        for (uint32_t s = 0; s < n; ++s) offset[s + 1] += offset[s];
+        std::vector<uint32_t> receivers(offset[n]);
+        {
+            std::vector<uint64_t> fill(offset.begin(), offset.end() - 1);
+            for (uint32_t p = 0; p < n; ++p)
+                for (uint32_t s : sources[p]) receivers[fill[s]++] = p;
         }
-    for (size_t head = 0; head < queue.size(); ++head) {
-        const uint32_t s = queue[head];
-        for (uint64_t i = offset[s]; i < offset[s + 1]; ++i) {
-            const uint32_t r = receivers[i];
-            if (!out.reachable[r]) {
-                out.reachable[r] = 1;
-                queue.push_back(r);
+        out.reachable.assign(n, 0);
+        std::vector<uint32_t> queue;
+        for (uint32_t p = 0; p < n; ++p)
+            if (scene.patches[p].isEmitter()) {
+                out.reachable[p] = 1;
+                queue.push_back(p);
+            }
+        for (size_t head = 0; head < queue.size(); ++head) {
+            const uint32_t s = queue[head];
+            for (uint64_t i = offset[s]; i < offset[s + 1]; ++i) {
+                const uint32_t r = receivers[i];
+                if (!out.reachable[r]) {
+                    out.reachable[r] = 1;
+                    queue.push_back(r);
+                }
             }
         }
+        out.unreachable = n - uint32_t(queue.size());
+    };
+    search();
+    if (retryRays > 0 && out.unreachable > 0) {
+        // A second look from every patch the first rays did not connect:
+        // `retryRays` more rays each, then the search again.
+        std::vector<uint32_t> retry;
+        for (uint32_t p = 0; p < n; ++p)
+            if (!out.reachable[p]) retry.push_back(p);
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, retry.size(), 16), [&](const auto& range) {
+            std::vector<uint32_t> hits;
+            for (size_t i = range.begin(); i != range.end(); ++i)
+                cast(retry[i], retryRays, 2 * uint64_t(retry[i]) + 2, hits);
+        });
+        out.rays += uint64_t(retry.size()) * uint64_t(retryRays);
+        search();
     }
-    out.unreachable = n - uint32_t(queue.size());
-    out.rays = uint64_t(n) * uint64_t(m);
     out.seconds = timer.seconds();
     return out;
 }

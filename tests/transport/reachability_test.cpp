@@ -36,6 +36,40 @@ Room makeRoom() {
     return r;
 }
 
+TEST(Reachability, RetryRaysFindPatchesSeenThroughAGap) {
+    // A lit room whose floor patch P lies under a lid 0.1 above the floor
+    // and 6 wide: P and the lid's underside see the lit floor only through
+    // the low gap at the lid's edges. One ray each misses that; a retry from
+    // the patches left unconnected finds it, and never connects the inside
+    // of a closed box.
+    scene::Scene s;
+    uint32_t grey = s.addMaterial({"grey", RGB(0.5), RGB(0.0)});
+    uint32_t light = s.addMaterial({"light", RGB(0.0), RGB(1.0)});
+    test::addBox(s, Vec3(-10, -10, 0), Vec3(10, 10, 10), {grey, grey, grey, grey, grey, light},
+                 true);
+    test::addQuadFacing(s, Vec3(-3, -3, 0.1), Vec3(3, -3, 0.1), Vec3(3, 3, 0.1), Vec3(-3, 3, 0.1),
+                        grey, Vec3(0, 0, 0));  // lid, facing down
+    test::addQuadFacing(s, Vec3(-0.5, -0.5, 0.001), Vec3(0.5, -0.5, 0.001), Vec3(0.5, 0.5, 0.001),
+                        Vec3(-0.5, 0.5, 0.001), grey, Vec3(0, 0, 1));  // P, facing up
+    const uint32_t lid = 6, p = 7;
+    transport::Visibility vis(s);
+    transport::Reachability once = transport::reachablePatches(s, vis, 1);
+    transport::Reachability retried = transport::reachablePatches(s, vis, 1, 1, 4096);
+    EXPECT_EQ(once.reachable[p], 0);
+    EXPECT_EQ(retried.reachable[lid], 1);
+    EXPECT_EQ(retried.reachable[p], 1);
+    for (uint32_t q = 0; q < s.patches.size(); ++q) {
+        if (once.reachable[q]) {
+            EXPECT_EQ(retried.reachable[q], 1) << q;
+        }
+    }
+    EXPECT_EQ(retried.rays, once.rays + 4096u * once.unreachable);
+    // The closed box inside the room of the first test stays closed.
+    Room room = makeRoom();
+    transport::Visibility rvis(room.s);
+    EXPECT_EQ(transport::reachablePatches(room.s, rvis, 8, 1, 512).unreachable, 6u);
+}
+
 }  // namespace
 
 TEST(Reachability, ClosedBoxInsideALitRoomIsUnreachable) {
