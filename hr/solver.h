@@ -217,10 +217,10 @@
 // block relaxation of the equations with the largest residuals (Southwell
 // relaxation, which progressive radiosity is; Gortler, Cohen & Slusallek
 // 1994, "Radiosity and relaxation methods"): the fixed point is the solve's
-// own, only the path to it changes. The bathroom (3 M-link cap) converged in
-// 12 iterations instead of not at 100; the iteration's tail estimate holds
-// when each relaxation reached its target, and one that did not (budget)
-// starts a new sequence, as an extrapolation does.
+// own, only the path to it changes (measured on the bathroom:
+// bench/results/large_scenes.md). The iteration's tail estimate holds when
+// each relaxation reached its target, and one that did not (budget) starts
+// a new sequence, as an extrapolation does.
 //
 // Extrapolation (hr.extrapolate). The gather iteration is a Jacobi iteration
 // whose error shrinks by about the scene's largest reflectance per iteration:
