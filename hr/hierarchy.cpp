@@ -608,7 +608,6 @@ Hierarchy::RelaxResult Hierarchy::relax(const std::vector<uint32_t>& roots, int 
         }
         ++out.sweeps;
         out.linkGathers += linksPerSweep;
-        out.change = change;
         // The change still to come: a geometric tail with the rate over two
         // sweeps (a pair of facing surfaces alternates within one).
         bool done = change == 0.0;

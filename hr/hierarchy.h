@@ -225,8 +225,7 @@ class Hierarchy {
     struct RelaxResult {
         int sweeps = 0;
         uint64_t linkGathers = 0;  ///< links gathered, all sweeps together
-        double change = 0.0;   ///< sum over the roots of A max_c |change of B| in the last sweep
-        bool reached = false;  ///< stopped because the tail fell below `target`
+        bool reached = false;      ///< stopped because the tail fell below `target`
     };
     /// Relaxes a few root patches alone (hr.relax_share, HrSolver): Gauss-
     /// Seidel sweeps over `roots`, each root gathering its rows from the

@@ -986,8 +986,10 @@ HrResult HrSolver::solve(bool progress) {
                                                                s_.relaxShare, s_.relaxFraction);
                 if (!hot.empty()) {
                     Timer tx;
+                    // A tenth of the tolerance, in power (the last
+                    // iteration's reflected power sets the scale).
                     const double target =
-                        0.1 * s_.tolerance * maxComponent(glm::abs(h.reflectedPower()));
+                        0.1 * s_.tolerance * maxComponent(glm::abs(lastReflected));
                     Hierarchy::RelaxResult rx =
                         h.relax(hot, s_.relaxSweeps, std::max<uint64_t>(h.numLinks(), 1), target);
                     rec.gatherSeconds += tx.seconds();
