@@ -17,6 +17,8 @@ ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
         p.getDouble("cluster.surface_separation", s.surfaceSeparation, 1.0, 100.0);
     s.sampleNear = p.getEnum("cluster.near", "open", {"open", "sample"}) == "sample";
     s.nearRays = int(p.getInt("cluster.near_rays", s.nearRays, 2, 4096));
+    s.deferDark = p.getBool("cluster.defer_dark", s.deferDark);
+    s.ambient = p.getBool("cluster.ambient", s.ambient);
     s.faceSeparation = p.getDouble("cluster.face_separation", s.faceSeparation, 1.0, 100.0);
     s.faceDisc = p.getEnum("cluster.face_kernel", "point", {"point", "disc"}) == "disc";
     return s;
@@ -26,9 +28,10 @@ std::string ClusterLinkSettings::describe() const {
     return fmt::format(
         "cluster_vis_rays={}, cluster_separation={}, "
         "cluster_surface_separation={}, cluster_near={}, cluster_near_rays={}, "
-        "cluster_face_separation={}, cluster_face_kernel={}",
+        "cluster_face_separation={}, cluster_face_kernel={}, cluster_defer_dark={}, "
+        "cluster_ambient={}",
         visRays, separation, surfaceSeparation, sampleNear ? "sample" : "open", nearRays,
-        faceSeparation, faceDisc ? "disc" : "point");
+        faceSeparation, faceDisc ? "disc" : "point", deferDark, ambient);
 }
 
 ClusterLinker::ClusterLinker(const scene::Scene& scene, const ClusterTree* tree, ClusterModel model,
@@ -141,20 +144,33 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
     ClusterLink out;
     // Coplanar flat ends exchange nothing: no link, no rays.
     if (coplanar(r, s)) return out;
+    // A sending cluster that carries no light sends nothing: where its
+    // validity allows a link, the link is made without rays and computed
+    // when the cluster carries light (cluster.defer_dark).
+    const bool dark = s_.deferDark && s.isCluster && !(s.maxB > 0);
     out.open = opening(r, s);
     if (out.open != Opening::None) {
         // Two clusters whose spheres are apart but that are too close for the
         // point approximation: estimated by sampling when so set.
         bool near = s_.sampleNear && r.isCluster && s.isCluster && !r.singleSurface &&
                     !s.singleSurface && glm::length(r.center - s.center) > r.radius + s.radius;
+        if (near && dark) {
+            out.open = Opening::None;
+            out.deferred = true;
+            return out;
+        }
         if (near) {
-            ClusterLink sampled = sampledLink(r, s);
+            ClusterLink sampled = sampledLink(r, s, rootB);
             if (sampled.open == Opening::None) return sampled;
         }
         return out;  // opened next round, nothing computed
     }
     double K = kernel(r, s);
     if (!(K > 0)) return out;
+    if (dark) {
+        out.deferred = true;
+        return out;
+    }
     Vec3 cr = r.center, cs = s.center;
     double dist = glm::length(cr - cs);
     // Upper bound: all cosines <= 1 and the nearest points of the spheres.
@@ -278,13 +294,62 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
 
 void ClusterLinker::prepareSenders(std::span<const RGB> rootB) {
     if (!tree_) return;  // no clusters: nothing sends as a cluster
+    ambient_ = RGB(0.0);
+    if (s_.ambient) {
+        // The light still to be reflected, spread evenly over the surfaces
+        // (the ambient term of Cohen, Chen, Wallace & Greenberg 1988): a
+        // closed room of mean reflectance rho reflects P_e rho / (1 - rho)
+        // in all; less what the surfaces reflect now, per unit area.
+        RGB areaRho(0.0), reflected(0.0);
+        double area = 0.0;
+        for (size_t p = 0; p < scene_->patches.size() && p < rootB.size(); ++p) {
+            const scene::Patch& P = scene_->patches[p];
+            area += P.area;
+            areaRho += P.area * P.rho;
+            reflected += P.area * (rootB[p] - P.emission);
+        }
+        const RGB pe = scene_->emittedPower();
+        for (int c = 0; c < 3 && area > 0; ++c) {
+            double rho = std::min(areaRho[c] / area, 0.99);
+            ambient_[c] = std::max(0.0, pe[c] * rho / (1.0 - rho) - reflected[c]) / area;
+        }
+    }
     const uint32_t n = tree_->orderSize();
     senderPrefix_.assign(size_t(n) + 1, 0.0);
     for (uint32_t i = 0; i < n; ++i) {
         const uint32_t p = tree_->patchAt(i);
         senderPrefix_[i + 1] =
-            senderPrefix_[i] + scene_->patches[p].area * std::max(0.0, maxComponent(rootB[p]));
+            senderPrefix_[i] + scene_->patches[p].area * std::max(0.0, senderWeight(p, rootB[p]));
     }
+}
+
+double ClusterLinker::senderWeight(uint32_t patch, const RGB& B) const {
+    return maxComponent(B + scene_->patches[patch].rho * ambient_);
+}
+
+double ClusterLinker::receiverCosine(const LinkEnd& r, const Vec3& u) const {
+    // Exact over up to 256 patches; above, the mean over 256 patches drawn
+    // by area (a stream of its own).
+    const ClusterNode& nd = tree_->node(r.cluster);
+    const uint32_t count = nd.patchEnd - nd.patchBegin;
+    if (count <= 256) {
+        double sum = 0.0, area = 0.0;
+        for (uint32_t i = nd.patchBegin; i < nd.patchEnd; ++i) {
+            const auto& P = scene_->patches[tree_->patchAt(i)];
+            sum += P.area * std::max(0.0, glm::dot(P.normal, u));
+            area += P.area;
+        }
+        return area > 0 ? sum / area : 0.0;
+    }
+    Pcg32 rng(hashIds(r.stableId, 0x636f73ULL));
+    double sum = 0.0;
+    for (int i = 0; i < 256; ++i) {
+        uint32_t patch = 0;
+        double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
+        tree_->samplePoint(r.cluster, a, b, c, patch);
+        sum += std::max(0.0, glm::dot(scene_->patches[patch].normal, u));
+    }
+    return sum / 256.0;
 }
 
 Vec3 ClusterLinker::uniformPoint(const LinkEnd& e, Pcg32& rng, uint32_t& patch) const {
@@ -299,7 +364,8 @@ Vec3 ClusterLinker::uniformPoint(const LinkEnd& e, Pcg32& rng, uint32_t& patch) 
     return scene::elementPoint(P, e.domain, a, b);
 }
 
-ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s) const {
+ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s,
+                                       std::span<const RGB> rootB) const {
     ClusterLink out;
     out.sampled = true;
     Vec3 u = s.center - r.center;
@@ -309,6 +375,35 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s) const
     const bool orientedReceiver = r.isCluster && model_ == ClusterModel::Oriented;
     const int n = std::max(2, s_.nearRays);
     Pcg32 rng(hashIds(r.stableId, s.stableId, 0x6e656172ULL));
+    // Sender points by radiosity (see the header): drawn by A_k m_k (m_k the
+    // largest channel of B_k, prepareSenders), each weighted by c_k / m_k
+    // (c_k the mean of the channels), so that M E[k V c / m], M = sum A_k m_k,
+    // estimates the power per unit receiver area with the sender's current
+    // radiosities; divided by the mean channel of what the gather multiplies
+    // K by (s.sent), K is that power per unit of it. A sender that carries
+    // nothing yet, or whose gather radiosity is unknown, is drawn by area.
+    const ClusterNode* sn = s.isCluster ? &tree_->node(s.cluster) : nullptr;
+    const bool weighted = sn && s.sent > 0 && !senderPrefix_.empty() && !rootB.empty() &&
+                          senderPrefix_[sn->patchEnd] > senderPrefix_[sn->patchBegin];
+    const double wlo = weighted ? senderPrefix_[sn->patchBegin] : 0.0;
+    const double whi = weighted ? senderPrefix_[sn->patchEnd] : 0.0;
+    const double scale = weighted ? (whi - wlo) / s.sent : s.area;
+    auto senderPoint = [&](uint32_t& patch, double& w) {
+        if (!weighted) {
+            w = 1.0;
+            return uniformPoint(s, rng, patch);
+        }
+        double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
+        auto it = std::upper_bound(senderPrefix_.begin() + sn->patchBegin + 1,
+                                   senderPrefix_.begin() + sn->patchEnd + 1, wlo + a * (whi - wlo));
+        size_t idx = size_t(it - senderPrefix_.begin()) - 1;
+        idx = std::min<size_t>(std::max<size_t>(idx, sn->patchBegin), sn->patchEnd - 1);
+        patch = tree_->patchAt(uint32_t(idx));
+        const RGB B = rootB[patch] + scene_->patches[patch].rho * ambient_;
+        double m = maxComponent(B);
+        w = m > 0 ? (B.r + B.g + B.b) / (3.0 * m) : 0.0;
+        return tree_->pointOnPatch(patch, b, c);
+    };
     // One estimate from n point pairs: sums of the kernel k_i, of k_i V_i and
     // of its square, of the receiver's cosine towards the sender's centroid
     // (oriented receivers), and the rays cast and blocked (pairs with a zero
@@ -328,7 +423,8 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s) const
             for (int i = 0; i < m; ++i) {
                 transport::Segment t;
                 t.a = uniformPoint(r, rng, t.patchA);
-                t.b = uniformPoint(s, rng, t.patchB);
+                double w = 1.0;
+                t.b = senderPoint(t.patchB, w);
                 const Vec3& na = scene_->patches[t.patchA].normal;
                 const Vec3& nb = scene_->patches[t.patchB].normal;
                 double cu = glm::dot(na, u);
@@ -338,7 +434,7 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s) const
                 double ca = glm::dot(na, d), cb = -glm::dot(nb, d);
                 if (!(ca > 0 && cb > 0 && d2 > 0)) continue;
                 away[cast] = cu <= 0;
-                kern[cast] = ca * cb / (kPi * d2 * d2);
+                kern[cast] = w * ca * cb / (kPi * d2 * d2);
                 seg[cast++] = t;
             }
             if (cast > 0 && vis_) vis_->occluded(seg, size_t(cast), occ);
@@ -362,7 +458,13 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s) const
     out.rays = uint32_t(judged.cast + carried.cast);
     // Receiver factor: the model hands an oriented receiving cluster's
     // surfaces K cos_k+(u), i.e. K A_r E[cos+] in all.
-    auto receiverFactor = [&](const Estimate& e) { return orientedReceiver ? e.cosR / n : 1.0; };
+    // It is computed apart from the estimates' points: E[cos+] from the same
+    // points as the kernel is a ratio estimate, E[X / Y], biased low where
+    // the points facing the sender carry both (measured on classroom, first
+    // bounce with every cluster link sampled: -30 % with 8 pairs, -3.7 % with
+    // 32, -0.9 % with 256).
+    const double rf = orientedReceiver ? receiverCosine(r, u) : 1.0;
+    auto receiverFactor = [&](const Estimate&) { return rf; };
     // Estimates the model cannot use; the pair is opened instead:
     //  - an oriented receiver hands the light to its surfaces facing the
     //    sender's centroid; when more than 10 % of the sampled transfer
@@ -378,8 +480,8 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s) const
         unusable = !(receiverFactor(judged) > 0 && receiverFactor(carried) > 0) ||
                    judged.kvAway > 0.1 * judged.kv || carried.kvAway > 0.1 * carried.kv;
     }
-    double K = unusable ? 0.0 : s.area * meanCarried / receiverFactor(carried);
-    double judgedK = unusable ? 0.0 : s.area * meanJudged / receiverFactor(judged);
+    double K = unusable ? 0.0 : scale * meanCarried / receiverFactor(carried);
+    double judgedK = unusable ? 0.0 : scale * meanJudged / receiverFactor(judged);
     if (!unusable && (K > 1.0 || judgedK > 1.0)) unusable = true;
     if (!unusable && meanJudged > 0) {
         double var = std::max(0.0, judged.kv2 / n - meanJudged * meanJudged);
@@ -387,11 +489,12 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s) const
         if (out.relativeError > 1.0) unusable = true;
     }
     if (unusable) {
+        out.sampled = false;
         out.open = opening(r, s);
         return out;
     }
     out.K = K;
-    out.judgedF = s.area * meanJudged;
+    out.judgedF = scale * meanJudged;
     out.judged = judged.k > 0 ? judged.kv / judged.k : 0.0;
     out.partial = judged.blocked > 0 && judged.blocked < judged.cast;
     if (judged.k > 0 && judged.kv == 0) {
@@ -399,7 +502,7 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s) const
         // bound on the visibility, like a point-approximation link.
         out.uncertain = true;
         double bound = 1.0 - std::pow(0.05, 1.0 / std::max(1, judged.cast));
-        out.judgedF = s.area * bound * judged.k / n;
+        out.judgedF = scale * bound * judged.k / n;
         out.judged = bound;
         out.relativeError = 1.0;
     }

@@ -67,32 +67,61 @@
 // when the other end's bounding sphere reaches in front of each flat end's
 // plane: the parts that do face exchange light (straddles()).
 //
-// Near cluster pairs (cluster.near = sample; experimental, off by default).
-// Two clusters whose spheres are apart but closer than `separation` need not
-// be opened: their transfer is estimated by Monte Carlo integration of the
-// kernel with visibility,
-//     P = A_r A_s E[ cos_x+ cos_y+ V(x, y) / (pi |x - y|^2) ],
-// x and y drawn uniformly by area on the surfaces below each node (an
-// unbiased estimate of the power exchanged per unit uniform sender radiosity,
-// whatever the distance, since no direction is assumed), and stored as the K
-// that the gather and the oriented push turn back into that power: K = P / A_r
-// for an isotropic receiver, K = P / (A_r E[cos+(n_x, u)]) for an oriented
-// receiving cluster (u towards the sender's centroid), whose push hands each
-// surface K cos_k+(u). Two independent estimates again (judged, carried); the
-// judged one's error bound (two standard errors) travels with the link
-// (Link::uncertainty), and refinement opens the link when the power it may
-// carry wrongly exceeds the oracle's eps times the emitted power. Estimates
-// the model cannot use are opened instead (sampledLink: light arriving on
-// receiver surfaces that face away from the sender's centroid, a transfer
-// above 1, an error bound above the estimate).
-// Why it is off by default: K is geometric (uniform sender radiosity), but
-// the gather multiplies it by the sender's radiosity towards the receiver,
-// and in lit rooms the surfaces of a near sender that see the receiver are
-// brighter than that estimate: measured against the unclustered solve (bfa,
-// eps 1e-3, reflected power, green) office:3 and office:4 lose 1.9 % and
-// 1.7 % (cluster.near = open: -0.6 % and -0.4 %), for 40-45 % fewer links;
-// with 512 rays per estimate the loss stays, so it is the model, not the
-// noise (papers/README.md, "Clustering accuracy").
+// Sending clusters that carry no light yet (cluster.defer_dark). A link's
+// visibility is estimated with ray end points drawn by the light its sending
+// cluster's surfaces carry (above), and kept for as long as the link lives.
+// In the first judging pass only the emitters carry light, so nearly every
+// link from a cluster used to be made with end points drawn by area and
+// cosine alone, over surfaces that would stay dark (the undersides of
+// desks, the backs of chairs) as much as over those the light reaches, and
+// the ones it reaches are the ones that see the rest of the room: the
+// visibility came out low. Measured on classroom (bfa 1e-3, oriented,
+// reflected power against the unclustered solve): the first bounce lost
+// 1.6 %, the second 7.5 %. A link from a cluster whose root patches all
+// have B = 0 is therefore made without rays (ClusterLink::deferred; it
+// carries nothing, as its sender sends nothing) and computed in the first
+// judging pass after the cluster carries light (every element that turns
+// from dark to lit triggers one, hr/solver.h "Lazy refinement"). The cost
+// is no more rays than before: each link is computed once.
+// The end points are then drawn by A_k (B_k + rho_k a) (cluster.ambient):
+// the light of the bounces still to come, spread evenly, is the ambient
+// term of Cohen, Chen, Wallace & Greenberg 1988, "A progressive refinement
+// approach to fast radiosity image generation": a = (P_e rho / (1 - rho) -
+// reflected power now) / total area, rho the area-weighted mean reflectance
+// (capped at 0.99), per channel. Without it the links made after the first
+// bounce are drawn by direct light alone, which is more concentrated than
+// the final radiosities: office:3 gained 0.9 % against the unclustered
+// solve, 0.4 % with it (papers/README.md, "Clustering accuracy").
+//
+// Near cluster pairs (cluster.near = sample). Two clusters whose spheres are
+// apart but closer than `separation` need not be opened: their transfer is
+// estimated by Monte Carlo integration of the kernel with visibility,
+//     P = A_r E_x[ integral over the sender of B(y) cos_x+ cos_y+ V(x, y)
+//                  / (pi |x - y|^2) dA_y ],
+// x drawn uniformly by area on the receiver's surfaces and y on the sender's
+// by A_k m_k (m_k = max_c (B_k + rho_k a), the density above), each pair
+// weighted by c_k / m_k (c_k the mean channel of B_k + rho_k a) so that the
+// estimate is the power with the sender's radiosities, whatever the distance
+// (no direction is assumed). It is stored as the K that the gather turns
+// back into that power: K = P / (A_r b), b the mean channel of what the
+// gather multiplies K by (the sender's radiosity towards the receiver,
+// LinkEnd::sent), and for an oriented receiving cluster divided also by
+// E[cos+(n_x, u)] (u towards the sender's centroid; the push hands each
+// surface K cos_k+(u)), computed over the receiver's patches apart from the
+// estimate's points (receiverCosine: from the same points it would be a
+// ratio estimate biased low). A sender that carries no light, or a sender
+// surface element, is drawn by area (c = m). Two independent estimates
+// again (judged, carried); the judged one's error bound (two standard
+// errors) travels with the link (Link::uncertainty), and refinement opens
+// the link when the power it may carry wrongly exceeds the oracle's eps
+// times the emitted power. Estimates the model cannot use are opened
+// instead (sampledLink: light arriving on receiver surfaces that face away
+// from the sender's centroid, a transfer above 1, an error bound above the
+// estimate).
+// With a geometric K (uniform sender radiosity) and links made before any
+// light was reflected, office:3 and office:4 lost 1.9 % and 1.7 %; with the
+// radiosity-weighted estimate and deferred links, see papers/README.md,
+// "Clustering accuracy", for the figures.
 //
 // Settings (Params keys):
 //   cluster.vis_rays    int     8    visibility rays per estimate for links that
@@ -110,6 +139,10 @@
 //                                     (Monte Carlo transfer, above; experimental)
 //   cluster.near_rays   int     32   rays per estimate of a sampled near link (two
 //                                     estimates per link)
+//   cluster.defer_dark  bool    true  links from clusters that carry no light are
+//                                     computed when they first do (above)
+//   cluster.ambient     bool    true  sending clusters' points drawn by B_k + rho_k a
+//                                     (the ambient term, above)
 //   cluster.face_separation  double  1.5  the same for links whose ends are planar face
 //                                     clusters or surface elements, at least one a face
 //                                     cluster (cluster.faces; 1: bounding spheres apart)
@@ -150,6 +183,10 @@ struct LinkEnd {
     bool singleSurface = false;
     /// Largest radiosity (max channel) of the root patches below a cluster.
     double maxB = 0.0;
+    /// A sending cluster: the mean channel of the radiosity the gather
+    /// multiplies the link's K by (its radiosity towards the receiver); 0
+    /// when not known. Sampled near links use it (sampledLink).
+    double sent = 0.0;
 };
 
 /// Which side(s) must be opened for the point approximation to hold.
@@ -161,6 +198,8 @@ struct ClusterLinkSettings {
     double surfaceSeparation = 1.0;
     bool sampleNear = false;
     int nearRays = 32;
+    bool deferDark = true;
+    bool ambient = true;
     double faceSeparation = 1.5;
     bool faceDisc = false;
     static ClusterLinkSettings fromParams(const Params& p);
@@ -181,6 +220,9 @@ struct ClusterLink {
     /// (receiver factor included), `relativeError` twice its relative standard
     /// error, and `judged` the judged visibility fraction.
     bool sampled = false;
+    /// The sender is a cluster that carries no light yet (cluster.defer_dark):
+    /// nothing computed, no rays cast; link() again once it carries light.
+    bool deferred = false;
     double judgedF = 0.0;
     double relativeError = 0.0;
 };
@@ -221,6 +263,9 @@ class ClusterLinker {
     /// Call whenever rootB changes, before the link() calls that use it (not
     /// concurrently with them); without it link() draws the old way.
     void prepareSenders(std::span<const RGB> rootB);
+    /// The ambient radiosity per unit reflectance of the last prepareSenders
+    /// (cluster.ambient; 0 when off).
+    const RGB& ambient() const { return ambient_; }
 
     ClusterModel model() const { return model_; }
     const ClusterLinkSettings& settings() const { return s_; }
@@ -244,7 +289,10 @@ class ClusterLinker {
 
   private:
     /// Monte Carlo transfer of a near pair (cluster.near = sample).
-    ClusterLink sampledLink(const LinkEnd& r, const LinkEnd& s) const;
+    ClusterLink sampledLink(const LinkEnd& r, const LinkEnd& s, std::span<const RGB> rootB) const;
+    /// E[cos+(n_x, u)] over the surfaces below the receiving cluster r: the
+    /// share of a sampled link's power the oriented push hands over per unit K.
+    double receiverCosine(const LinkEnd& r, const Vec3& u) const;
     /// A uniform point (by area) on the surfaces below e; `patch` its patch.
     Vec3 uniformPoint(const LinkEnd& e, Pcg32& rng, uint32_t& patch) const;
 
@@ -253,8 +301,11 @@ class ClusterLinker {
     ClusterModel model_;
     const transport::Visibility* vis_;
     ClusterLinkSettings s_;
-    /// Prefix sums of A_k max_c B_k in the tree's patch order (prepareSenders).
+    /// Prefix sums of A_k senderWeight(k) in the tree's patch order (prepareSenders).
     std::vector<double> senderPrefix_;
+    RGB ambient_{0.0};
+    /// max_c (B_k + rho_k ambient): what a sending cluster's points are drawn by.
+    double senderWeight(uint32_t patch, const RGB& B) const;
 };
 
 }  // namespace hrad::cluster

@@ -21,7 +21,8 @@
 //   reference_settings, scene_info{...}, solver, solver_settings, oracle,
 //   converged, link_cap_hit, memory_budget_hit, time_limit_hit, min_area,
 //   counts{elements, leaves, links, initial_links, initial_pairs, links_ss, links_sc,
-//          links_cs, links_cc (surface/cluster receiver-sender), rays, form_factors, iterations},
+//          links_cs, links_cc (surface/cluster receiver-sender), rays, form_factors,
+//          deferred_links_computed, iterations},
 //   timings{load, visibility_build, [cluster_build], linking, refine, gather,
 //           push_pull, solve_total, reference, error, render}   (seconds)
 //   history[{iteration, stage, eps, links, elements, leaves, refined_links,

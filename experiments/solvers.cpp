@@ -64,6 +64,7 @@ class HrEntry final : public Solver {
                             {"links_cc", res->linksCC},
                             {"rays", res->totalRays},
                             {"form_factors", res->totalFormFactors},
+                            {"deferred_links_computed", res->deferredLinksComputed},
                             {"iterations", res->history.size()}};
         {
             // Where refinement spends, by link kind (HrResult::linkCost).

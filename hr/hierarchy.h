@@ -54,7 +54,7 @@ struct Link {
     /// cluster it is the estimate the oracle judges with, from rays
     /// independent of those in K (hr/solver.h).
     uint16_t visibility = 0;
-    uint8_t flags = 0;  ///< kPartial | kOpen | kUncertain | kSampled
+    uint8_t flags = 0;  ///< kPartial | kOpen | kUncertain | kSampled | kDeferred
     /// kSampled links: twice the relative standard error of the judged
     /// transfer, in percent, rounded up (255: 2.55 or more).
     uint8_t uncertainty = 0;
@@ -74,6 +74,10 @@ struct Link {
     /// (cluster/link.h): Fupper holds the judged estimate of F (receiver
     /// factor included) instead of a bound, `uncertainty` its error.
     static constexpr uint8_t kSampled = 8;
+    /// A link from a cluster that carried no light when it was made
+    /// (cluster.defer_dark): nothing computed (K = 0, no rays); computed, with
+    /// the cluster's radiosities, in the first judging pass after it carries light.
+    static constexpr uint8_t kDeferred = 16;
 
     double vis() const { return visibility / 65535.0; }
     void setVis(double v) {

@@ -305,7 +305,17 @@ Decision HrSolver::forcedDecision(const Hierarchy& h, uint32_t r, uint32_t s) co
 }
 
 Link HrSolver::makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const {
-    cluster::ClusterLink c = linker_->link(endOf(h, r), endOf(h, s), h.allB());
+    cluster::LinkEnd se = endOf(h, s);
+    if (se.isCluster && linker_->settings().sampleNear) {
+        // What the gather will multiply K by (gatherRow): the sender's
+        // radiosity towards the receiver's centre (a sampled near link is
+        // calibrated to it, cluster/link.h).
+        Vec3 d = h.center(r) - h.center(s);
+        double len = glm::length(d);
+        RGB b = (len > 0 ? h.directionalB(s, d / len) : h.B(s)) + h.rho(s) * linker_->ambient();
+        se.sent = (b.r + b.g + b.b) / 3.0;
+    }
+    cluster::ClusterLink c = linker_->link(endOf(h, r), se, h.allB());
     Link l;
     l.sender = s;
     rays = c.rays;
@@ -313,6 +323,11 @@ Link HrSolver::makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint3
         // Not valid in the point approximation: nothing computed, opened
         // next round (refine() asks forcedDecision which side).
         l.flags = Link::kOpen;
+        return l;
+    }
+    if (c.deferred) {
+        l.flags = Link::kDeferred;
+        l.setVis(1.0);
         return l;
     }
     if (!(c.K > 0) && !c.partial && !c.uncertain && c.rays == 0) return l;
@@ -592,6 +607,28 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
     while (!pending.empty()) {
         size_t n = pending.size();
         decision.assign(n, 0);
+        // Deferred links whose sending cluster now carries light are computed
+        // before anything judges them (cluster.defer_dark).
+        if (linker_ && linker_->settings().deferDark) {
+            std::atomic<uint64_t> rays{0}, computed{0};
+            tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const auto& range) {
+                uint64_t localRays = 0, localComputed = 0;
+                for (size_t i = range.begin(); i != range.end(); ++i) {
+                    const uint32_t s = pending[i].sender;
+                    if (!(pending[i].flags & Link::kDeferred) || !(maxComponent(h.maxB(s)) > 0))
+                        continue;
+                    uint32_t nr = 0;
+                    pending[i] = makeLink(h, recv[i], s, nr);
+                    localRays += nr;
+                    ++localComputed;
+                }
+                rays += localRays;
+                computed += localComputed;
+            });
+            res.totalRays += rays;
+            rec.formFactors += computed;
+            res.deferredLinksComputed += computed;
+        }
         if (outOfTime()) {
             // hr.max_seconds: keep the pending links as they are.
             if (!res.timeLimitHit)
@@ -834,14 +871,15 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         rec.formFactors += newCount;
         // Drop links that carry nothing (back-facing or fully occluded pairs).
         size_t w = 0;
-        // Links to be opened (kOpen), and cluster links whose judged rays
-        // were all (kUncertain) or partly (kPartial) blocked, are kept
-        // whatever their independent K carries: the oracle still judges them.
+        // Links to be opened (kOpen), cluster links whose judged rays were
+        // all (kUncertain) or partly (kPartial) blocked, and deferred links
+        // (kDeferred, computed later) are kept whatever their independent K
+        // carries: the oracle still judges them.
         for (size_t i = 0; i < newCount; ++i) {
             bool clusterLink = h.isCluster(nrecv[i]) ||
                                (nlinks[i].sender != kNone && h.isCluster(nlinks[i].sender));
-            bool keep = clusterLink &&
-                        (nlinks[i].flags & (Link::kOpen | Link::kUncertain | Link::kPartial));
+            bool keep = clusterLink && (nlinks[i].flags & (Link::kOpen | Link::kUncertain |
+                                                           Link::kPartial | Link::kDeferred));
             if (!(nlinks[i].K > 0) && !keep) continue;
             nlinks[w] = nlinks[i];
             nrecv[w] = nrecv[i];

@@ -138,7 +138,8 @@
 //   cluster.builder, cluster.leaf_size, cluster.max_depth, cluster.faces,
 //   cluster.face_cone, cluster.face_planarity, cluster.face_shape   (cluster/tree.h)
 //   cluster.vis_rays, cluster.separation, cluster.surface_separation, cluster.near,
-//   cluster.near_rays, cluster.face_separation, cluster.face_kernel
+//   cluster.near_rays, cluster.face_separation, cluster.face_kernel, cluster.defer_dark,
+//   cluster.ambient
 //                                      links that touch a cluster (cluster/link.h)
 //
 // Links touching a cluster are built by cluster::ClusterLinker (cluster/link.h:
@@ -381,6 +382,9 @@ struct HrResult {
         double seconds[4] = {0, 0, 0, 0};
     } linkCost;
     uint64_t totalRays = 0, totalFormFactors = 0;
+    /// Links made without rays while their sending cluster was dark and
+    /// computed once it carried light (cluster.defer_dark).
+    uint64_t deferredLinksComputed = 0;
     double linkingSeconds = 0.0, refineSeconds = 0.0, gatherSeconds = 0.0, pushPullSeconds = 0.0;
     double minArea = 0.0;
     /// A posteriori estimate of the solve's relative L1 error of the

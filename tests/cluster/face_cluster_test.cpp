@@ -268,6 +268,7 @@ TEST(FaceClusterLinks, PlanarFaceClustersAreNotForcedOpen) {
             e.radius = t.node(c).radius;
             e.area = t.node(c).area;
             e.stableId = c;
+            e.maxB = 1.0;  // carries light: computed, not deferred
             return e;
         };
         LinkEnd a = end(plate[0]), b = end(plate[1]);

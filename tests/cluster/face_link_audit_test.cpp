@@ -64,8 +64,18 @@ void auditScene(const std::string& name, bool faces, double& faceRatio, double& 
         double dist = glm::length(u);
         u /= dist;
         // What the model moves: an oriented receiving cluster's surfaces get
-        // K cos_k+(u) each, from the sender's radiosity towards them.
-        double recvArea = rc ? t.projectedArea(h.clusterIndex(r), -u) : h.area(r);
+        // K cos_k+(u) each, from the sender's radiosity towards them (the
+        // exact sum over its patches, as the push hands it; the cluster's
+        // projectedArea is a Cauchy-Schwarz bound above it).
+        double recvArea = h.area(r);
+        if (rc) {
+            const auto& nd = t.node(h.clusterIndex(r));
+            recvArea = 0;
+            for (uint32_t q = nd.patchBegin; q < nd.patchEnd; ++q) {
+                const auto& P = s.patches[t.patchAt(q)];
+                recvArea += P.area * std::max(0.0, glm::dot(P.normal, -u));
+            }
+        }
         double Bs = sc ? h.directionalB(sd, u).g : h.B(sd).g;
         double model = l.K * recvArea * Bs;
         Pcg32 rng(hashIds(i, 77));

@@ -1,10 +1,11 @@
 // Cluster links (cluster/link.h): validity and the sampled transfer of near
 // cluster pairs against a closed form.
+#include "cluster/link.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "cluster/link.h"
 #include "tests/scenes.h"
 #include "transport/formfactor.h"
 #include "transport/visibility.h"
@@ -37,6 +38,7 @@ LinkEnd clusterEnd(const ClusterTree& t, uint32_t c) {
     e.radius = t.node(c).radius;
     e.area = t.node(c).area;
     e.stableId = 1000 + c;
+    e.maxB = 1.0;  // carries light (the tests' root radiosities are 1)
     return e;
 }
 }  // namespace
@@ -89,8 +91,8 @@ TEST(ClusterLink, NearPairSampledTransferMatchesClosedForm) {
         // K is F_rs (both squares face each other squarely: E[cos+] = 1).
         double bound = 0.5 * l.relativeError * exact;  // one standard error
         std::cout << clusterModelName(model) << ": sampled K " << l.K << ", judged " << l.judgedF
-                  << ", exact " << exact << " (+-" << bound << "), point approximation "
-                  << pointK << "\n";
+                  << ", exact " << exact << " (+-" << bound << "), point approximation " << pointK
+                  << "\n";
         EXPECT_GT(l.relativeError, 0.0);
         EXPECT_LT(l.relativeError, 0.1);
         EXPECT_NEAR(l.K, exact, 4 * bound);
@@ -115,4 +117,39 @@ TEST(ClusterLink, SingleSurfaceClusterIsOpened) {
     EXPECT_EQ(linker.link(r, snd, rootB).open, Opening::Receiver);
     snd.singleSurface = true;
     EXPECT_EQ(linker.link(r, snd, rootB).open, Opening::Both);
+}
+
+// A sending cluster that carries no light sends nothing: with
+// cluster.defer_dark its link is made without rays (deferred, computed by the
+// solver once the cluster carries light), near pairs included; without it,
+// computed at once.
+TEST(ClusterLink, DarkSenderIsDeferredWithoutRays) {
+    for (double d : {5.0, 1.8}) {  // valid for the point approximation; near
+        SCOPED_TRACE(d);
+        scene::Scene s = opposedSquares(d);
+        transport::Visibility vis(s);
+        ClusterSettings cs;
+        cs.leafSize = 2;
+        ClusterTree tree(s, cs);
+        LinkEnd r = clusterEnd(tree, tree.child(0, 0)), snd = clusterEnd(tree, tree.child(0, 1));
+        snd.maxB = 0.0;
+        const std::vector<RGB> rootB(s.patches.size(), RGB(0.0));
+        ClusterLinkSettings ls;
+        ls.sampleNear = true;
+        ClusterLinker deferring(s, &tree, ClusterModel::Oriented, &vis, ls);
+        ClusterLink l = deferring.link(r, snd, rootB);
+        EXPECT_TRUE(l.deferred);
+        EXPECT_EQ(l.open, Opening::None);
+        EXPECT_EQ(l.rays, 0u);
+        EXPECT_EQ(l.K, 0.0);
+        ls.deferDark = false;
+        ClusterLinker eager(s, &tree, ClusterModel::Oriented, &vis, ls);
+        ClusterLink e = eager.link(r, snd, rootB);
+        EXPECT_FALSE(e.deferred);
+        EXPECT_GT(e.rays, 0u);
+        EXPECT_GT(e.K, 0.0);
+        // Lit, it is computed whatever the setting.
+        snd.maxB = 1.0;
+        EXPECT_FALSE(deferring.link(r, snd, rootB).deferred);
+    }
 }

@@ -4,12 +4,14 @@
 
 #include <cmath>
 #include <cstring>
+#include <iostream>
 
 #include "core/rng.h"
 #include "hr/solver.h"
 #include "scene/loader.h"
 #include "tests/hr/settings.h"
 #include "tests/scenes.h"
+#include "tests/test_util.h"
 
 using namespace hrad;
 using namespace hrad::hr;
@@ -254,6 +256,70 @@ TEST(ClusterTransfer, OrientedKeepsTheLightOnOffice3) {
                   << 100 * rel << " %)\n";
         EXPECT_LT(std::fabs(rel), 0.01) << "channel " << c;
     }
+}
+
+// Links from clusters that carry no light are made without rays and
+// computed in the first judging pass after the cluster carries light
+// (cluster.defer_dark, cluster/link.h). After the solve no link that still
+// waits may have a lit sender (it would carry nothing), and the solve casts
+// no more rays than one that computes every link when it is made.
+TEST(ClusterTransfer, DeferredLinksAreComputedOnceTheirSenderIsLit) {
+    scene::Scene s = scene::loadScene("office:3");
+    transport::Visibility vis(s);
+    auto run = [&](bool defer) {
+        Params p;
+        p.set("cluster.model", "oriented");
+        p.set("oracle.eps", 1e-3);
+        p.set("cluster.defer_dark", defer);
+        return HrSolver(s, vis, HrSettings::fromParams(p)).solve();
+    };
+    HrResult deferred = run(true);
+    HrResult eager = run(false);
+    EXPECT_TRUE(deferred.converged);
+    const Hierarchy& h = *deferred.hierarchy;
+    uint64_t waiting = 0, waitingLit = 0;
+    for (uint64_t i = 0; i < h.numLinks(); ++i) {
+        const Link& l = h.link(i);
+        if (!(l.flags & Link::kDeferred)) continue;
+        ++waiting;
+        EXPECT_EQ(l.K, 0.f);
+        if (maxComponent(h.maxB(l.sender)) > 0) ++waitingLit;
+    }
+    std::cout << "links still deferred: " << waiting << " (lit senders: " << waitingLit
+              << "); computed later: " << deferred.deferredLinksComputed << "; rays "
+              << deferred.totalRays << " deferred, " << eager.totalRays << " computed when made\n";
+    EXPECT_EQ(waitingLit, 0u);
+    EXPECT_GT(deferred.deferredLinksComputed, 1000u);
+    EXPECT_EQ(eager.deferredLinksComputed, 0u);
+    EXPECT_LE(deferred.totalRays, eager.totalRays);
+}
+
+// RenderPark's classroom lost 6.7 % of its reflected light (green) with
+// oriented clustering against the unclustered solve (bfa, eps 1e-3; the
+// unclustered reflected power, 1,136.72, is stored here: a 90 s solve):
+// cluster links made in the first judging pass, when only the lamps carry
+// light, drew their senders' ray end points over surfaces that stay dark
+// as much as over lit ones, and kept the low visibility that gave. With
+// those links deferred until their senders carry light, and drawn by the
+// radiosities plus the ambient term, it loses 3.1 %: the tolerance of 4 %
+// fails the old loss and states the remaining one (papers/README.md,
+// "Clustering accuracy").
+TEST(ClusterTransfer, ClassroomKeepsMoreThan96PercentOfTheUnclusteredLight) {
+    auto dir = test::sharedScenesDir();
+    if (!dir) GTEST_SKIP() << "../shared/scenes absent";
+    scene::Scene s = scene::loadScene((*dir / "renderpark-mgf/salon/classroom.mgf").string());
+    transport::Visibility vis(s);
+    Params p;
+    p.set("cluster.model", "oriented");
+    p.set("oracle.eps", 1e-3);
+    HrResult r = HrSolver(s, vis, HrSettings::fromParams(p)).solve();
+    EXPECT_TRUE(r.converged);
+    const double reflected = r.hierarchy->radiosityPower().g - s.emittedPower().g;
+    const double none = 1136.72;  // cluster.model = none, reflected power, green
+    std::cout << "reflected power (green): oriented " << reflected << ", none " << none << " ("
+              << 100 * (reflected / none - 1) << " %)\n";
+    EXPECT_GT(reflected, 0.96 * none);
+    EXPECT_LT(reflected, 1.01 * none);
 }
 
 // No leaks: light does not reach surfaces that no path from an emitter
