@@ -122,6 +122,8 @@ Scene loadScene(const std::string& spec, const Params& params) {
     const std::string twoSided = params.getEnum("two_sided", "auto", {"auto", "all", "none"});
     bool validate = params.getBool("validate", true);
     const bool split = params.getBool("split_intersections", false);
+    const double uniformRho =
+        params.has("uniform_rho") ? params.getDouble("uniform_rho", 0.5, 0.0, 0.999999) : -1.0;
 
     Scene scene;
     if (isBuiltinName(spec)) {
@@ -173,6 +175,10 @@ Scene loadScene(const std::string& spec, const Params& params) {
         for (Material& m : scene.materials) m.twoSided = false;
     } else {
         scene.addBackSides(twoSided == "all");
+    }
+    if (uniformRho >= 0.0) {
+        for (Material& m : scene.materials) m.rho = RGB(uniformRho);
+        for (Patch& p : scene.patches) p.rho = RGB(uniformRho);
     }
     if (validate) scene.validate();
     scene.stats.loadSeconds = timer.seconds();

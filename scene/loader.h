@@ -32,6 +32,13 @@
 //                                  sided (MGF sides 2, ...); "all": every
 //                                  surface; "none": ignore the flags (one-sided)
 //   validate         bool   true   run Scene::validate() (rho range, emitter)
+//   uniform_rho      double (unset) every material's and patch's reflectance becomes
+//                                  this grey. A conservation check on any scene: with
+//                                  one reflectance everywhere the light a solver hands
+//                                  to the wrong surfaces is not lost or gained, so the
+//                                  reflected power of two solvers differs only by what
+//                                  their transfers lose or gain (in a closed scene it
+//                                  is P_e rho / (1 - rho) exactly)
 //   split_intersections bool false split patches that pass through one another
 //                                  along their intersection lines, so parts inside
 //                                  another object become patches of their own

@@ -69,5 +69,19 @@ TEST(Loader, SplitIntersectionsIsASetting) {
     EXPECT_NEAR(cut.emittedPower().g / whole.emittedPower().g, 1.0, 1e-9);
 }
 
+TEST(Loader, UniformRhoIsASetting) {
+    Params p;
+    p.set("uniform_rho", 0.3);
+    Scene s = loadScene("office:1", p);
+    Scene plain = loadScene("office:1", Params{});
+    ASSERT_EQ(s.patches.size(), plain.patches.size());
+    for (const Patch& q : s.patches) EXPECT_EQ(q.rho, RGB(0.3));
+    for (const Material& m : s.materials) EXPECT_EQ(m.rho, RGB(0.3));
+    EXPECT_NEAR(s.emittedPower().g, plain.emittedPower().g, 1e-12 * plain.emittedPower().g);
+    Params bad;
+    bad.set("uniform_rho", 1.0);
+    EXPECT_THROW(loadScene("office:1", bad), InputError);
+}
+
 }  // namespace
 }  // namespace hrad::scene
