@@ -404,12 +404,11 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s,
         w = m > 0 ? (B.r + B.g + B.b) / (3.0 * m) : 0.0;
         return tree_->pointOnPatch(patch, b, c);
     };
-    // One estimate from n point pairs: sums of the kernel k_i, of k_i V_i and
-    // of its square, of the receiver's cosine towards the sender's centroid
-    // (oriented receivers), and the rays cast and blocked (pairs with a zero
-    // kernel cast none).
+    // One estimate from n point pairs: sums of the kernel k_i (times the
+    // sender point's weight), of k_i V_i and of its square, and the rays cast
+    // and blocked (pairs with a zero kernel cast none).
     struct Estimate {
-        double k = 0.0, kv = 0.0, kv2 = 0.0, cosR = 0.0, kvAway = 0.0;
+        double k = 0.0, kv = 0.0, kv2 = 0.0, kvAway = 0.0;
         int cast = 0, blocked = 0;
     };
     auto estimate = [&](Estimate& e) {
@@ -428,7 +427,6 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s,
                 const Vec3& na = scene_->patches[t.patchA].normal;
                 const Vec3& nb = scene_->patches[t.patchB].normal;
                 double cu = glm::dot(na, u);
-                if (orientedReceiver) e.cosR += std::max(0.0, cu);
                 Vec3 d = t.b - t.a;
                 double d2 = glm::dot(d, d);
                 double ca = glm::dot(na, d), cb = -glm::dot(nb, d);
@@ -459,10 +457,8 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s,
     // Receiver factor: the model hands an oriented receiving cluster's
     // surfaces K cos_k+(u), i.e. K A_r E[cos+] in all.
     // It is computed apart from the estimates' points: E[cos+] from the same
-    // points as the kernel is a ratio estimate, E[X / Y], biased low where
-    // the points facing the sender carry both (measured on classroom, first
-    // bounce with every cluster link sampled: -30 % with 8 pairs, -3.7 % with
-    // 32, -0.9 % with 256).
+    // points as the kernel would make K a ratio estimate, E[X / Y], biased
+    // at small n since the points facing the sender carry both.
     const double rf = orientedReceiver ? receiverCosine(r, u) : 1.0;
     auto receiverFactor = [&](const Estimate&) { return rf; };
     // Estimates the model cannot use; the pair is opened instead:

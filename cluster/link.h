@@ -108,9 +108,9 @@
 // LinkEnd::sent), and for an oriented receiving cluster divided also by
 // E[cos+(n_x, u)] (u towards the sender's centroid; the push hands each
 // surface K cos_k+(u)), computed over the receiver's patches apart from the
-// estimate's points (receiverCosine: from the same points it would be a
-// ratio estimate biased low). A sender that carries no light, or a sender
-// surface element, is drawn by area (c = m). Two independent estimates
+// estimate's points (receiverCosine: from the same points K would be a
+// ratio estimate, biased at small n). A sender that carries no light, or a
+// sender surface element, is drawn by area (c = m). Two independent estimates
 // again (judged, carried); the judged one's error bound (two standard
 // errors) travels with the link (Link::uncertainty), and refinement opens
 // the link when the power it may carry wrongly exceeds the oracle's eps
@@ -118,10 +118,9 @@
 // instead (sampledLink: light arriving on receiver surfaces that face away
 // from the sender's centroid, a transfer above 1, an error bound above the
 // estimate).
-// With a geometric K (uniform sender radiosity) and links made before any
-// light was reflected, office:3 and office:4 lost 1.9 % and 1.7 %; with the
-// radiosity-weighted estimate and deferred links, see papers/README.md,
-// "Clustering accuracy", for the figures.
+// Off by default: on Lost Empire the sampled pairs carry 1.3 % less light
+// than the opened ones, and no reference says which is right
+// (papers/README.md, "Near cluster pairs").
 //
 // Settings (Params keys):
 //   cluster.vis_rays    int     8    visibility rays per estimate for links that
