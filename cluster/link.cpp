@@ -205,21 +205,13 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
                 const ClusterNode& nd = tree_->node(e.cluster);
                 const bool weighted = sender && !senderPrefix_.empty() &&
                                       senderPrefix_[nd.patchEnd] > senderPrefix_[nd.patchBegin];
-                const double lo = weighted ? senderPrefix_[nd.patchBegin] : 0.0,
-                             hi = weighted ? senderPrefix_[nd.patchEnd] : 0.0;
                 const double bmax = sender && !weighted ? e.maxB : 0.0;
                 Vec3 x, best(0.0);
                 uint32_t bestPatch = 0;
                 double bestW = -2.0, bestCos = 0.0;
                 for (int t = 0; t < 32; ++t) {
                     if (weighted) {
-                        auto it = std::upper_bound(senderPrefix_.begin() + nd.patchBegin + 1,
-                                                   senderPrefix_.begin() + nd.patchEnd + 1,
-                                                   lo + a * (hi - lo));
-                        size_t idx = size_t(it - senderPrefix_.begin()) - 1;
-                        idx =
-                            std::min<size_t>(std::max<size_t>(idx, nd.patchBegin), nd.patchEnd - 1);
-                        patch = tree_->patchAt(uint32_t(idx));
+                        patch = senderPatch(nd, a);
                         x = tree_->pointOnPatch(patch, b, c);
                     } else {
                         x = tree_->samplePoint(e.cluster, a, b, c, patch);
@@ -319,12 +311,22 @@ void ClusterLinker::prepareSenders(std::span<const RGB> rootB) {
     for (uint32_t i = 0; i < n; ++i) {
         const uint32_t p = tree_->patchAt(i);
         senderPrefix_[i + 1] =
-            senderPrefix_[i] + scene_->patches[p].area * std::max(0.0, senderWeight(p, rootB[p]));
+            senderPrefix_[i] +
+            scene_->patches[p].area * std::max(0.0, maxComponent(senderRadiosity(p, rootB[p])));
     }
 }
 
-double ClusterLinker::senderWeight(uint32_t patch, const RGB& B) const {
-    return maxComponent(B + scene_->patches[patch].rho * ambient_);
+RGB ClusterLinker::senderRadiosity(uint32_t patch, const RGB& B) const {
+    return B + scene_->patches[patch].rho * ambient_;
+}
+
+uint32_t ClusterLinker::senderPatch(const ClusterNode& nd, double u) const {
+    const double lo = senderPrefix_[nd.patchBegin], hi = senderPrefix_[nd.patchEnd];
+    auto it = std::upper_bound(senderPrefix_.begin() + nd.patchBegin + 1,
+                               senderPrefix_.begin() + nd.patchEnd + 1, lo + u * (hi - lo));
+    size_t idx = size_t(it - senderPrefix_.begin()) - 1;
+    idx = std::min<size_t>(std::max<size_t>(idx, nd.patchBegin), nd.patchEnd - 1);
+    return tree_->patchAt(uint32_t(idx));
 }
 
 double ClusterLinker::receiverCosine(const LinkEnd& r, const Vec3& u) const {
@@ -385,21 +387,16 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s,
     const ClusterNode* sn = s.isCluster ? &tree_->node(s.cluster) : nullptr;
     const bool weighted = sn && s.sent > 0 && !senderPrefix_.empty() && !rootB.empty() &&
                           senderPrefix_[sn->patchEnd] > senderPrefix_[sn->patchBegin];
-    const double wlo = weighted ? senderPrefix_[sn->patchBegin] : 0.0;
-    const double whi = weighted ? senderPrefix_[sn->patchEnd] : 0.0;
-    const double scale = weighted ? (whi - wlo) / s.sent : s.area;
+    const double scale =
+        weighted ? (senderPrefix_[sn->patchEnd] - senderPrefix_[sn->patchBegin]) / s.sent : s.area;
     auto senderPoint = [&](uint32_t& patch, double& w) {
         if (!weighted) {
             w = 1.0;
             return uniformPoint(s, rng, patch);
         }
         double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
-        auto it = std::upper_bound(senderPrefix_.begin() + sn->patchBegin + 1,
-                                   senderPrefix_.begin() + sn->patchEnd + 1, wlo + a * (whi - wlo));
-        size_t idx = size_t(it - senderPrefix_.begin()) - 1;
-        idx = std::min<size_t>(std::max<size_t>(idx, sn->patchBegin), sn->patchEnd - 1);
-        patch = tree_->patchAt(uint32_t(idx));
-        const RGB B = rootB[patch] + scene_->patches[patch].rho * ambient_;
+        patch = senderPatch(*sn, a);
+        const RGB B = senderRadiosity(patch, rootB[patch]);
         double m = maxComponent(B);
         w = m > 0 ? (B.r + B.g + B.b) / (3.0 * m) : 0.0;
         return tree_->pointOnPatch(patch, b, c);
@@ -460,7 +457,6 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s,
     // points as the kernel would make K a ratio estimate, E[X / Y], biased
     // at small n since the points facing the sender carry both.
     const double rf = orientedReceiver ? receiverCosine(r, u) : 1.0;
-    auto receiverFactor = [&](const Estimate&) { return rf; };
     // Estimates the model cannot use; the pair is opened instead:
     //  - an oriented receiver hands the light to its surfaces facing the
     //    sender's centroid; when more than 10 % of the sampled transfer
@@ -473,11 +469,11 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s,
     double meanJudged = judged.kv / n, meanCarried = carried.kv / n;
     bool unusable = false;
     if (orientedReceiver) {
-        unusable = !(receiverFactor(judged) > 0 && receiverFactor(carried) > 0) ||
-                   judged.kvAway > 0.1 * judged.kv || carried.kvAway > 0.1 * carried.kv;
+        unusable =
+            !(rf > 0) || judged.kvAway > 0.1 * judged.kv || carried.kvAway > 0.1 * carried.kv;
     }
-    double K = unusable ? 0.0 : scale * meanCarried / receiverFactor(carried);
-    double judgedK = unusable ? 0.0 : scale * meanJudged / receiverFactor(judged);
+    double K = unusable ? 0.0 : scale * meanCarried / rf;
+    double judgedK = unusable ? 0.0 : scale * meanJudged / rf;
     if (!unusable && (K > 1.0 || judgedK > 1.0)) unusable = true;
     if (!unusable && meanJudged > 0) {
         double var = std::max(0.0, judged.kv2 / n - meanJudged * meanJudged);

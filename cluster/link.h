@@ -254,7 +254,8 @@ class ClusterLinker {
     ClusterLink link(const LinkEnd& r, const LinkEnd& s, std::span<const RGB> rootB) const;
 
     /// Prepares link() to draw a sending cluster's ray end points from the
-    /// prefix sums of A_k max_c B_k over the tree's patch order (then
+    /// prefix sums of A_k max_c (B_k + rho_k a) over the tree's patch order
+    /// (a the ambient term, cluster.ambient; computed here from rootB; then
     /// accepting with probability cos_k), instead of drawing by area and
     /// accepting with probability cos_k B_k / max B: the same density, but a
     /// cluster whose light is on a few of its surfaces (81 lamps among Lost
@@ -300,11 +301,15 @@ class ClusterLinker {
     ClusterModel model_;
     const transport::Visibility* vis_;
     ClusterLinkSettings s_;
-    /// Prefix sums of A_k senderWeight(k) in the tree's patch order (prepareSenders).
+    /// Prefix sums of A_k max_c senderRadiosity(k) in the tree's patch order
+    /// (prepareSenders).
     std::vector<double> senderPrefix_;
     RGB ambient_{0.0};
-    /// max_c (B_k + rho_k ambient): what a sending cluster's points are drawn by.
-    double senderWeight(uint32_t patch, const RGB& B) const;
+    /// B_k + rho_k ambient: what a sending cluster's points are drawn by.
+    RGB senderRadiosity(uint32_t patch, const RGB& B) const;
+    /// A patch below node nd drawn by the prefix sums from u in [0, 1)
+    /// (the node's prefix range must be positive).
+    uint32_t senderPatch(const ClusterNode& nd, double u) const;
 };
 
 }  // namespace hrad::cluster
