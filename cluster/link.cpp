@@ -21,6 +21,8 @@ ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
     s.ambient = p.getBool("cluster.ambient", s.ambient);
     s.faceSeparation = p.getDouble("cluster.face_separation", s.faceSeparation, 1.0, 100.0);
     s.faceDisc = p.getEnum("cluster.face_kernel", "point", {"point", "disc"}) == "disc";
+    s.visibleHandover =
+        p.getEnum("cluster.handover", "visible", {"visible", "cosine"}) == "visible";
     return s;
 }
 
@@ -29,9 +31,10 @@ std::string ClusterLinkSettings::describe() const {
         "cluster_vis_rays={}, cluster_separation={}, "
         "cluster_surface_separation={}, cluster_near={}, cluster_near_rays={}, "
         "cluster_face_separation={}, cluster_face_kernel={}, cluster_defer_dark={}, "
-        "cluster_ambient={}",
+        "cluster_ambient={}, cluster_handover={}",
         visRays, separation, surfaceSeparation, sampleNear ? "sample" : "open", nearRays,
-        faceSeparation, faceDisc ? "disc" : "point", deferDark, ambient);
+        faceSeparation, faceDisc ? "disc" : "point", deferDark, ambient,
+        visibleHandover ? "visible" : "cosine");
 }
 
 ClusterLinker::ClusterLinker(const scene::Scene& scene, const ClusterTree* tree, ClusterModel model,

@@ -93,6 +93,15 @@
 // the final radiosities: office:3 gained 0.9 % against the unclustered
 // solve, 0.4 % with it (papers/README.md, "Clustering accuracy").
 //
+// Receiving clusters (cluster.handover). An oriented receiving cluster hands
+// a link's light to each surface below it by its cosine towards the sender
+// and, by default, by how open it is towards the sender within the cluster
+// (cluster/openness.h): a surface hidden inside the cluster (a seat under
+// its desk) no longer takes the light of the surfaces that hide it. The
+// link's K is divided by the cluster's openness W (Hierarchy::handOverNewLinks,
+// once per link), so the power it delivers is unchanged and only where it
+// lands moves.
+//
 // Near cluster pairs (cluster.near = sample). Two clusters whose spheres are
 // apart but closer than `separation` need not be opened: their transfer is
 // estimated by Monte Carlo integration of the kernel with visibility,
@@ -142,6 +151,12 @@
 //                                     computed when they first do (above)
 //   cluster.ambient     bool    true  sending clusters' points drawn by B_k + rho_k a
 //                                     (the ambient term, above)
+//   cluster.handover    string  "visible"  visible | cosine: an oriented receiving cluster
+//                                     hands each link's light to its surfaces by cosine and
+//                                     openness towards the sender within the cluster
+//                                     (cluster/openness.h; K divided by the cluster's
+//                                     openness, Hierarchy::handOverNewLinks), or by
+//                                     cosine alone
 //   cluster.face_separation  double  1.5  the same for links whose ends are planar face
 //                                     clusters or surface elements, at least one a face
 //                                     cluster (cluster.faces; 1: bounding spheres apart)
@@ -201,6 +216,9 @@ struct ClusterLinkSettings {
     bool ambient = true;
     double faceSeparation = 1.5;
     bool faceDisc = false;
+    /// cluster.handover: an oriented receiving cluster hands each link's light
+    /// to its surfaces by cosine and openness (true) or by cosine alone.
+    bool visibleHandover = true;
     static ClusterLinkSettings fromParams(const Params& p);
     std::string describe() const;
 };

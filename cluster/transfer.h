@@ -10,7 +10,9 @@
 //              (ClusterTree::projectedArea); irradiance received by a cluster
 //              is handed to each surface with its own cosine when pushed
 //              (Smits, Arvo & Greenberg 1994, "A clustering algorithm for
-//              radiosity in complex environments", sec. 4).
+//              radiosity in complex environments", sec. 4), times its
+//              openness towards the sender within the cluster
+//              (cluster.handover = visible, cluster/openness.h).
 //
 // Transfer between two nodes (surface elements or clusters) at distance r
 // along unit direction u (sender to receiver), in the point approximation:

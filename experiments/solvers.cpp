@@ -58,6 +58,9 @@ class HrEntry final : public Solver {
                             {"initial_pairs", res->initialPairs},
                             {"unreachable_patches", res->unreachablePatches},
                             {"reach_rays", res->reachRays},
+                            {"handover_rays", res->opennessRays},
+                            {"handover_by_openness", res->handOverByOpenness},
+                            {"handover_by_cosine", res->handOverByCosine},
                             {"links_ss", res->linksSS},
                             {"links_sc", res->linksSC},
                             {"links_cs", res->linksCS},
@@ -80,6 +83,7 @@ class HrEntry final : public Solver {
         json& t = out.timings;
         if (res->clusterTree) t["cluster_build"] = res->clusterBuildSeconds;
         t["reachability"] = res->reachSeconds;
+        if (res->openness) t["handover_openness"] = res->opennessSeconds;
         t["linking"] = res->linkingSeconds;
         t["refine"] = res->refineSeconds;
         t["gather"] = res->gatherSeconds;

@@ -4,9 +4,11 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <numeric>
 
+#include "cluster/openness.h"
 #include "core/error.h"
 #include "core/rng.h"
 #include "core/timer.h"
@@ -273,6 +275,62 @@ void Hierarchy::setLinks(const std::vector<uint32_t>& receivers, std::vector<Lin
     couplingIndex_.clear();
     couplingData_.clear();
     prepareOrientedDirections();
+    handOverNewLinks();
+}
+
+void Hierarchy::handOverNewLinks() {
+    if (!openness_ || clusterLinkDir_.empty()) return;
+    const uint32_t np = numPatches();
+    std::atomic<uint64_t> byOpenness{0}, byCosine{0};
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(np, np + numClusters_, 1), [&](const auto& r) {
+        std::vector<uint64_t> fresh;
+        std::vector<double> num, den;
+        for (uint32_t c = r.begin(); c != r.end(); ++c) {
+            fresh.clear();
+            for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i)
+                if (!(links_[i].flags & Link::kHandedOver) && links_[i].K > 0) fresh.push_back(i);
+            if (fresh.empty()) continue;
+            // W = sum A cos w / sum A cos over every surface below the
+            // cluster, exactly as the push will hand it (clusterIrradianceAt).
+            num.assign(fresh.size(), 0.0);
+            den.assign(fresh.size(), 0.0);
+            const cluster::ClusterNode& node = tree_->node(c - np);
+            for (uint32_t q = node.patchBegin; q < node.patchEnd; ++q) {
+                const uint32_t p = tree_->patchAt(q);
+                const glm::vec3 n(scene_->patches[p].normal);
+                const double area = scene_->patches[p].area;
+                bool haveView = false;
+                cluster::SurfaceOpenness::View view;
+                cluster::SurfaceOpenness::Inside inside;
+                for (size_t f = 0; f < fresh.size(); ++f) {
+                    const glm::vec3& dir = clusterLinkDir_[fresh[f] - clusterLinkBase_];
+                    double cosine = glm::dot(n, dir);
+                    if (!(cosine > 0)) continue;
+                    if (!haveView) {
+                        view = openness_->view(p);
+                        inside = openness_->inside(view, node.centroid, node.radius);
+                        haveView = true;
+                    }
+                    den[f] += area * cosine;
+                    num[f] += area * cosine * openness_->openness(view, inside, Vec3(dir), cosine);
+                }
+            }
+            uint64_t open = 0;
+            for (size_t f = 0; f < fresh.size(); ++f) {
+                Link& l = links_[fresh[f]];
+                l.flags |= Link::kHandedOver;
+                if (num[f] > 0 && den[f] > 0) {
+                    l.K = float(l.K * (den[f] / num[f]));
+                    l.flags |= Link::kOpenHandOver;
+                    ++open;
+                }
+            }
+            byOpenness += open;
+            byCosine += fresh.size() - open;
+        }
+    });
+    handOverByOpenness_ += byOpenness.load();
+    handOverByCosine_ += byCosine.load();
 }
 
 void Hierarchy::prepareOrientedDirections() {
@@ -391,12 +449,28 @@ RGB Hierarchy::clusterIrradianceAt(uint32_t root, const std::vector<RGB>& down,
         // cosine (Smits et al. 1994); what the link sends is K times the
         // sender's radiosity towards the receiving cluster (`sent`, or
         // evaluated here when it is null).
+        // With the openness table each surface takes its share by cosine
+        // and by how open it is towards the sender within the receiving
+        // cluster (cluster/openness.h).
         glm::vec3 n(P.normal);
+        cluster::SurfaceOpenness::View view;
+        if (openness_) view = openness_->view(root);
         for (uint32_t c = parent_[root]; c != kNone; c = parent_[c]) {
+            bool haveInside = false;
+            cluster::SurfaceOpenness::Inside inside;
             for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i) {
                 const glm::vec3& dir = clusterLinkDir_[i - clusterLinkBase_];
                 double cosine = glm::dot(n, dir);
                 if (!(cosine > 0)) continue;
+                if (openness_ && (links_[i].flags & Link::kOpenHandOver)) {
+                    if (!haveInside) {
+                        const cluster::ClusterNode& node = tree_->node(clusterIndex(c));
+                        inside = openness_->inside(view, node.centroid, node.radius);
+                        haveInside = true;
+                    }
+                    cosine *= openness_->openness(view, inside, Vec3(dir), cosine);
+                    if (!(cosine > 0)) continue;
+                }
                 h += cosine *
                      (sent ? RGB(sent[i - clusterLinkBase_])
                            : double(links_[i].K) * directionalB(links_[i].sender, -Vec3(dir)));

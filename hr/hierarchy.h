@@ -41,6 +41,10 @@
 #include "scene/field.h"
 #include "scene/scene.h"
 
+namespace hrad::cluster {
+class SurfaceOpenness;
+}
+
 namespace hrad::hr {
 
 inline constexpr uint32_t kNone = UINT32_MAX;
@@ -54,7 +58,9 @@ struct Link {
     /// cluster it is the estimate the oracle judges with, from rays
     /// independent of those in K (hr/solver.h).
     uint16_t visibility = 0;
-    uint8_t flags = 0;  ///< kPartial | kOpen | kUncertain | kSampled | kDeferred
+    /// kPartial | kOpen | kUncertain | kSampled | kDeferred | kHandedOver |
+    /// kOpenHandOver
+    uint8_t flags = 0;
     /// kSampled links: twice the relative standard error of the judged
     /// transfer, in percent, rounded up (255: 2.55 or more).
     uint8_t uncertainty = 0;
@@ -78,6 +84,13 @@ struct Link {
     /// (cluster.defer_dark): nothing computed (K = 0, no rays); computed, with
     /// the cluster's radiosities, in the first judging pass after it carries light.
     static constexpr uint8_t kDeferred = 16;
+    /// A link into an oriented cluster whose hand-over has been decided
+    /// (cluster.handover = visible; Hierarchy::handOverNewLinks), once, when
+    /// the link is first set: by cosine and openness (kOpenHandOver, its K
+    /// divided by the cluster's openness towards the sender) or, where no
+    /// surface is open, by cosine alone.
+    static constexpr uint8_t kHandedOver = 32;
+    static constexpr uint8_t kOpenHandOver = 64;
 
     double vis() const { return visibility / 65535.0; }
     void setVis(double v) {
@@ -138,6 +151,17 @@ class Hierarchy {
     uint32_t numClusters() const { return numClusters_; }
     cluster::ClusterModel clusterModel() const { return model_; }
     const cluster::ClusterTree* clusterTree() const { return tree_; }
+    /// Oriented model: hand each link's light to the surfaces below its
+    /// receiving cluster by cosine and openness (cluster/openness.h) instead
+    /// of by cosine alone (null, the default). Set before the links: each
+    /// link into a cluster gets its hand-over once, when setLinks() first
+    /// sees it (handOverNewLinks()).
+    void setOpenness(const cluster::SurfaceOpenness* openness) { openness_ = openness; }
+    /// Links into clusters handed over by cosine and openness, and by cosine
+    /// alone (no surface below the cluster open towards the sender), counted
+    /// when first set (some are refined away later).
+    uint64_t handOverByOpenness() const { return handOverByOpenness_; }
+    uint64_t handOverByCosine() const { return handOverByCosine_; }
     bool isCluster(uint32_t e) const {
         return e >= numPatches() && e < numPatches() + numClusters_;
     }
@@ -296,6 +320,14 @@ class Hierarchy {
     /// (plus `fromAbove`), inner elements the area average of their children.
     void pushPullRoot(uint32_t root, const RGB& fromAbove, std::vector<PushFrame>& stack);
     void prepareOrientedDirections();
+    /// With the openness table: every link into a cluster not yet flagged
+    /// Link::kHandedOver gets its hand-over. Its K is divided by the
+    /// cluster's openness towards the sender, W = sum_k A_k cos_k w_k /
+    /// sum_k A_k cos_k over every surface below the cluster (the same sums
+    /// the push makes, so the link delivers exactly the power it did by
+    /// cosine), and it is flagged kOpenHandOver; where W = 0 it stays handed
+    /// by cosine. Done once per link, cluster by cluster.
+    void handOverNewLinks();
     /// Push-pull of the polynomial coefficients (basis degree > 0).
     void pushPullPolynomial(const std::vector<RGB>& fromAbove);
     /// Pull of the coefficients of e from its four children (degree > 0).
@@ -307,6 +339,8 @@ class Hierarchy {
     void pullCluster(uint32_t c);
     const scene::Scene* scene_;
     const cluster::ClusterTree* tree_ = nullptr;
+    const cluster::SurfaceOpenness* openness_ = nullptr;
+    uint64_t handOverByOpenness_ = 0, handOverByCosine_ = 0;
     cluster::ClusterModel model_ = cluster::ClusterModel::None;
     uint32_t numClusters_ = 0;
     /// Oriented model: unit direction from each cluster-receiver link's

@@ -947,6 +947,15 @@ HrResult HrSolver::solve(bool progress) {
     Hierarchy& h = *res.hierarchy;
     linker_ = std::make_unique<cluster::ClusterLinker>(*scene_, res.clusterTree.get(),
                                                        s_.clusterModel, vis_, s_.clusterLink);
+    if (res.clusterTree && h.clusterModel() == cluster::ClusterModel::Oriented &&
+        s_.clusterLink.visibleHandover) {
+        res.openness = std::make_unique<cluster::SurfaceOpenness>(*scene_, *res.clusterTree, *vis_);
+        res.opennessRays = res.openness->rays();
+        res.opennessSeconds = res.openness->seconds();
+        h.setOpenness(res.openness.get());
+        spdlog::info("hand-over openness: {} rays, {:.2f} s, {}", res.opennessRays,
+                     res.opennessSeconds, formatBytes(res.openness->memoryBytes()));
+    }
 
     Timer t;
     {
@@ -1135,6 +1144,9 @@ HrResult HrSolver::solve(bool progress) {
     res.errorEstimate = estimateError(h);
     res.errorEstimateSeconds = te.seconds();
     h.reportMemory(res.memory);
+    if (res.openness) res.memory.set("handover_openness", res.openness->memoryBytes());
+    res.handOverByOpenness = h.handOverByOpenness();
+    res.handOverByCosine = h.handOverByCosine();
     for (uint32_t r = 0; r < h.numElements(); ++r) {
         bool rc = h.isCluster(r);
         for (uint64_t i = h.linkBegin(r); i < h.linkEnd(r); ++i) {

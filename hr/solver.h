@@ -139,7 +139,7 @@
 //   cluster.face_cone, cluster.face_planarity, cluster.face_shape   (cluster/tree.h)
 //   cluster.vis_rays, cluster.separation, cluster.surface_separation, cluster.near,
 //   cluster.near_rays, cluster.face_separation, cluster.face_kernel, cluster.defer_dark,
-//   cluster.ambient
+//   cluster.ambient, cluster.handover
 //                                      links that touch a cluster (cluster/link.h)
 //
 // Links touching a cluster are built by cluster::ClusterLinker (cluster/link.h:
@@ -248,6 +248,7 @@
 #include <vector>
 
 #include "cluster/link.h"
+#include "cluster/openness.h"
 #include "cluster/transfer.h"
 #include "cluster/tree.h"
 #include "core/memory.h"
@@ -368,6 +369,15 @@ struct HrResult {
     uint64_t reachRays = 0;
     double reachSeconds = 0.0;
     std::unique_ptr<cluster::ClusterTree> clusterTree;
+    /// The oriented hand-over's openness table (cluster.handover = visible;
+    /// cluster/openness.h), its rays and seconds.
+    std::unique_ptr<cluster::SurfaceOpenness> openness;
+    uint64_t opennessRays = 0;
+    double opennessSeconds = 0.0;
+    /// Links into oriented clusters whose hand-over was decided (when first
+    /// kept; some are refined away later): by cosine and openness, and by
+    /// cosine alone (no surface of the receiving cluster found open).
+    uint64_t handOverByOpenness = 0, handOverByCosine = 0;
     std::string clusterModel;  ///< the model used (auto resolved)
     double clusterBuildSeconds = 0.0;
     /// Links by kind after the solve: surface-surface, surface receiving from a

@@ -64,16 +64,27 @@ void auditScene(const std::string& name, bool faces, double& faceRatio, double& 
         double dist = glm::length(u);
         u /= dist;
         // What the model moves: an oriented receiving cluster's surfaces get
-        // K cos_k+(u) each, from the sender's radiosity towards them (the
-        // exact sum over its patches, as the push hands it; the cluster's
-        // projectedArea is a Cauchy-Schwarz bound above it).
+        // K cos_k+(u) w_k each (w_k their openness towards the sender,
+        // cluster/openness.h, for links handed over by openness; 1 by cosine
+        // alone), from the sender's radiosity towards them (the exact sum over
+        // its patches, as the push hands it; the cluster's projectedArea is a
+        // Cauchy-Schwarz bound above it).
         double recvArea = h.area(r);
         if (rc) {
             const auto& nd = t.node(h.clusterIndex(r));
+            const bool byOpenness = res.openness && (l.flags & hr::Link::kOpenHandOver);
             recvArea = 0;
             for (uint32_t q = nd.patchBegin; q < nd.patchEnd; ++q) {
-                const auto& P = s.patches[t.patchAt(q)];
-                recvArea += P.area * std::max(0.0, glm::dot(P.normal, -u));
+                const uint32_t p = t.patchAt(q);
+                const auto& P = s.patches[p];
+                double cosine = std::max(0.0, glm::dot(P.normal, -u));
+                double w = 1.0;
+                if (byOpenness) {
+                    auto v = res.openness->view(p);
+                    w = res.openness->openness(v, res.openness->inside(v, nd.centroid, nd.radius),
+                                               -u, cosine);
+                }
+                recvArea += P.area * cosine * w;
             }
         }
         double Bs = sc ? h.directionalB(sd, u).g : h.B(sd).g;

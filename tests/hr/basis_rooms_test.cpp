@@ -13,29 +13,35 @@
 using namespace hrad;
 using namespace hrad::hr;
 
-TEST(BasisRooms, ClassroomConvergesForTheLinearBasis) {
+// The linear solve's reflected power against the Monte Carlo reference of
+// issue "Error control" (16,384 paths per root patch, seed 1; `hrad --set
+// mc.level=0 --set mc.samples=16384 --set mc.seed=1 reference SCENE --kind
+// montecarlo` prints it with its standard error, 0.2 % per channel; stored
+// here, the reference takes minutes). Measured: -0.2 / +0.3 / +0.6 % with
+// the hand-over by openness (cluster/openness.h), -2.5 / -2.1 / -1.6 % by
+// cosine alone; the constant basis at this eps is -4.3 % (green). A
+// diverging iteration (the bug above) or light lost in the clusters fails
+// 1.5 %.
+TEST(BasisRooms, ClassroomLinearBasisConvergesToTheMonteCarloPower) {
     auto dir = test::sharedScenesDir();
     if (!dir) GTEST_SKIP() << "../shared/scenes not present";
     const auto path = *dir / "renderpark-mgf" / "salon" / "classroom.mgf";
     if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " not present";
     scene::Scene s = scene::loadScene(path.string());
     transport::Visibility vis(s);
-    auto settings = [](const std::string& basis) {
-        Params p;
-        p.set("hr.oracle", std::string("bfa"));
-        p.set("oracle.eps", 1e-3);
-        p.set("cluster.model", std::string("oriented"));
-        p.set("hr.max_iterations", int64_t(60));
-        p.set("hr.basis", basis);
-        HrSettings st = HrSettings::fromParams(p);
-        p.reportUnused();
-        return st;
-    };
-    HrResult c = HrSolver(s, vis, settings("constant")).solve();
-    HrResult l = HrSolver(s, vis, settings("linear")).solve();
+    Params p;
+    p.set("hr.oracle", std::string("bfa"));
+    p.set("oracle.eps", 1e-3);
+    p.set("cluster.model", std::string("oriented"));
+    p.set("hr.max_iterations", int64_t(60));
+    p.set("hr.basis", std::string("linear"));
+    HrSettings st = HrSettings::fromParams(p);
+    p.reportUnused();
+    HrResult l = HrSolver(s, vis, st).solve();
     EXPECT_TRUE(l.converged);
-    const RGB pc = c.hierarchy->reflectedPower(), pl = l.hierarchy->reflectedPower();
-    std::cout << "reflected power: constant " << pc.x << " " << pc.y << " " << pc.z << ", linear "
-              << pl.x << " " << pl.y << " " << pl.z << "\n";
-    for (int k = 0; k < 3; ++k) EXPECT_NEAR(pl[k] / pc[k], 1.0, 0.05) << "channel " << k;
+    const RGB pl = l.hierarchy->reflectedPower();
+    const RGB mc(1114.55, 1171.15, 1100.29);  // +- (2.08, 2.13, 2.10), one standard error
+    std::cout << "reflected power: linear " << pl.x << " " << pl.y << " " << pl.z
+              << ", Monte Carlo " << mc.x << " " << mc.y << " " << mc.z << "\n";
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(pl[k] / mc[k], 1.0, 0.015) << "channel " << k;
 }

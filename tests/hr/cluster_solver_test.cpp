@@ -6,6 +6,7 @@
 #include <cstring>
 #include <iostream>
 
+#include "cluster/openness.h"
 #include "core/rng.h"
 #include "hr/solver.h"
 #include "scene/loader.h"
@@ -89,6 +90,100 @@ TEST_P(ClusterModels, PushPullConservesPowerThroughClusters) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Cluster, ClusterModels, ::testing::Values("isotropic", "oriented"));
+
+// The oriented hand-over with the openness table (cluster.handover = visible,
+// cluster/openness.h): a cluster holding a roof, a plate under the roof and a
+// plate in the open, lit from far above through one link. Every upward ray
+// from the covered plate meets the roof inside the cluster, so it gets
+// nothing; the power the link delivers, K B_e sum_k A_k cos_k, is the same as
+// by cosine alone (the linker divides K by the cluster's openness W), and
+// lands on the roof and the open plate. By cosine alone the covered plate
+// would get as much per unit area as the open one.
+TEST(ClusterTransfer, HandOverLightsOnlyTheSurfacesThatSeeOut) {
+    scene::Scene s;
+    uint32_t light = s.addMaterial({"light", RGB(0.0), RGB(1.0)});
+    uint32_t grey = s.addMaterial({"grey", RGB(0.5), RGB(0.0)});
+    const Vec3 up(0, 0, 100);
+    s.addQuad(Vec3(1.5, 0, 10), Vec3(1.5, 1, 10), Vec3(2.5, 1, 10), Vec3(2.5, 0, 10), light);
+    test::addQuadFacing(s, Vec3(-0.5, -0.5, 0.3), Vec3(1.5, -0.5, 0.3), Vec3(1.5, 1.5, 0.3),
+                        Vec3(-0.5, 1.5, 0.3), grey, up);  // roof
+    test::addQuadFacing(s, Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), grey,
+                        up);  // under the roof
+    test::addQuadFacing(s, Vec3(3, 0, 0), Vec3(4, 0, 0), Vec3(4, 1, 0), Vec3(3, 1, 0), grey,
+                        up);  // in the open
+    const uint32_t emitter = 0, roof = 1, covered = 2, exposed = 3;
+    ASSERT_TRUE(s.patches[emitter].isEmitter());
+    ASSERT_GT(s.patches[roof].normal.z, 0.99);
+    transport::Visibility vis(s);
+    cluster::ClusterSettings cs;
+    cs.leafSize = 3;
+    cluster::ClusterTree tree(s, cs);
+    // The cluster of the three grey plates.
+    uint32_t c = UINT32_MAX;
+    for (uint32_t i = 0; i < tree.size(); ++i)
+        if (tree.node(i).patchEnd - tree.node(i).patchBegin == 3) c = i;
+    ASSERT_NE(c, UINT32_MAX);
+    const cluster::ClusterNode& node = tree.node(c);
+    cluster::SurfaceOpenness openness(s, tree, vis);
+    EXPECT_EQ(openness.rays(), 4u * 64u);
+    Hierarchy h(s, &tree, cluster::ClusterModel::Oriented);
+    const uint32_t ce = h.numPatches() + c;
+    Vec3 u = glm::normalize(h.center(emitter) - h.center(ce));
+    // Openness within the cluster: the covered plate is closed, the others
+    // open; within a sphere that ends below the roof, the covered plate is
+    // open too.
+    auto w = [&](uint32_t p, const Vec3& d, const Vec3& center, double radius) {
+        auto v = openness.view(p);
+        return openness.openness(v, openness.inside(v, center, radius), d,
+                                 glm::dot(s.patches[p].normal, d));
+    };
+    EXPECT_EQ(w(covered, u, node.centroid, node.radius), 0.0);
+    EXPECT_EQ(w(exposed, u, node.centroid, node.radius), 1.0);
+    EXPECT_EQ(w(roof, u, node.centroid, node.radius), 1.0);
+    EXPECT_EQ(w(covered, u, Vec3(0.5, 0.5, -0.5), 0.75), 1.0);
+    EXPECT_EQ(w(covered, -u, node.centroid, node.radius), 0.0);
+    double sumCos = 0.0, sumOpen = 0.0;
+    for (uint32_t p : {roof, covered, exposed}) {
+        double cosine = std::max(0.0, glm::dot(s.patches[p].normal, u));
+        sumCos += s.patches[p].area * cosine;
+        if (p != covered) sumOpen += s.patches[p].area * cosine;
+    }
+    // The cluster's openness towards the sender: the roof and the exposed
+    // plate's share of sum A cos.
+    const double W = sumOpen / sumCos;
+    const double K = 0.01;
+    auto run = [&](bool visible) {
+        Hierarchy hh(s, &tree, cluster::ClusterModel::Oriented);
+        if (visible) hh.setOpenness(&openness);
+        Link l;
+        l.sender = emitter;
+        l.K = float(K);
+        l.setVis(1.0);
+        hh.setLinks({ce}, {l});
+        // setLinks hands the new link over once: K divided by W, flagged.
+        const Link& set = hh.link(0);
+        EXPECT_TRUE(set.flags & Link::kHandedOver || !visible);
+        EXPECT_EQ(bool(set.flags & Link::kOpenHandOver), visible);
+        EXPECT_NEAR(set.K, visible ? K / W : K, 1e-6 * K / W);
+        EXPECT_EQ(hh.handOverByOpenness(), visible ? 1u : 0u);
+        hh.gather();
+        hh.pushPull();
+        std::array<double, 4> reflected{};
+        for (uint32_t p : {roof, covered, exposed}) reflected[p] = hh.B(p).g;
+        return reflected;
+    };
+    auto byCosine = run(false), byOpenness = run(true);
+    const double Kf = double(float(double(float(K)) / W));
+    EXPECT_EQ(byOpenness[covered], 0.0);
+    EXPECT_GT(byCosine[covered], 0.9 * byCosine[exposed]);
+    EXPECT_NEAR(byOpenness[exposed], 0.5 * Kf * glm::dot(s.patches[exposed].normal, u), 1e-9);
+    auto power = [&](const std::array<double, 4>& b) {
+        return s.patches[roof].area * b[roof] + s.patches[covered].area * b[covered] +
+               s.patches[exposed].area * b[exposed];
+    };
+    EXPECT_NEAR(power(byOpenness), power(byCosine), 1e-6 * power(byCosine));
+    EXPECT_NEAR(power(byCosine), 0.5 * double(float(K)) * sumCos, 1e-9);
+}
 
 // An emitter below a group of small quads that all face up, away from it.
 // Accepted at cluster level (eps = 1), the oriented model gives the group
@@ -296,15 +391,16 @@ TEST(ClusterTransfer, DeferredLinksAreComputedOnceTheirSenderIsLit) {
 
 // RenderPark's classroom lost 6.7 % of its reflected light (green) with
 // oriented clustering against the unclustered solve (bfa, eps 1e-3; the
-// unclustered reflected power, 1,136.72, is stored here: a 90 s solve):
-// cluster links made in the first judging pass, when only the lamps carry
-// light, drew their senders' ray end points over surfaces that stay dark
-// as much as over lit ones, and kept the low visibility that gave. With
-// those links deferred until their senders carry light, and drawn by the
-// radiosities plus the ambient term, it loses 3.1 %: the tolerance of 4 %
-// fails the old loss and states the remaining one (papers/README.md,
-// "Clustering accuracy").
-TEST(ClusterTransfer, ClassroomKeepsMoreThan96PercentOfTheUnclusteredLight) {
+// unclustered reflected power, 1,136.72, is stored here: a 90 s solve).
+// Two causes were found and fixed: cluster links made in the first judging
+// pass, when only the lamps carry light, drew their senders' ray end points
+// over surfaces that stay dark as much as over lit ones (deferred links and
+// the ambient term: 3.1 % left), and receiving clusters handed their light
+// by cosine alone, as much to the surfaces hidden inside them as to those
+// that see out, which differ in reflectance (the hand-over by openness,
+// cluster/openness.h: 1.4 % left). The tolerance of 2 % fails either
+// earlier state (papers/README.md, "Clustering accuracy").
+TEST(ClusterTransfer, ClassroomKeepsMoreThan98PercentOfTheUnclusteredLight) {
     auto dir = test::sharedScenesDir();
     if (!dir) GTEST_SKIP() << "../shared/scenes absent";
     scene::Scene s = scene::loadScene((*dir / "renderpark-mgf/salon/classroom.mgf").string());
@@ -318,7 +414,7 @@ TEST(ClusterTransfer, ClassroomKeepsMoreThan96PercentOfTheUnclusteredLight) {
     const double none = 1136.72;  // cluster.model = none, reflected power, green
     std::cout << "reflected power (green): oriented " << reflected << ", none " << none << " ("
               << 100 * (reflected / none - 1) << " %)\n";
-    EXPECT_GT(reflected, 0.96 * none);
+    EXPECT_GT(reflected, 0.98 * none);
     EXPECT_LT(reflected, 1.01 * none);
 }
 

@@ -1,0 +1,136 @@
+// How open each surface is towards a sender: the hand-over of the light an
+// oriented cluster receives to its surfaces (cluster.handover = visible).
+//
+// An oriented receiving cluster hands the irradiance of each link to every
+// surface below it with that surface's cosine towards the sender (Smits,
+// Arvo & Greenberg 1994, sec. 4). The link's visibility fraction is a mean
+// over the cluster's surfaces (its rays end on them, drawn by A_k cos_k), so
+// a surface that faces the sender but is hidden inside the cluster (a seat
+// under its desk, the inner faces of a shelf) gets as much as the surfaces
+// that hide it. Where those surfaces differ in reflectance the hand-over
+// changes how much light is reflected (papers/README.md, "Links made in the
+// dark": classroom with one grey reflectance everywhere kept its light when
+// clustered, with its own materials it did not).
+//
+// This table gives each surface k an openness w_k(u, c) in [0, 1] towards
+// direction u inside cluster c: the fraction of M fixed points x_j on the
+// surface from which a ray in u's direction bin leaves c's bounding sphere
+// (centre C, radius R) without hitting anything. It is precomputed once per
+// surface from rays in a stratified set of directions over the surface's
+// hemisphere (16 bins of equal solid angle: 4 bands uniform in cos theta
+// times 4 sectors), one ray per point and bin, keeping the distance to the
+// nearest hit; a query compares it with R - (x_j - C).u, the distance at
+// which u leaves the sphere from x_j along the line through the centre (an
+// upper bound elsewhere). So one table serves every level of the tree:
+// occluders inside c count; those between c and the sender are the link's
+// own visibility, the same for all of c's surfaces. (Counting them per
+// surface from the bins' directions, which differ from the sender's by up to
+// about 35 degrees, placed the light worse on classroom: papers/README.md,
+// "Receiving clusters hand their light to the surfaces that see out".)
+// Hand-over then gives surface k
+//     K' cos_k(u) w_k(u, c) B_s,   K' = K / W,
+//     W = sum_k A_k cos_k(u)+ w_k(u, c) / sum_k A_k cos_k(u)+,
+// so the power the link delivers, K B_s sum_k A_k cos_k+, is unchanged (K
+// is divided by W, summed exactly over the cluster's surfaces, once per
+// link: Hierarchy::handOverNewLinks) and only where it lands moves towards
+// the surfaces that see out of the cluster. This is the receiving side of
+// the visibility within clusters that Sillion 1995 ("A unified hierarchical
+// algorithm for global illumination with scattering volumes and object
+// clusters") models as an extinction through the cluster's volume; here it
+// is measured on the surfaces themselves, and a query is a bin lookup, four
+// dot products and four comparisons (the push makes one per surface and
+// link into an ancestor cluster, every iteration).
+//
+// Cost: 64 rays per surface (M = 4 points, 16 bins) when the solve starts,
+// and 64 bytes per surface: each distance is one byte on a log scale from
+// 1e-5 of the scene's diagonal to all of it (steps of 4.6 %, rounded down).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "cluster/tree.h"
+#include "core/types.h"
+#include "scene/scene.h"
+#include "transport/visibility.h"
+
+namespace hrad::cluster {
+
+class SurfaceOpenness {
+  public:
+    static constexpr int kPoints = 4;
+    static constexpr int kBands = 4;
+    static constexpr int kSectors = 4;
+    static constexpr int kBins = kBands * kSectors;
+
+    /// Traces the table for every patch the tree holds (in parallel).
+    SurfaceOpenness(const scene::Scene& scene, const ClusterTree& tree,
+                    const transport::Visibility& visibility);
+
+    /// A patch as queries see it: its frame, its fixed points (stratified
+    /// on the unit square, mapped by ClusterTree::pointOnPatch) and its row
+    /// of quantised distances.
+    struct View {
+        Vec3 n{0.0}, t{0.0}, b{0.0};
+        Vec3 x[kPoints];
+        const uint8_t* dist = nullptr;
+    };
+    View view(uint32_t patch) const;
+
+    /// A patch inside one cluster's sphere: its points relative to the
+    /// centre, and the radius (made once per patch and cluster, queried for
+    /// every link into the cluster).
+    struct Inside {
+        Vec3 d[kPoints];
+        double radius = 0.0;
+    };
+    Inside inside(const View& v, const Vec3& center, double radius) const {
+        Inside in;
+        for (int j = 0; j < kPoints; ++j) in.d[j] = v.x[j] - center;
+        in.radius = radius;
+        return in;
+    }
+
+    /// Openness of a patch towards unit direction u (its cosine with the
+    /// normal `cosine`) inside a sphere: the fraction of its points whose ray
+    /// in u's bin travels at least R - (x_j - C).u. 0 when u is behind it.
+    double openness(const View& v, const Inside& in, const Vec3& u, double cosine) const {
+        if (!(cosine > 0)) return 0.0;
+        const uint8_t* d = v.dist + bin(v, u, cosine) * kPoints;
+        int open = 0;
+        for (int j = 0; j < kPoints; ++j)
+            open += distance_[d[j]] >= in.radius - glm::dot(in.d[j], u);
+        return open * (1.0 / kPoints);
+    }
+
+    uint64_t rays() const { return rays_; }
+    double seconds() const { return seconds_; }
+    uint64_t memoryBytes() const { return dist_.capacity() * sizeof(uint8_t); }
+
+    /// Bin of a unit direction with cos theta = z > 0 in a frame (t, b, n).
+    static int bin(const View& v, const Vec3& u, double z) {
+        double x = glm::dot(u, v.t), y = glm::dot(u, v.b);
+        int band = z >= 1.0 ? kBands - 1 : int(z * kBands);
+        // Sectors of pi/2 counter-clockwise from t (kSectors = 4: the quadrants).
+        static_assert(kSectors == 4);
+        int sector = y >= 0 ? (x >= 0 ? 0 : 1) : (x < 0 ? 2 : 3);
+        return band * kSectors + sector;
+    }
+
+  private:
+    const scene::Scene* scene_;
+    const ClusterTree* tree_;
+    /// Per patch (indexed by patch id), kBins x kPoints quantised distances
+    /// (quantise()); patches outside the tree stay at 0.
+    std::vector<uint8_t> dist_;
+    /// The distance each code stands for: the lower end of its step, and
+    /// infinity for 255 (no hit within the scene's diagonal).
+    double distance_[256];
+    uint8_t quantise(bool hit, double t) const;
+    uint64_t rays_ = 0;
+    double seconds_ = 0.0;
+};
+
+}  // namespace hrad::cluster
