@@ -461,6 +461,17 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         e["reference_seconds"] = timings["reference"];
         e["reference_cached"] = ref->cached;
         e["reference_stats"] = ref->stats;
+        // Where the light is missing or extra: the ten materials whose
+        // reflected power differs most from the reference's.
+        json byMaterial = json::array();
+        for (size_t i = 0; i < err.byMaterial.size() && i < 10; ++i) {
+            const reference::MaterialPower& mp = err.byMaterial[i];
+            byMaterial.push_back(json{{"material", sc.materials[mp.material].name},
+                                      {"area", mp.area},
+                                      {"reflected", mp.solution},
+                                      {"reference_reflected", mp.reference}});
+        }
+        e["reflected_by_material"] = byMaterial;
         if (r.refMc) {
             auto [uLum, uRgb] = mcUncertainty(*ref);
             e["mc_stderr_l2_lum"] = uLum;

@@ -23,8 +23,8 @@ std::string ErrorMetrics::describe() const {
         "all regions: lum L1={:.4g} L2={:.4g} Linf={:.4g}  rgb L1={:.4g} L2={:.4g} "
         "Linf={:.4g}  ({} regions, area {:.4g}; {} dark in the reference, holding {:.3g} of the "
         "reflected power)",
-        l1ReflLum, l2ReflLum, l1NonEmitLum, l2NonEmitLum, meanRatioNonEmit, l1Lum, l2Lum,
-        linfLum, l1Rgb, l2Rgb, linfRgb, regions, refArea, darkRegions, darkReflectedFraction);
+        l1ReflLum, l2ReflLum, l1NonEmitLum, l2NonEmitLum, meanRatioNonEmit, l1Lum, l2Lum, linfLum,
+        l1Rgb, l2Rgb, linfRgb, regions, refArea, darkRegions, darkReflectedFraction);
 }
 
 ErrorMetrics computeError(const scene::RadiosityField& solution,
@@ -36,10 +36,12 @@ ErrorMetrics computeError(const scene::RadiosityField& solution,
     // Sums in a fixed order (patches, then elements): deterministic.
     double dLum1 = 0, rLum1 = 0, dLum2 = 0, rLum2 = 0, dLumMax = 0, rLumMax = 0;
     double dRgb1 = 0, rRgb1 = 0, dRgb2 = 0, rRgb2 = 0, dRgbMax = 0, rRgbMax = 0;
-    double reflLum1 = 0, reflLum2 = 0;                        // reflected denominators
+    double reflLum1 = 0, reflLum2 = 0;                                // reflected denominators
     double neD1 = 0, neR1 = 0, neD2 = 0, neR2 = 0, neS = 0, neR = 0;  // non-emitters
     double darkPower = 0, reflectedPower = 0;  // solution's reflected power, on dark regions
     ErrorMetrics m;
+    std::vector<MaterialPower> byMaterial(scene.materials.size());
+    for (uint32_t i = 0; i < byMaterial.size(); ++i) byMaterial[i].material = i;
     for (uint32_t p = 0; p < scene.patches.size(); ++p) {
         const double E = luminance(scene.patches[p].emission);
         const bool emitter = maxComponent(scene.patches[p].emission) > 0.0;
@@ -59,6 +61,12 @@ ErrorMetrics computeError(const scene::RadiosityField& solution,
             const RGB Erg = scene.patches[p].emission;
             double sr = luminance(S) - E;
             reflectedPower += A * sr;
+            if (scene.patches[p].material < byMaterial.size()) {
+                MaterialPower& mp = byMaterial[scene.patches[p].material];
+                mp.area += A;
+                mp.solution += A * sr;
+                mp.reference += A * (luminance(R) - E);
+            }
             if (maxComponent(glm::abs(R - Erg)) == 0.0) {
                 darkPower += A * sr;
                 ++m.darkRegions;
@@ -93,6 +101,13 @@ ErrorMetrics computeError(const scene::RadiosityField& solution,
     m.l2NonEmitLum = ratio(std::sqrt(neD2), std::sqrt(neR2));
     m.meanRatioNonEmit = neR > 0 ? neS / neR : 1.0;
     m.darkReflectedFraction = reflectedPower > 0 ? darkPower / reflectedPower : 0.0;
+    for (const MaterialPower& mp : byMaterial)
+        if (mp.area > 0) m.byMaterial.push_back(mp);
+    std::stable_sort(m.byMaterial.begin(), m.byMaterial.end(),
+                     [](const MaterialPower& a, const MaterialPower& b) {
+                         return std::fabs(a.solution - a.reference) >
+                                std::fabs(b.solution - b.reference);
+                     });
     m.l1Rgb = ratio(dRgb1, rRgb1);
     m.l2Rgb = ratio(std::sqrt(dRgb2), std::sqrt(rRgb2));
     m.linfRgb = ratio(dRgbMax, rRgbMax);

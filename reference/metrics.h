@@ -28,27 +28,40 @@
 //                 sum A (S - E) (luminance), that lies on regions whose reference
 //                 has no reflected light at all (R = E exactly: a Monte Carlo
 //                 reference scores exactly 0 where no path reaches a light, so
-//                 this is light leaking into closed cavities), and their number.
+//                 this is light leaking into closed cavities), and their number;
+//   by material   per material, the reflected power sum A (S - E) of the
+//                 solution and sum A (R - E) of the reference (luminance):
+//                 where a solve's light is missing or extra.
 #pragma once
 
 #include <cstddef>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "scene/field.h"
 
 namespace hrad::reference {
 
+/// Reflected power (luminance, sum A (B - E)) of one material's regions.
+struct MaterialPower {
+    uint32_t material = 0;
+    double area = 0.0;
+    double solution = 0.0, reference = 0.0;
+};
+
 struct ErrorMetrics {
     double l1Lum = 0.0, l2Lum = 0.0, linfLum = 0.0;
     double l1Rgb = 0.0, l2Rgb = 0.0, linfRgb = 0.0;
-    double l1ReflLum = 0.0, l2ReflLum = 0.0;  ///< relative to the reflected part R - E
+    double l1ReflLum = 0.0, l2ReflLum = 0.0;        ///< relative to the reflected part R - E
     double l1NonEmitLum = 0.0, l2NonEmitLum = 0.0;  ///< over non-emitting regions only
-    double meanRatioNonEmit = 1.0;  ///< sum A S / sum A R over non-emitting regions
+    double meanRatioNonEmit = 1.0;                  ///< sum A S / sum A R over non-emitting regions
     double darkReflectedFraction = 0.0;  ///< reflected power on regions the reference has dark
     size_t darkRegions = 0;              ///< regions whose reference reflected radiosity is 0
-    size_t regions = 0;    ///< reference elements compared
-    double refArea = 0.0;  ///< sum of their areas
+    size_t regions = 0;                  ///< reference elements compared
+    double refArea = 0.0;                ///< sum of their areas
+    /// Per material with any area, largest |solution - reference| first.
+    std::vector<MaterialPower> byMaterial;
 
     std::string describe() const;
 };

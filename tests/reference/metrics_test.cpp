@@ -133,6 +133,33 @@ TEST(Metrics, ReflectedPowerOnRegionsTheReferenceHasDark) {
     EXPECT_EQ(computeError(sol, ref).darkRegions, 1u);
 }
 
+TEST(Metrics, ReflectedPowerByMaterial) {
+    // Two materials: "a" on a unit square (E = 0), "b" on a 1 x 3 rectangle
+    // (E = 1). Solution 2 and 3, reference 2 and 4: material a holds 2 in
+    // both; material b 3 * (3 - 1) = 6 against 3 * (4 - 1) = 9, so it comes
+    // first (largest difference).
+    scene::Scene s;
+    uint32_t a = s.addMaterial({"a", RGB(0.5), RGB(0.0)});
+    uint32_t b = s.addMaterial({"b", RGB(0.5), RGB(1.0)});
+    s.addMaterial({"unused", RGB(0.5), RGB(0.0)});
+    s.addQuad(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), a);
+    s.addQuad(Vec3(2, 0, 0), Vec3(5, 0, 0), Vec3(5, 1, 0), Vec3(2, 1, 0), b);
+    scene::UniformField ref(s, {0, 0}), sol(s, {0, 0});
+    sol.value(0) = RGB(2.0);
+    sol.value(1) = RGB(3.0);
+    ref.value(0) = RGB(2.0);
+    ref.value(1) = RGB(4.0);
+    ErrorMetrics e = computeError(sol, ref);
+    ASSERT_EQ(e.byMaterial.size(), 2u);  // the unused material has no area
+    EXPECT_EQ(e.byMaterial[0].material, b);
+    EXPECT_NEAR(e.byMaterial[0].area, 3.0, 1e-12);
+    EXPECT_NEAR(e.byMaterial[0].solution, 6.0, 1e-12);
+    EXPECT_NEAR(e.byMaterial[0].reference, 9.0, 1e-12);
+    EXPECT_EQ(e.byMaterial[1].material, a);
+    EXPECT_NEAR(e.byMaterial[1].solution, 2.0, 1e-12);
+    EXPECT_NEAR(e.byMaterial[1].reference, 2.0, 1e-12);
+}
+
 TEST(Metrics, MismatchedScenesThrow) {
     scene::Scene a = unitSquare(), b = test::furnaceBox();
     scene::UniformField fa(a, {0}), fb(b, scene::uniformLevels(b, 0, 0));
