@@ -68,6 +68,8 @@ class HrEntry final : public Solver {
                             {"rays", res->totalRays},
                             {"form_factors", res->totalFormFactors},
                             {"deferred_links_computed", res->deferredLinksComputed},
+                            {"deferred_links_left", res->deferredLinksLeft},
+                            {"unopened_links", res->unopenedLinks},
                             {"iterations", res->history.size()}};
         {
             // Where refinement spends, by link kind (HrResult::linkCost).

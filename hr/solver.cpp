@@ -1150,10 +1150,18 @@ HrResult HrSolver::solve(bool progress) {
     for (uint32_t r = 0; r < h.numElements(); ++r) {
         bool rc = h.isCluster(r);
         for (uint64_t i = h.linkBegin(r); i < h.linkEnd(r); ++i) {
-            bool sc = h.isCluster(h.link(i).sender);
+            const Link& l = h.link(i);
+            bool sc = h.isCluster(l.sender);
             (rc ? (sc ? res.linksCC : res.linksCS) : (sc ? res.linksSC : res.linksSS))++;
+            if (l.flags & Link::kOpen) ++res.unopenedLinks;
+            if (l.flags & Link::kDeferred) ++res.deferredLinksLeft;
         }
     }
+    if (res.unopenedLinks > 0)
+        spdlog::warn(
+            "{} links that had to be opened were left unopened (refinement stopped early: "
+            "hr.max_links, memory.budget_mb or hr.max_seconds); they carry no light",
+            res.unopenedLinks);
     for (const HrResult::LinkKindCost& c : linkCost_)
         for (int k = 0; k < 4; ++k) {
             res.linkCost.evaluations[k] += c.evaluations[k];

@@ -395,6 +395,10 @@ struct HrResult {
     /// Links made without rays while their sending cluster was dark and
     /// computed once it carried light (cluster.defer_dark).
     uint64_t deferredLinksComputed = 0;
+    /// Links left at the end of the solve that carry nothing: cluster links
+    /// that had to be opened when refinement stopped early (Link::kOpen), and
+    /// links from clusters that never carried light (Link::kDeferred).
+    uint64_t unopenedLinks = 0, deferredLinksLeft = 0;
     double linkingSeconds = 0.0, refineSeconds = 0.0, gatherSeconds = 0.0, pushPullSeconds = 0.0;
     double minArea = 0.0;
     /// A posteriori estimate of the solve's relative L1 error of the
