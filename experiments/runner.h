@@ -22,16 +22,21 @@
 //   converged, link_cap_hit, memory_budget_hit, time_limit_hit, min_area,
 //   counts{elements, leaves, links, initial_links, initial_pairs, links_ss, links_sc,
 //          links_cs, links_cc (surface/cluster receiver-sender), rays, form_factors,
-//          deferred_links_computed, iterations},
-//   timings{load, visibility_build, [cluster_build], linking, refine, gather,
-//           push_pull, solve_total, reference, error, render}   (seconds)
+//          deferred_links_computed, deferred_links_left, unopened_links, handover_rays,
+//          handover_by_openness, handover_by_cosine, iterations},
+//   timings{load, visibility_build, [cluster_build], [handover_openness], linking,
+//           refine, gather, push_pull, solve_total, reference, error, render}   (seconds)
 //   history[{iteration, stage, eps, links, elements, leaves, refined_links,
 //            rays, form_factors, residual, reflected_power, refine_s, gather_s,
 //            push_pull_s, element_bytes, link_bytes}]
 //   memory{<category>: bytes, peak_rss}, bytes_per_link, radiosity_power,
-//   error{l1_lum, l2_lum, linf_lum, l1_rgb, l2_rgb, linf_rgb, regions,
-//         reference, reference_seconds, reference_cached,
-//         [mc_stderr_l2_lum, mc_stderr_l2_rgb]}, artefacts{...}, wall_seconds
+//   error{l1_lum, l2_lum, linf_lum, l1_rgb, l2_rgb, linf_rgb, l1_reflected_lum,
+//         l2_reflected_lum, l1_nonemitter_lum, l2_nonemitter_lum, mean_ratio_nonemitter,
+//         dark_reflected_fraction, dark_regions, regions, reference, reference_seconds,
+//         reference_cached, reference_stats, reflected_by_material[{material, area,
+//         reflected, reference_reflected}] (ten at most, largest difference first),
+//         [mc_stderr_l2_lum, mc_stderr_l2_rgb, mc_stderr_l2_nonemitter_lum]},
+//   artefacts{...}, wall_seconds
 //
 // Error per iteration (outputs.history_error): the reference is computed
 // before the solve and an HrSolver iteration hook records the L2 luminance

@@ -453,8 +453,8 @@ RGB Hierarchy::clusterIrradianceAt(uint32_t root, const std::vector<RGB>& down,
         // and by how open it is towards the sender within the receiving
         // cluster (cluster/openness.h).
         glm::vec3 n(P.normal);
+        bool haveView = false;  // made when the first link handed by openness needs it
         cluster::SurfaceOpenness::View view;
-        if (openness_) view = openness_->view(root);
         for (uint32_t c = parent_[root]; c != kNone; c = parent_[c]) {
             bool haveInside = false;
             cluster::SurfaceOpenness::Inside inside;
@@ -463,6 +463,10 @@ RGB Hierarchy::clusterIrradianceAt(uint32_t root, const std::vector<RGB>& down,
                 double cosine = glm::dot(n, dir);
                 if (!(cosine > 0)) continue;
                 if (openness_ && (links_[i].flags & Link::kOpenHandOver)) {
+                    if (!haveView) {
+                        view = openness_->view(root);
+                        haveView = true;
+                    }
                     if (!haveInside) {
                         const cluster::ClusterNode& node = tree_->node(clusterIndex(c));
                         inside = openness_->inside(view, node.centroid, node.radius);
