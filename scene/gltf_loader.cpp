@@ -33,6 +33,9 @@ using Mat4 = glm::dmat4;
 // ---- file intake -----------------------------------------------------------------
 
 std::vector<unsigned char> readWholeFile(const std::string& path) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec))
+        throwInputError(SourceLocation{path, 0, 0}, "not a regular file (a folder or device)");
     std::ifstream in(path, std::ios::binary);
     if (!in) throwInputError(SourceLocation{path, 0, 0}, "cannot open file");
     in.seekg(0, std::ios::end);
@@ -43,6 +46,36 @@ std::vector<unsigned char> readWholeFile(const std::string& path) {
     if (size > 0 && !in.read(reinterpret_cast<char*>(bytes.data()), size))
         throwInputError(SourceLocation{path, 0, 0}, "error reading file");
     return bytes;
+}
+
+/// tinygltf's file callback for buffer and image URIs. Its own reads the size
+/// with seekg/tellg, which for a folder on ext4 is 2^63 - 1, and then resizes
+/// a vector to it: a URI naming a folder (".", "") asked for 8 EiB. Only
+/// regular files are read here, with the size the file system states.
+bool readUriFile(std::vector<unsigned char>* out, std::string* err, const std::string& path, void*) {
+    std::error_code ec;
+    auto status = std::filesystem::status(path, ec);
+    if (ec || !std::filesystem::is_regular_file(status)) {
+        if (err) *err += "not a regular file (a folder or device)";
+        return false;
+    }
+    uintmax_t size = std::filesystem::file_size(path, ec);
+    if (ec) {
+        if (err) *err += "cannot determine the file size";
+        return false;
+    }
+    std::ifstream in(path, std::ios::binary);
+    if (!in) {
+        if (err) *err += "cannot open the file";
+        return false;
+    }
+    out->resize(size_t(size));
+    if (size > 0 && !in.read(reinterpret_cast<char*>(out->data()), std::streamsize(size))) {
+        out->clear();
+        if (err) *err += "error reading the file";
+        return false;
+    }
+    return true;
 }
 
 /// Bytes in the file's (little-endian, glTF 2.0 §4.4) order -> native.
@@ -346,6 +379,8 @@ void Loader::parse() {
     if (ext == ".glb" && !binary) checkGlb(path_, bytes);  // reports the missing magic
     std::string baseDir = std::filesystem::path(path_).parent_path().string();
     tinygltf::TinyGLTF gltf;
+    gltf.SetFsCallbacks(tinygltf::FsCallbacks{&tinygltf::FileExists, &tinygltf::ExpandFilePath, &readUriFile,
+                                              &tinygltf::WriteWholeFile, nullptr});
     ImageLoadLog images;
     gltf.SetImageLoader(&lenientImageLoader, &images);
     std::string err, warnText;

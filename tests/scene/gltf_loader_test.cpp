@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <numbers>
 
 #include <nlohmann/json.hpp>
@@ -352,6 +353,30 @@ TEST(GltfLoaderErrors, MissingBufferFileNamesItsLine) {
     InputError e = loadError(file);
     EXPECT_GT(e.where().line, 1) << e.what();
     EXPECT_NE(std::string(e.what()).find("nowhere.bin"), std::string::npos) << e.what();
+}
+
+TEST(GltfLoaderErrors, BufferUriNamingAFolderIsAnError) {
+    // tinygltf's own file read sized a folder by tellg (2^63 - 1 on ext4) and
+    // allocated that; the loader reads URIs itself and refuses non-files.
+    auto dir = test::tempDir("gltf_dirbuf");
+    std::filesystem::create_directories(dir / "sub");
+    for (const char* uri : {"sub", "."}) {
+        auto file = test::writeFile(dir / "scene.gltf", sceneJson(uri).dump(2));
+        InputError e = loadError(file);
+        EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
+        if (std::string(uri) == "sub") {
+            EXPECT_GT(e.where().line, 1) << e.what();
+        }
+    }
+    // An image URI naming a folder: the texture is skipped with a warning.
+    json j = sceneJson(dataUri(geometryBuffer()));
+    j["images"] = json::array({{{"uri", "sub"}}});
+    j["textures"] = json::array({{{"source", 0}}});
+    j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+    auto file = test::writeFile(dir / "scene.gltf", j.dump());
+    Scene s = loadGltf(file.string());
+    EXPECT_NEAR(findMaterial(s, "red")->rho.r, 0.8, 1e-12);
+    EXPECT_TRUE(hasWarning(s, "could not be loaded"));
 }
 
 TEST(GltfLoaderErrors, TruncatedGlbNamesTheByteOffset) {
