@@ -52,7 +52,8 @@ std::vector<unsigned char> readWholeFile(const std::string& path) {
 /// with seekg/tellg, which for a folder on ext4 is 2^63 - 1, and then resizes
 /// a vector to it: a URI naming a folder (".", "") asked for 8 EiB. Only
 /// regular files are read here, with the size the file system states.
-bool readUriFile(std::vector<unsigned char>* out, std::string* err, const std::string& path, void*) {
+bool readUriFile(std::vector<unsigned char>* out, std::string* err, const std::string& path,
+                 void*) {
     std::error_code ec;
     auto status = std::filesystem::status(path, ec);
     if (ec || !std::filesystem::is_regular_file(status)) {
