@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/rng.h"
+#include "core/sampling.h"
 
 namespace hrad::cluster {
 
@@ -23,6 +24,8 @@ ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
     s.faceDisc = p.getEnum("cluster.face_kernel", "point", {"point", "disc"}) == "disc";
     s.visibleHandover =
         p.getEnum("cluster.handover", "visible", {"visible", "cosine"}) == "visible";
+    s.standIn = p.getBool("cluster.stand_in", s.standIn);
+    s.standInRays = int(p.getInt("cluster.stand_in_rays", s.standInRays, 2, 4096));
     return s;
 }
 
@@ -31,10 +34,11 @@ std::string ClusterLinkSettings::describe() const {
         "cluster_vis_rays={}, cluster_separation={}, "
         "cluster_surface_separation={}, cluster_near={}, cluster_near_rays={}, "
         "cluster_face_separation={}, cluster_face_kernel={}, cluster_defer_dark={}, "
-        "cluster_ambient={}, cluster_handover={}",
+        "cluster_ambient={}, cluster_handover={}, cluster_stand_in={}, "
+        "cluster_stand_in_rays={}",
         visRays, separation, surfaceSeparation, sampleNear ? "sample" : "open", nearRays,
         faceSeparation, faceDisc ? "disc" : "point", deferDark, ambient,
-        visibleHandover ? "visible" : "cosine");
+        visibleHandover ? "visible" : "cosine", standIn, standInRays);
 }
 
 ClusterLinker::ClusterLinker(const scene::Scene& scene, const ClusterTree* tree, ClusterModel model,
@@ -369,6 +373,79 @@ Vec3 ClusterLinker::uniformPoint(const LinkEnd& e, Pcg32& rng, uint32_t& patch) 
     return scene::elementPoint(P, e.domain, a, b);
 }
 
+ClusterLinker::PairSampler ClusterLinker::pairSampler(const LinkEnd& s,
+                                                      std::span<const RGB> rootB) const {
+    // Sender points by radiosity (see the header): drawn by A_k m_k (m_k the
+    // largest channel of B_k, prepareSenders), each weighted by c_k / m_k
+    // (c_k the mean of the channels), so that M E[k V c / m], M = sum A_k m_k,
+    // estimates the power per unit receiver area with the sender's current
+    // radiosities; divided by the mean channel of what the gather multiplies
+    // K by (s.sent), K is that power per unit of it. A sender that carries
+    // nothing yet, or whose gather radiosity is unknown, is drawn by area.
+    PairSampler d;
+    d.node = s.isCluster ? &tree_->node(s.cluster) : nullptr;
+    d.weighted = d.node && s.sent > 0 && !senderPrefix_.empty() && !rootB.empty() &&
+                 senderPrefix_[d.node->patchEnd] > senderPrefix_[d.node->patchBegin];
+    d.scale = d.weighted
+                  ? (senderPrefix_[d.node->patchEnd] - senderPrefix_[d.node->patchBegin]) / s.sent
+                  : s.area;
+    return d;
+}
+
+void ClusterLinker::samplePairs(const LinkEnd& r, const LinkEnd& s, const PairSampler& d,
+                                std::span<const RGB> rootB, const Vec3& u, int n, Pcg32& rng,
+                                PairSums& e) const {
+    auto senderPoint = [&](uint32_t& patch, double& w) {
+        if (!d.weighted) {
+            w = 1.0;
+            return uniformPoint(s, rng, patch);
+        }
+        double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
+        patch = senderPatch(*d.node, a);
+        const RGB B = senderRadiosity(patch, rootB[patch]);
+        double m = maxComponent(B);
+        w = m > 0 ? (B.r + B.g + B.b) / (3.0 * m) : 0.0;
+        return tree_->pointOnPatch(patch, b, c);
+    };
+    transport::Segment seg[64];
+    uint8_t occ[64];
+    double kern[64];
+    bool away[64];
+    int done = 0;
+    while (done < n) {
+        int m = std::min(64, n - done), cast = 0;
+        for (int i = 0; i < m; ++i) {
+            transport::Segment t;
+            t.a = uniformPoint(r, rng, t.patchA);
+            double w = 1.0;
+            t.b = senderPoint(t.patchB, w);
+            const Vec3& na = scene_->patches[t.patchA].normal;
+            const Vec3& nb = scene_->patches[t.patchB].normal;
+            double cu = glm::dot(na, u);
+            Vec3 dv = t.b - t.a;
+            double d2 = glm::dot(dv, dv);
+            double ca = glm::dot(na, dv), cb = -glm::dot(nb, dv);
+            if (!(ca > 0 && cb > 0 && d2 > 0)) continue;
+            away[cast] = cu <= 0;
+            kern[cast] = w * ca * cb / (kPi * d2 * d2);
+            seg[cast++] = t;
+        }
+        if (cast > 0 && vis_) vis_->occluded(seg, size_t(cast), occ);
+        for (int i = 0; i < cast; ++i) {
+            bool blocked = vis_ && occ[i];
+            e.k += kern[i];
+            e.blocked += blocked;
+            if (!blocked) {
+                e.kv += kern[i];
+                e.kv2 += kern[i] * kern[i];
+                if (away[i]) e.kvAway += kern[i];
+            }
+        }
+        e.cast += cast;
+        done += m;
+    }
+}
+
 ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s,
                                        std::span<const RGB> rootB) const {
     ClusterLink out;
@@ -380,79 +457,14 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s,
     const bool orientedReceiver = r.isCluster && model_ == ClusterModel::Oriented;
     const int n = std::max(2, s_.nearRays);
     Pcg32 rng(hashIds(r.stableId, s.stableId, 0x6e656172ULL));
-    // Sender points by radiosity (see the header): drawn by A_k m_k (m_k the
-    // largest channel of B_k, prepareSenders), each weighted by c_k / m_k
-    // (c_k the mean of the channels), so that M E[k V c / m], M = sum A_k m_k,
-    // estimates the power per unit receiver area with the sender's current
-    // radiosities; divided by the mean channel of what the gather multiplies
-    // K by (s.sent), K is that power per unit of it. A sender that carries
-    // nothing yet, or whose gather radiosity is unknown, is drawn by area.
-    const ClusterNode* sn = s.isCluster ? &tree_->node(s.cluster) : nullptr;
-    const bool weighted = sn && s.sent > 0 && !senderPrefix_.empty() && !rootB.empty() &&
-                          senderPrefix_[sn->patchEnd] > senderPrefix_[sn->patchBegin];
-    const double scale =
-        weighted ? (senderPrefix_[sn->patchEnd] - senderPrefix_[sn->patchBegin]) / s.sent : s.area;
-    auto senderPoint = [&](uint32_t& patch, double& w) {
-        if (!weighted) {
-            w = 1.0;
-            return uniformPoint(s, rng, patch);
-        }
-        double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
-        patch = senderPatch(*sn, a);
-        const RGB B = senderRadiosity(patch, rootB[patch]);
-        double m = maxComponent(B);
-        w = m > 0 ? (B.r + B.g + B.b) / (3.0 * m) : 0.0;
-        return tree_->pointOnPatch(patch, b, c);
-    };
-    // One estimate from n point pairs: sums of the kernel k_i (times the
-    // sender point's weight), of k_i V_i and of its square, and the rays cast
-    // and blocked (pairs with a zero kernel cast none).
-    struct Estimate {
-        double k = 0.0, kv = 0.0, kv2 = 0.0, kvAway = 0.0;
-        int cast = 0, blocked = 0;
-    };
-    auto estimate = [&](Estimate& e) {
-        transport::Segment seg[64];
-        uint8_t occ[64];
-        double kern[64];
-        bool away[64];
-        int done = 0;
-        while (done < n) {
-            int m = std::min(64, n - done), cast = 0;
-            for (int i = 0; i < m; ++i) {
-                transport::Segment t;
-                t.a = uniformPoint(r, rng, t.patchA);
-                double w = 1.0;
-                t.b = senderPoint(t.patchB, w);
-                const Vec3& na = scene_->patches[t.patchA].normal;
-                const Vec3& nb = scene_->patches[t.patchB].normal;
-                double cu = glm::dot(na, u);
-                Vec3 d = t.b - t.a;
-                double d2 = glm::dot(d, d);
-                double ca = glm::dot(na, d), cb = -glm::dot(nb, d);
-                if (!(ca > 0 && cb > 0 && d2 > 0)) continue;
-                away[cast] = cu <= 0;
-                kern[cast] = w * ca * cb / (kPi * d2 * d2);
-                seg[cast++] = t;
-            }
-            if (cast > 0 && vis_) vis_->occluded(seg, size_t(cast), occ);
-            for (int i = 0; i < cast; ++i) {
-                bool blocked = vis_ && occ[i];
-                e.k += kern[i];
-                e.blocked += blocked;
-                if (!blocked) {
-                    e.kv += kern[i];
-                    e.kv2 += kern[i] * kern[i];
-                    if (away[i]) e.kvAway += kern[i];
-                }
-            }
-            e.cast += cast;
-            done += m;
-        }
-    };
-    Estimate judged, carried;
-    estimate(judged);
-    estimate(carried);
+    const PairSampler sampler = pairSampler(s, rootB);
+    const double scale = sampler.scale;
+    // Two independent estimates from n point pairs each: sums of the kernel
+    // k_i (times the sender point's weight), of k_i V_i and of its square,
+    // and the rays cast and blocked (pairs with a zero kernel cast none).
+    PairSums judged, carried;
+    samplePairs(r, s, sampler, rootB, u, n, rng, judged);
+    samplePairs(r, s, sampler, rootB, u, n, rng, carried);
     out.rays = uint32_t(judged.cast + carried.cast);
     // Receiver factor: the model hands an oriented receiving cluster's
     // surfaces K cos_k+(u), i.e. K A_r E[cos+] in all.
@@ -502,6 +514,132 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s,
         out.relativeError = 1.0;
     }
     out.Fupper = gap > 0 ? s.area / (kPi * gap * gap) : 3.0e38;
+    return out;
+}
+
+bool ClusterLinker::holds(const LinkEnd& e, uint32_t patch, const Vec3& x) const {
+    if (e.isCluster) {
+        const auto& leaf = tree_->patchCluster();
+        if (patch >= leaf.size()) return false;
+        const auto& parent = tree_->parents();
+        for (uint32_t c = leaf[patch]; c != UINT32_MAX; c = parent[c])
+            if (c == e.cluster) return true;
+        return false;
+    }
+    if (patch != e.patch) return false;
+    if (std::fabs(e.domain.h) >= 1.0) return true;
+    const scene::Patch& P = scene_->patches[patch];
+    const Vec2 uv = scene::patchInverse(P, x);
+    const int level = int(std::lround(-std::log2(std::fabs(e.domain.h))));
+    const scene::Domain d = scene::keyDomain(P.kind, scene::keyAt(P.kind, uv.x, uv.y, level));
+    const double tol = 1e-9;
+    return std::fabs(d.u0 - e.domain.u0) < tol && std::fabs(d.v0 - e.domain.v0) < tol &&
+           std::fabs(d.h - e.domain.h) < tol;
+}
+
+ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
+                                   std::vector<StandInSample>* samples) const {
+    ClusterLink out;
+    out.sampled = true;
+    out.standIn = true;
+    const int n = std::max(2, s_.standInRays);
+    Pcg32 rng(hashIds(r.stableId, s.stableId, 0x7374616eULL));
+    // The sender by area (s at one radiosity): the gather weighs the samples
+    // by their patches' radiosities itself.
+    PairSampler sampler;
+    sampler.node = s.isCluster ? &tree_->node(s.cluster) : nullptr;
+    sampler.scale = s.area;
+    const Vec3 between = s.center - r.center;
+    const double dist = glm::length(between);
+    const double gap = dist - r.radius - s.radius;
+    // Samples of the transfer per unit receiver area: their sum and sum of
+    // squares, the rays cast, and those that found s.
+    double sum = 0.0, sum2 = 0.0;
+    int cast = 0, found = 0;
+    std::vector<StandInSample> local;
+    if (samples) local.reserve(size_t(n));
+    if (gap > 0 || !vis_) {
+        // Spheres apart: point pairs (the kernel is bounded by 1 / gap^2).
+        // One pair at a time, to keep each found sender patch.
+        for (int i = 0; i < n; ++i) {
+            transport::Segment t;
+            t.a = uniformPoint(r, rng, t.patchA);
+            t.b = uniformPoint(s, rng, t.patchB);
+            const Vec3& na = scene_->patches[t.patchA].normal;
+            const Vec3& nb = scene_->patches[t.patchB].normal;
+            Vec3 dv = t.b - t.a;
+            double d2 = glm::dot(dv, dv);
+            double ca = glm::dot(na, dv), cb = -glm::dot(nb, dv);
+            if (!(ca > 0 && cb > 0 && d2 > 0)) continue;
+            ++cast;
+            if (vis_ && vis_->occluded(t)) continue;
+            ++found;
+            double v = sampler.scale * ca * cb / (kPi * d2 * d2);
+            sum += v;
+            sum2 += v * v;
+            if (samples) local.push_back({t.patchB, float(v / n)});
+        }
+        out.judged = cast > 0 ? double(found) / cast : 0.0;
+        out.partial = found > 0 && found < cast;
+        out.uncertain = cast > 0 && found == 0;
+    } else {
+        // Overlapping spheres: each receiver point gathers along one
+        // cosine-distributed direction (see the header).
+        for (int i = 0; i < n; ++i) {
+            uint32_t pa = 0;
+            const Vec3 x = uniformPoint(r, rng, pa);
+            const Vec3& nx = scene_->patches[pa].normal;
+            const double u1 = rng.nextDouble(), u2 = rng.nextDouble();
+            const Vec3 dir = cosineDirection(nx, u1, u2);
+            // Only a ray that enters s's bounding sphere can find s, and
+            // only before it leaves it.
+            const Vec3 oc = x - s.center;
+            const double bq = glm::dot(dir, oc);
+            const double R = s.radius * (1.0 + 1e-6) + 1e-12;
+            const double disc = bq * bq - (glm::dot(oc, oc) - R * R);
+            if (!(disc > 0)) continue;
+            const double tExit = -bq + std::sqrt(disc);
+            if (!(tExit > 0)) continue;
+            transport::RayHit hit = vis_->intersect(x, dir, 0.0, tExit, pa);
+            ++cast;
+            if (!hit.hit || !(glm::dot(scene_->patches[hit.patch].normal, dir) < 0) ||
+                !holds(s, hit.patch, hit.point))
+                continue;
+            ++found;
+            sum += 1.0;
+            sum2 += 1.0;
+            if (samples) local.push_back({hit.patch, float(1.0 / n)});
+        }
+        out.judged = 1.0;
+    }
+    out.rays = uint32_t(cast);
+    const double mean = sum / n;
+    // r cannot take more than s radiates (K <= A_s / A_r) and no receiver
+    // point sees a form factor above 1: bounds of the true transfer that
+    // keep a noisy estimate from amplifying light.
+    const double bound = std::min(1.0, r.area > 0 ? s.area / r.area : 0.0);
+    const double scaleDown = mean > bound ? bound / mean : 1.0;
+    out.K = mean * scaleDown;
+    out.judgedF = out.K;
+    if (mean > 0) {
+        double var = std::max(0.0, sum2 / n - mean * mean);
+        out.relativeError = 2.0 * std::sqrt(var / (n - 1)) / mean;
+    } else {
+        out.relativeError = found == 0 && cast > 0 ? 1.0 : 0.0;
+    }
+    out.Fupper = gap > 0 ? s.area / (kPi * gap * gap) : 3.0e38;
+    if (samples) {
+        // Merged by patch, in patch order.
+        std::sort(local.begin(), local.end(),
+                  [](const StandInSample& a, const StandInSample& b) { return a.patch < b.patch; });
+        samples->clear();
+        for (const StandInSample& x : local) {
+            if (!samples->empty() && samples->back().patch == x.patch)
+                samples->back().weight += float(x.weight * scaleDown);
+            else
+                samples->push_back({x.patch, float(x.weight * scaleDown)});
+        }
+    }
     return out;
 }
 

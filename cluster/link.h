@@ -131,6 +131,33 @@
 // than the opened ones, and no reference says which is right
 // (papers/README.md, "Near cluster pairs").
 //
+// Stand-ins (cluster.stand_in). A solve stopped early by hr.max_links,
+// memory.budget_mb or hr.max_seconds keeps the links it was about to open
+// (Link::kOpen); without a transfer they carry nothing, and on a capped
+// cluttered scene that is most of the light: the bathroom capped at 3 M
+// links left 2.9 M of its 5.3 M links unopened and came out a quarter dark
+// against Monte Carlo (bench/results/large_scenes.md). Each such link gets a
+// stand-in instead, a Monte Carlo estimate of its transfer that needs no
+// direction and no separation, so it holds for overlapping spheres and a
+// cluster's self-link alike. Receiver points x are drawn by area over r's
+// surfaces. When the bounding spheres are apart, sender points y are drawn
+// by area over s's surfaces and weighted by the kernel cos_x+ cos_y+ /
+// (pi d^2) with visibility (bounded there by 1 / gap^2). When they overlap,
+// that kernel has no bound where the two ends meet and its estimates no
+// finite variance, so each x gathers along a cosine-distributed direction
+// instead: the nearest surface hit, if it belongs to s and faces the ray,
+// counts 1 (the mean is the same transfer, from samples in [0, 1]; rays are
+// clipped to s's bounding sphere). The samples that found s are kept, by
+// root patch: the gather sums weight times that patch's current radiosity,
+// so the stand-in follows where on s the light is as the solve goes on
+// (fixed to the radiosities at the stop it was 5 % too bright on classroom
+// capped at 75 k links, papers/README.md). The receiving cluster hands the
+// light to its surfaces by area (each takes the link's irradiance, as an
+// isotropic cluster does): where the pair is too close for any direction
+// the split among the receiver's surfaces is not modelled, but the light is
+// not lost. The estimate's error bound (two standard errors) travels with
+// the link like a sampled near link's.
+//
 // Settings (Params keys):
 //   cluster.vis_rays    int     8    visibility rays per estimate for links that
 //                                     touch a cluster (two independent estimates)
@@ -157,6 +184,9 @@
 //                                     (cluster/openness.h; K divided by the cluster's
 //                                     openness, Hierarchy::handOverNewLinks), or by
 //                                     cosine alone
+//   cluster.stand_in    bool    true  links left unopened when refinement stops early
+//                                     get a stand-in transfer (above); false: they carry nothing
+//   cluster.stand_in_rays  int  32   point pairs (rays) per stand-in
 //   cluster.face_separation  double  1.5  the same for links whose ends are planar face
 //                                     clusters or surface elements, at least one a face
 //                                     cluster (cluster.faces; 1: bounding spheres apart)
@@ -219,6 +249,10 @@ struct ClusterLinkSettings {
     /// cluster.handover: an oriented receiving cluster hands each link's light
     /// to its surfaces by cosine and openness (true) or by cosine alone.
     bool visibleHandover = true;
+    /// cluster.stand_in: links left to be opened when refinement stops early
+    /// get a sampled stand-in transfer (ClusterLinker::standIn) instead of none.
+    bool standIn = true;
+    int standInRays = 32;
     static ClusterLinkSettings fromParams(const Params& p);
     std::string describe() const;
 };
@@ -240,6 +274,9 @@ struct ClusterLink {
     /// The sender is a cluster that carries no light yet (cluster.defer_dark):
     /// nothing computed, no rays cast; link() again once it carries light.
     bool deferred = false;
+    /// A stand-in (standIn()): the receiver takes the light by area, the
+    /// sender sends its mean radiosity.
+    bool standIn = false;
     double judgedF = 0.0;
     double relativeError = 0.0;
 };
@@ -270,6 +307,17 @@ class ClusterLinker {
     /// current radiosity of every root patch (indexed by patch): the sender's
     /// ray end points are drawn in proportion to it.
     ClusterLink link(const LinkEnd& r, const LinkEnd& s, std::span<const RGB> rootB) const;
+
+    /// The stand-in transfer of a link that had to be opened when refinement
+    /// stopped early (hr.max_links, memory.budget_mb, hr.max_seconds; see
+    /// "Stand-ins" above): a Monte Carlo estimate of the transfer from s to
+    /// r over both ends' surfaces with visibility, whatever their distance
+    /// (overlapping spheres, a cluster's self-link). K is the transfer per
+    /// unit receiver area with s at one radiosity (a mean form factor);
+    /// for a sending cluster, `samples` receives the samples that found s
+    /// (by root patch, merged), whose weights sum to K.
+    ClusterLink standIn(const LinkEnd& r, const LinkEnd& s,
+                        std::vector<StandInSample>* samples = nullptr) const;
 
     /// Prepares link() to draw a sending cluster's ray end points from the
     /// prefix sums of A_k max_c (B_k + rho_k a) over the tree's patch order
@@ -306,6 +354,29 @@ class ClusterLinker {
     bool coplanar(const LinkEnd& r, const LinkEnd& s) const;
 
   private:
+    /// How a sampled transfer draws the sender's points (pairSampler): by
+    /// radiosity where known (`weighted`), else by area; `scale` turns the
+    /// mean weighted kernel into K.
+    struct PairSampler {
+        const ClusterNode* node = nullptr;
+        bool weighted = false;
+        double scale = 0.0;
+    };
+    /// Sums over n point pairs (x uniform by area on r, y drawn on s by the
+    /// sampler): kernel k_i = w cos_x+ cos_y+ / (pi d^2) (w the sender
+    /// point's weight), k_i V_i, (k_i V_i)^2, the part of k_i V_i on receiver
+    /// points facing away from u, rays cast and blocked.
+    struct PairSums {
+        double k = 0.0, kv = 0.0, kv2 = 0.0, kvAway = 0.0;
+        int cast = 0, blocked = 0;
+    };
+    PairSampler pairSampler(const LinkEnd& s, std::span<const RGB> rootB) const;
+    void samplePairs(const LinkEnd& r, const LinkEnd& s, const PairSampler& d,
+                     std::span<const RGB> rootB, const Vec3& u, int n, Pcg32& rng,
+                     PairSums& e) const;
+    /// Whether the surface point x on `patch` belongs to end e (a patch
+    /// below the cluster, or inside the surface element's domain).
+    bool holds(const LinkEnd& e, uint32_t patch, const Vec3& x) const;
     /// Monte Carlo transfer of a near pair (cluster.near = sample).
     ClusterLink sampledLink(const LinkEnd& r, const LinkEnd& s, std::span<const RGB> rootB) const;
     /// E[cos+(n_x, u)] over the surfaces below the receiving cluster r: the

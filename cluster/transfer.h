@@ -30,6 +30,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -43,5 +44,13 @@ inline constexpr size_t kAutoClusterPatches = 2000;
 ClusterModel parseClusterModel(const std::string& name);
 const char* clusterModelName(ClusterModel m);
 std::vector<std::string> clusterModelNames();
+
+/// One sample of a stand-in from a sending cluster (ClusterLinker::standIn):
+/// the irradiance it puts on the receiver per unit area is the sum over its
+/// samples of weight times the radiosity of root patch `patch`.
+struct StandInSample {
+    uint32_t patch = 0;
+    float weight = 0.f;
+};
 
 }  // namespace hrad::cluster

@@ -20,12 +20,15 @@
 //   hrad_version, build_type, host, date, scene, scene_label, settings,
 //   reference_settings, scene_info{...}, solver, solver_settings, oracle,
 //   converged, link_cap_hit, memory_budget_hit, time_limit_hit, min_area,
+//   error_estimate, stand_in_power_share,
 //   counts{elements, leaves, links, initial_links, initial_pairs, links_ss, links_sc,
 //          links_cs, links_cc (surface/cluster receiver-sender), rays, form_factors,
-//          deferred_links_computed, deferred_links_left, unopened_links, handover_rays,
+//          deferred_links_computed, deferred_links_left, unopened_links, stand_in_links,
+//          stand_in_rays, handover_rays,
 //          handover_by_openness, handover_by_cosine, iterations},
 //   timings{load, visibility_build, [cluster_build], [handover_openness], linking,
-//           refine, gather, push_pull, solve_total, reference, error, render}   (seconds)
+//           refine, [stand_in], gather, push_pull, solve_total, reference, error,
+//           render}   (seconds)
 //   history[{iteration, stage, eps, links, elements, leaves, refined_links,
 //            rays, form_factors, residual, reflected_power, refine_s, gather_s,
 //            push_pull_s, element_bytes, link_bytes}]

@@ -51,6 +51,7 @@ class HrEntry final : public Solver {
         sm["time_limit_hit"] = res->timeLimitHit;
         sm["min_area"] = res->minArea;
         sm["error_estimate"] = res->errorEstimate;
+        sm["stand_in_power_share"] = res->standInPowerShare;
         sm["counts"] = json{{"elements", h.numElements()},
                             {"leaves", h.numLeaves()},
                             {"links", h.numLinks()},
@@ -70,6 +71,8 @@ class HrEntry final : public Solver {
                             {"deferred_links_computed", res->deferredLinksComputed},
                             {"deferred_links_left", res->deferredLinksLeft},
                             {"unopened_links", res->unopenedLinks},
+                            {"stand_in_links", res->standInLinks},
+                            {"stand_in_rays", res->standInRays},
                             {"iterations", res->history.size()}};
         {
             // Where refinement spends, by link kind (HrResult::linkCost).
@@ -91,6 +94,7 @@ class HrEntry final : public Solver {
         t["gather"] = res->gatherSeconds;
         t["push_pull"] = res->pushPullSeconds;
         t["error_estimate"] = res->errorEstimateSeconds;
+        if (res->standInLinks > 0) t["stand_in"] = res->standInSeconds;
         for (const auto& [k, v] : res->memory.all()) out.memory.set(k, v);
         json hist = json::array();
         for (const auto& it : res->history)

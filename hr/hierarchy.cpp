@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <numeric>
 
@@ -278,6 +279,22 @@ void Hierarchy::setLinks(const std::vector<uint32_t>& receivers, std::vector<Lin
     handOverNewLinks();
 }
 
+uint32_t Hierarchy::addStandIn(std::span<const cluster::StandInSample> samples) {
+    standInSamples_.insert(standInSamples_.end(), samples.begin(), samples.end());
+    standInBegin_.push_back(standInSamples_.size());
+    return uint32_t(standInBegin_.size() - 2);
+}
+
+RGB Hierarchy::standInSent(const Link& l) const {
+    if (!isCluster(l.sender)) return double(l.K) * B_[l.sender];
+    const uint32_t block = std::bit_cast<uint32_t>(l.Fupper);
+    HRAD_DCHECK(size_t(block) + 1 < standInBegin_.size());
+    RGB sum(0.0);
+    for (uint64_t k = standInBegin_[block]; k < standInBegin_[block + 1]; ++k)
+        sum += double(standInSamples_[k].weight) * B_[standInSamples_[k].patch];
+    return sum;
+}
+
 void Hierarchy::handOverNewLinks() {
     if (!openness_ || clusterLinkDir_.empty()) return;
     const uint32_t np = numPatches();
@@ -288,7 +305,8 @@ void Hierarchy::handOverNewLinks() {
         for (uint32_t c = r.begin(); c != r.end(); ++c) {
             fresh.clear();
             for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i)
-                if (!(links_[i].flags & Link::kHandedOver) && links_[i].K > 0) fresh.push_back(i);
+                if (!(links_[i].flags & (Link::kHandedOver | Link::kStandIn)) && links_[i].K > 0)
+                    fresh.push_back(i);
             if (fresh.empty()) continue;
             // W = sum A cos w / sum A cos over every surface below the
             // cluster, exactly as the push will hand it (clusterIrradianceAt).
@@ -347,7 +365,11 @@ void Hierarchy::prepareOrientedDirections() {
             for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i) {
                 Vec3 d = center(links_[i].sender) - cc;
                 double len = glm::length(d);
-                clusterLinkDir_[i - clusterLinkBase_] = len > 0 ? glm::vec3(d / len) : glm::vec3(0);
+                // A stand-in lights the cluster by area (gatherRow), not by
+                // cosine: no direction, so the push skips it.
+                bool standIn = links_[i].flags & Link::kStandIn;
+                clusterLinkDir_[i - clusterLinkBase_] =
+                    len > 0 && !standIn ? glm::vec3(d / len) : glm::vec3(0);
             }
         }
     });
@@ -365,8 +387,13 @@ void Hierarchy::gatherRow(uint32_t r) {
     if (oriented && patch_[r] == kNone) {
         // An oriented cluster gathers nothing as a whole: its links light
         // each surface below it with that surface's cosine when pushed
-        // (clusterIrradianceToRoots).
-        gathered_[r] = RGB(0.0);
+        // (clusterIrradianceToRoots). Stand-ins (cluster/link.h) light its
+        // surfaces by area: gathered here and handed down as an isotropic
+        // cluster's irradiance is (clusterDown).
+        RGB standIn(0.0);
+        for (uint64_t i = linkBegin(r); i < linkEnd(r); ++i)
+            if (links_[i].flags & Link::kStandIn) standIn += standInSent(links_[i]);
+        gathered_[r] = standIn;
         return;
     }
     RGB sum(0.0);
@@ -379,6 +406,10 @@ void Hierarchy::gatherRow(uint32_t r) {
     Vec3 cr(0.0);
     for (uint64_t i = linkBegin(r); i < linkEnd(r); ++i) {
         uint32_t s = links_[i].sender;
+        if (links_[i].flags & Link::kStandIn) {
+            sum += standInSent(links_[i]);
+            continue;
+        }
         const float* K = nb_ > 1 ? coupling(i) : nullptr;
         if (K) {
             // c^r_a += sum_b K^{ab} c^s_b (transport/coupling.h).
@@ -392,7 +423,7 @@ void Hierarchy::gatherRow(uint32_t r) {
                 else
                     sumHi[a] += v;
             }
-        } else if (oriented && isCluster(s)) {
+        } else if (oriented && isCluster(s) && !(links_[i].flags & Link::kStandIn)) {
             // An oriented cluster sends what its surfaces facing the
             // receiver carry, not its mean radiosity.
             if (!haveCenter) {
@@ -853,6 +884,8 @@ uint64_t Hierarchy::linkBytes() const {
     return links_.capacity() * sizeof(Link) + linkOffsets_.capacity() * sizeof(uint64_t) +
            clusterLinkDir_.capacity() * sizeof(glm::vec3) +
            samples_.capacity() * sizeof(KernelSamples) +
+           standInBegin_.capacity() * sizeof(uint64_t) +
+           standInSamples_.capacity() * sizeof(cluster::StandInSample) +
            couplingIndex_.capacity() * sizeof(uint32_t) + couplingData_.capacity() * sizeof(float);
 }
 
@@ -865,6 +898,9 @@ void Hierarchy::reportMemory(MemoryCounters& m) const {
                                    couplingData_.capacity() * sizeof(float));
     if (!samples_.empty())
         m.set("link_kernel_samples", samples_.capacity() * sizeof(KernelSamples));
+    if (standInSamples_.size() > 0)
+        m.set("stand_in_samples", standInBegin_.capacity() * sizeof(uint64_t) +
+                                      standInSamples_.capacity() * sizeof(cluster::StandInSample));
     if (!clusterLinkDir_.empty())
         m.set("cluster_link_directions", clusterLinkDir_.capacity() * sizeof(glm::vec3));
     if (tree_)

@@ -30,6 +30,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "cluster/transfer.h"
@@ -59,7 +60,7 @@ struct Link {
     /// independent of those in K (hr/solver.h).
     uint16_t visibility = 0;
     /// kPartial | kOpen | kUncertain | kSampled | kDeferred | kHandedOver |
-    /// kOpenHandOver
+    /// kOpenHandOver | kStandIn
     uint8_t flags = 0;
     /// kSampled links: twice the relative standard error of the judged
     /// transfer, in percent, rounded up (255: 2.55 or more).
@@ -91,6 +92,14 @@ struct Link {
     /// surface is open, by cosine alone.
     static constexpr uint8_t kHandedOver = 32;
     static constexpr uint8_t kOpenHandOver = 64;
+    /// A link that had to be opened when refinement stopped early, given a
+    /// sampled stand-in transfer (cluster.stand_in; cluster/link.h
+    /// "Stand-ins"; also kSampled). K is its mean form factor; from a
+    /// sending cluster it gathers through its samples (Hierarchy::standInSent;
+    /// `Fupper` then holds the index of its sample block, not a bound), from
+    /// a surface element K times its radiosity. A receiving cluster takes
+    /// the light by area, not by cosine.
+    static constexpr uint8_t kStandIn = 128;
 
     double vis() const { return visibility / 65535.0; }
     void setVis(double v) {
@@ -212,6 +221,14 @@ class Hierarchy {
     /// `samples` drops them).
     void setLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links,
                   std::vector<KernelSamples>&& samples);
+    /// Stores the samples of a stand-in from a sending cluster and returns
+    /// the index of their block (for the link's Fupper; not thread-safe).
+    uint32_t addStandIn(std::span<const cluster::StandInSample> samples);
+    /// What stand-in link l sends its receiver per unit area (irradiance):
+    /// the sum over its samples of weight times the current radiosity of
+    /// the sample's root patch; from a surface element, K times its radiosity.
+    RGB standInSent(const Link& l) const;
+    uint64_t standInSampleCount() const { return standInSamples_.size(); }
     /// Kernel samples of every link (empty when no oracle asked for them).
     const std::vector<KernelSamples>& kernelSamples() const { return samples_; }
     uint64_t numLinks() const { return links_.size(); }
@@ -374,6 +391,10 @@ class Hierarchy {
     std::vector<uint64_t> linkOffsets_;
     std::vector<Link> links_;
     std::vector<KernelSamples> samples_;
+    /// Stand-in samples (addStandIn): block b is
+    /// standInSamples_[standInBegin_[b] .. standInBegin_[b + 1]).
+    std::vector<uint64_t> standInBegin_{0};
+    std::vector<cluster::StandInSample> standInSamples_;
     std::vector<uint32_t> couplingIndex_;
     std::vector<float> couplingData_;
 };

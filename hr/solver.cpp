@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -344,6 +345,63 @@ Link HrSolver::makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint3
     return l;
 }
 
+Link HrSolver::makeStandIn(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays,
+                           std::vector<cluster::StandInSample>* samples) const {
+    cluster::ClusterLink c = linker_->standIn(endOf(h, r), endOf(h, s), samples);
+    rays = c.rays;
+    Link l;
+    l.sender = s;
+    l.flags = Link::kSampled | Link::kStandIn;
+    if (c.partial) l.flags |= Link::kPartial;
+    if (c.uncertain) l.flags |= Link::kUncertain;
+    l.K = float(c.K);
+    l.Fupper = float(c.judgedF);  // a sending cluster's: its sample block (standInUnopened)
+    l.setVis(c.judged);
+    l.uncertainty = uint8_t(std::min(255.0, std::ceil(100.0 * c.relativeError)));
+    return l;
+}
+
+void HrSolver::standInUnopened(Hierarchy& h, const std::vector<uint32_t>& recv,
+                               std::vector<Link>& links, HrResult& res,
+                               IterationRecord& rec) const {
+    if (!linker_ || !linker_->settings().standIn) return;
+    Timer t;
+    std::vector<size_t> open;
+    for (size_t i = 0; i < links.size(); ++i)
+        if (links[i].flags & Link::kOpen) open.push_back(i);
+    if (open.empty()) return;
+    // Estimated in parallel; the samples of sending clusters are stored in
+    // link order afterwards (Hierarchy::addStandIn), so results do not
+    // depend on the threads.
+    std::vector<std::vector<cluster::StandInSample>> samples(open.size());
+    std::atomic<uint64_t> rays{0};
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, open.size(), 256), [&](const auto& range) {
+        uint64_t localRays = 0;
+        for (size_t j = range.begin(); j != range.end(); ++j) {
+            const size_t i = open[j];
+            const uint32_t s = links[i].sender;
+            uint32_t nr = 0;
+            links[i] = makeStandIn(h, recv[i], s, nr, h.isCluster(s) ? &samples[j] : nullptr);
+            localRays += nr;
+        }
+        rays += localRays;
+    });
+    for (size_t j = 0; j < open.size(); ++j) {
+        Link& l = links[open[j]];
+        if (!h.isCluster(l.sender)) continue;
+        l.Fupper = std::bit_cast<float>(h.addStandIn(samples[j]));
+        std::vector<cluster::StandInSample>().swap(samples[j]);
+    }
+    res.standInLinks += open.size();
+    res.standInRays += rays;
+    res.standInSeconds += t.seconds();
+    res.totalRays += rays;
+    rec.rays += rays;
+    spdlog::info(
+        "{} links that had to be opened got a stand-in transfer ({} rays, {} samples, {:.1f} s)",
+        open.size(), rays.load(), h.standInSampleCount(), t.seconds());
+}
+
 void HrSolver::fillBounds(const Hierarchy& h, uint32_t r, const Link& l,
                           oracles::LinkEstimate& e) const {
     if (l.flags & Link::kSampled) {
@@ -468,8 +526,9 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
     e.partialVisibility = (l.flags & Link::kPartial) != 0;
     if (l.flags & Link::kSampled) {
         // A near cluster pair estimated by sampling (cluster/link.h): the
-        // judged estimate, receiver factor included, and its error bound.
-        e.F = l.Fupper;
+        // judged estimate, receiver factor included, and its error bound (a
+        // stand-in's K is its estimate; its Fupper may hold a sample block).
+        e.F = (l.flags & Link::kStandIn) ? double(l.K) : double(l.Fupper);
         e.unoccludedF = v > 0 ? e.F / v : e.F;
         e.Fupper = e.F * (1.0 + l.uncertainty / 100.0);
         e.partialVisibility = (l.flags & (Link::kPartial | Link::kUncertain)) != 0;
@@ -893,6 +952,10 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         recv = std::move(nrecv);
         pendingS = std::move(nS);
     }
+    // Refinement stopped early: the links it was about to open get a
+    // stand-in transfer instead of none (cluster/link.h "Stand-ins").
+    if (res.linkCapHit || res.memoryBudgetHit || res.timeLimitHit)
+        standInUnopened(h, finalRecv, finalLinks, res, rec);
     if (coupling_) {
         PreviousCoupling previous = snapshotCoupling(h);
         h.setLinks(finalRecv, std::move(finalLinks), std::move(finalS));
@@ -1157,10 +1220,25 @@ HrResult HrSolver::solve(bool progress) {
             if (l.flags & Link::kDeferred) ++res.deferredLinksLeft;
         }
     }
+    if (res.standInLinks > 0) {
+        // The light the stand-ins carry: what their receivers reflect of it.
+        RGB standIn(0.0);
+        for (uint32_t r = 0; r < h.numElements(); ++r)
+            for (uint64_t i = h.linkBegin(r); i < h.linkEnd(r); ++i) {
+                const Link& l = h.link(i);
+                if (!(l.flags & Link::kStandIn)) continue;
+                standIn += h.standInSent(l) * h.area(r) * h.rho(r);
+            }
+        double reflected = maxComponent(h.reflectedPower());
+        res.standInPowerShare = reflected > 0 ? maxComponent(standIn) / reflected : 0.0;
+        spdlog::info("stand-in links carry {:.1f} % of the reflected power",
+                     100.0 * res.standInPowerShare);
+    }
     if (res.unopenedLinks > 0)
         spdlog::warn(
             "{} links that had to be opened were left unopened (refinement stopped early: "
-            "hr.max_links, memory.budget_mb or hr.max_seconds); they carry no light",
+            "hr.max_links, memory.budget_mb or hr.max_seconds) without a stand-in "
+            "(cluster.stand_in = false); they carry no light",
             res.unopenedLinks);
     for (const HrResult::LinkKindCost& c : linkCost_)
         for (int k = 0; k < 4; ++k) {

@@ -399,6 +399,13 @@ struct HrResult {
     /// that had to be opened when refinement stopped early (Link::kOpen), and
     /// links from clusters that never carried light (Link::kDeferred).
     uint64_t unopenedLinks = 0, deferredLinksLeft = 0;
+    /// Links that had to be opened when refinement stopped early and got a
+    /// stand-in transfer instead (cluster.stand_in, Link::kStandIn), the
+    /// rays and CPU seconds (summed over threads) those cost, and the power
+    /// the stand-ins carry in the final solution (max channel) over the
+    /// reflected power.
+    uint64_t standInLinks = 0, standInRays = 0;
+    double standInSeconds = 0.0, standInPowerShare = 0.0;
     double linkingSeconds = 0.0, refineSeconds = 0.0, gatherSeconds = 0.0, pushPullSeconds = 0.0;
     double minArea = 0.0;
     /// A posteriori estimate of the solve's relative L1 error of the
@@ -469,6 +476,15 @@ class HrSolver {
     Link makeLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
     Link evaluateLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
     Link makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
+    /// The stand-in for a link from s to r that had to be opened when
+    /// refinement stopped early (cluster/link.h "Stand-ins"; Link::kStandIn).
+    /// `samples` (sending clusters) receives its samples.
+    Link makeStandIn(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays,
+                     std::vector<cluster::StandInSample>* samples) const;
+    /// Replaces every link still to be opened (Link::kOpen) by its stand-in,
+    /// storing the samples of those from sending clusters in h.
+    void standInUnopened(Hierarchy& h, const std::vector<uint32_t>& recv, std::vector<Link>& links,
+                         HrResult& res, IterationRecord& rec) const;
     /// Node e as the cluster link builder sees it.
     cluster::LinkEnd endOf(const Hierarchy& h, uint32_t e) const;
     /// Refinement forced by validity (self-links, single-surface clusters,
