@@ -270,6 +270,8 @@ void Hierarchy::setLinks(const std::vector<uint32_t>& receivers, std::vector<Lin
     for (size_t i = 0; i < links.size(); ++i) sorted[fill[receivers[i]]++] = links[i];
     links_ = std::move(sorted);
     links_.shrink_to_fit();
+    hasStandIns_ = std::any_of(links_.begin(), links_.end(),
+                               [](const Link& l) { return (l.flags & Link::kStandIn) != 0; });
     links.clear();
     links.shrink_to_fit();
     // The coupling matrices belonged to the old links (the solver sets new ones).
@@ -696,7 +698,9 @@ Hierarchy::RelaxResult Hierarchy::relax(const std::vector<uint32_t>& roots, int 
             // indices, so backwards), gather (isotropic clusters gather as a
             // whole), hand down (parents first).
             for (size_t i = ancestors.size(); i-- > 0;) pullCluster(ancestors[i] - np);
-            if (isotropic) {
+            // Isotropic clusters gather as a whole; oriented ones gather
+            // only their stand-ins (gatherRow), handed down the same way.
+            if (isotropic || hasStandIns_) {
                 for (uint32_t c : ancestors) gatherRow(c);
                 for (uint32_t c : ancestors) {
                     uint32_t parent = parent_[c];

@@ -395,6 +395,7 @@ class Hierarchy {
     /// standInSamples_[standInBegin_[b] .. standInBegin_[b + 1]).
     std::vector<uint64_t> standInBegin_{0};
     std::vector<cluster::StandInSample> standInSamples_;
+    bool hasStandIns_ = false;  ///< some link is a stand-in (Link::kStandIn)
     std::vector<uint32_t> couplingIndex_;
     std::vector<float> couplingData_;
 };
