@@ -373,79 +373,6 @@ Vec3 ClusterLinker::uniformPoint(const LinkEnd& e, Pcg32& rng, uint32_t& patch) 
     return scene::elementPoint(P, e.domain, a, b);
 }
 
-ClusterLinker::PairSampler ClusterLinker::pairSampler(const LinkEnd& s,
-                                                      std::span<const RGB> rootB) const {
-    // Sender points by radiosity (see the header): drawn by A_k m_k (m_k the
-    // largest channel of B_k, prepareSenders), each weighted by c_k / m_k
-    // (c_k the mean of the channels), so that M E[k V c / m], M = sum A_k m_k,
-    // estimates the power per unit receiver area with the sender's current
-    // radiosities; divided by the mean channel of what the gather multiplies
-    // K by (s.sent), K is that power per unit of it. A sender that carries
-    // nothing yet, or whose gather radiosity is unknown, is drawn by area.
-    PairSampler d;
-    d.node = s.isCluster ? &tree_->node(s.cluster) : nullptr;
-    d.weighted = d.node && s.sent > 0 && !senderPrefix_.empty() && !rootB.empty() &&
-                 senderPrefix_[d.node->patchEnd] > senderPrefix_[d.node->patchBegin];
-    d.scale = d.weighted
-                  ? (senderPrefix_[d.node->patchEnd] - senderPrefix_[d.node->patchBegin]) / s.sent
-                  : s.area;
-    return d;
-}
-
-void ClusterLinker::samplePairs(const LinkEnd& r, const LinkEnd& s, const PairSampler& d,
-                                std::span<const RGB> rootB, const Vec3& u, int n, Pcg32& rng,
-                                PairSums& e) const {
-    auto senderPoint = [&](uint32_t& patch, double& w) {
-        if (!d.weighted) {
-            w = 1.0;
-            return uniformPoint(s, rng, patch);
-        }
-        double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
-        patch = senderPatch(*d.node, a);
-        const RGB B = senderRadiosity(patch, rootB[patch]);
-        double m = maxComponent(B);
-        w = m > 0 ? (B.r + B.g + B.b) / (3.0 * m) : 0.0;
-        return tree_->pointOnPatch(patch, b, c);
-    };
-    transport::Segment seg[64];
-    uint8_t occ[64];
-    double kern[64];
-    bool away[64];
-    int done = 0;
-    while (done < n) {
-        int m = std::min(64, n - done), cast = 0;
-        for (int i = 0; i < m; ++i) {
-            transport::Segment t;
-            t.a = uniformPoint(r, rng, t.patchA);
-            double w = 1.0;
-            t.b = senderPoint(t.patchB, w);
-            const Vec3& na = scene_->patches[t.patchA].normal;
-            const Vec3& nb = scene_->patches[t.patchB].normal;
-            double cu = glm::dot(na, u);
-            Vec3 dv = t.b - t.a;
-            double d2 = glm::dot(dv, dv);
-            double ca = glm::dot(na, dv), cb = -glm::dot(nb, dv);
-            if (!(ca > 0 && cb > 0 && d2 > 0)) continue;
-            away[cast] = cu <= 0;
-            kern[cast] = w * ca * cb / (kPi * d2 * d2);
-            seg[cast++] = t;
-        }
-        if (cast > 0 && vis_) vis_->occluded(seg, size_t(cast), occ);
-        for (int i = 0; i < cast; ++i) {
-            bool blocked = vis_ && occ[i];
-            e.k += kern[i];
-            e.blocked += blocked;
-            if (!blocked) {
-                e.kv += kern[i];
-                e.kv2 += kern[i] * kern[i];
-                if (away[i]) e.kvAway += kern[i];
-            }
-        }
-        e.cast += cast;
-        done += m;
-    }
-}
-
 ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s,
                                        std::span<const RGB> rootB) const {
     ClusterLink out;
@@ -457,14 +384,79 @@ ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s,
     const bool orientedReceiver = r.isCluster && model_ == ClusterModel::Oriented;
     const int n = std::max(2, s_.nearRays);
     Pcg32 rng(hashIds(r.stableId, s.stableId, 0x6e656172ULL));
-    const PairSampler sampler = pairSampler(s, rootB);
-    const double scale = sampler.scale;
-    // Two independent estimates from n point pairs each: sums of the kernel
-    // k_i (times the sender point's weight), of k_i V_i and of its square,
-    // and the rays cast and blocked (pairs with a zero kernel cast none).
-    PairSums judged, carried;
-    samplePairs(r, s, sampler, rootB, u, n, rng, judged);
-    samplePairs(r, s, sampler, rootB, u, n, rng, carried);
+    // Sender points by radiosity (see the header): drawn by A_k m_k (m_k the
+    // largest channel of B_k, prepareSenders), each weighted by c_k / m_k
+    // (c_k the mean of the channels), so that M E[k V c / m], M = sum A_k m_k,
+    // estimates the power per unit receiver area with the sender's current
+    // radiosities; divided by the mean channel of what the gather multiplies
+    // K by (s.sent), K is that power per unit of it. A sender that carries
+    // nothing yet, or whose gather radiosity is unknown, is drawn by area.
+    const ClusterNode* sn = s.isCluster ? &tree_->node(s.cluster) : nullptr;
+    const bool weighted = sn && s.sent > 0 && !senderPrefix_.empty() && !rootB.empty() &&
+                          senderPrefix_[sn->patchEnd] > senderPrefix_[sn->patchBegin];
+    const double scale =
+        weighted ? (senderPrefix_[sn->patchEnd] - senderPrefix_[sn->patchBegin]) / s.sent : s.area;
+    auto senderPoint = [&](uint32_t& patch, double& w) {
+        if (!weighted) {
+            w = 1.0;
+            return uniformPoint(s, rng, patch);
+        }
+        double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
+        patch = senderPatch(*sn, a);
+        const RGB B = senderRadiosity(patch, rootB[patch]);
+        double m = maxComponent(B);
+        w = m > 0 ? (B.r + B.g + B.b) / (3.0 * m) : 0.0;
+        return tree_->pointOnPatch(patch, b, c);
+    };
+    // One estimate from n point pairs: sums of the kernel k_i (times the
+    // sender point's weight), of k_i V_i and of its square, and the rays cast
+    // and blocked (pairs with a zero kernel cast none).
+    struct Estimate {
+        double k = 0.0, kv = 0.0, kv2 = 0.0, kvAway = 0.0;
+        int cast = 0, blocked = 0;
+    };
+    auto estimate = [&](Estimate& e) {
+        transport::Segment seg[64];
+        uint8_t occ[64];
+        double kern[64];
+        bool away[64];
+        int done = 0;
+        while (done < n) {
+            int m = std::min(64, n - done), cast = 0;
+            for (int i = 0; i < m; ++i) {
+                transport::Segment t;
+                t.a = uniformPoint(r, rng, t.patchA);
+                double w = 1.0;
+                t.b = senderPoint(t.patchB, w);
+                const Vec3& na = scene_->patches[t.patchA].normal;
+                const Vec3& nb = scene_->patches[t.patchB].normal;
+                double cu = glm::dot(na, u);
+                Vec3 d = t.b - t.a;
+                double d2 = glm::dot(d, d);
+                double ca = glm::dot(na, d), cb = -glm::dot(nb, d);
+                if (!(ca > 0 && cb > 0 && d2 > 0)) continue;
+                away[cast] = cu <= 0;
+                kern[cast] = w * ca * cb / (kPi * d2 * d2);
+                seg[cast++] = t;
+            }
+            if (cast > 0 && vis_) vis_->occluded(seg, size_t(cast), occ);
+            for (int i = 0; i < cast; ++i) {
+                bool blocked = vis_ && occ[i];
+                e.k += kern[i];
+                e.blocked += blocked;
+                if (!blocked) {
+                    e.kv += kern[i];
+                    e.kv2 += kern[i] * kern[i];
+                    if (away[i]) e.kvAway += kern[i];
+                }
+            }
+            e.cast += cast;
+            done += m;
+        }
+    };
+    Estimate judged, carried;
+    estimate(judged);
+    estimate(carried);
     out.rays = uint32_t(judged.cast + carried.cast);
     // Receiver factor: the model hands an oriented receiving cluster's
     // surfaces K cos_k+(u), i.e. K A_r E[cos+] in all.
@@ -544,11 +536,6 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
     out.standIn = true;
     const int n = std::max(2, s_.standInRays);
     Pcg32 rng(hashIds(r.stableId, s.stableId, 0x7374616eULL));
-    // The sender by area (s at one radiosity): the gather weighs the samples
-    // by their patches' radiosities itself.
-    PairSampler sampler;
-    sampler.node = s.isCluster ? &tree_->node(s.cluster) : nullptr;
-    sampler.scale = s.area;
     const Vec3 between = s.center - r.center;
     const double dist = glm::length(between);
     const double gap = dist - r.radius - s.radius;
@@ -574,7 +561,9 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
             ++cast;
             if (vis_ && vis_->occluded(t)) continue;
             ++found;
-            double v = sampler.scale * ca * cb / (kPi * d2 * d2);
+            // The sender by area (s at one radiosity): the gather weighs the
+            // samples by their patches' radiosities itself.
+            double v = s.area * ca * cb / (kPi * d2 * d2);
             sum += v;
             sum2 += v * v;
             if (samples) local.push_back({t.patchB, float(v / n)});

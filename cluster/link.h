@@ -354,26 +354,6 @@ class ClusterLinker {
     bool coplanar(const LinkEnd& r, const LinkEnd& s) const;
 
   private:
-    /// How a sampled transfer draws the sender's points (pairSampler): by
-    /// radiosity where known (`weighted`), else by area; `scale` turns the
-    /// mean weighted kernel into K.
-    struct PairSampler {
-        const ClusterNode* node = nullptr;
-        bool weighted = false;
-        double scale = 0.0;
-    };
-    /// Sums over n point pairs (x uniform by area on r, y drawn on s by the
-    /// sampler): kernel k_i = w cos_x+ cos_y+ / (pi d^2) (w the sender
-    /// point's weight), k_i V_i, (k_i V_i)^2, the part of k_i V_i on receiver
-    /// points facing away from u, rays cast and blocked.
-    struct PairSums {
-        double k = 0.0, kv = 0.0, kv2 = 0.0, kvAway = 0.0;
-        int cast = 0, blocked = 0;
-    };
-    PairSampler pairSampler(const LinkEnd& s, std::span<const RGB> rootB) const;
-    void samplePairs(const LinkEnd& r, const LinkEnd& s, const PairSampler& d,
-                     std::span<const RGB> rootB, const Vec3& u, int n, Pcg32& rng,
-                     PairSums& e) const;
     /// Whether the surface point x on `patch` belongs to end e (a patch
     /// below the cluster, or inside the surface element's domain).
     bool holds(const LinkEnd& e, uint32_t patch, const Vec3& x) const;

@@ -1210,6 +1210,7 @@ HrResult HrSolver::solve(bool progress) {
     if (res.openness) res.memory.set("handover_openness", res.openness->memoryBytes());
     res.handOverByOpenness = h.handOverByOpenness();
     res.handOverByCosine = h.handOverByCosine();
+    RGB standIn(0.0);  // the light the stand-ins carry: what their receivers reflect of it
     for (uint32_t r = 0; r < h.numElements(); ++r) {
         bool rc = h.isCluster(r);
         for (uint64_t i = h.linkBegin(r); i < h.linkEnd(r); ++i) {
@@ -1218,17 +1219,10 @@ HrResult HrSolver::solve(bool progress) {
             (rc ? (sc ? res.linksCC : res.linksCS) : (sc ? res.linksSC : res.linksSS))++;
             if (l.flags & Link::kOpen) ++res.unopenedLinks;
             if (l.flags & Link::kDeferred) ++res.deferredLinksLeft;
+            if (l.flags & Link::kStandIn) standIn += h.standInSent(l) * h.area(r) * h.rho(r);
         }
     }
     if (res.standInLinks > 0) {
-        // The light the stand-ins carry: what their receivers reflect of it.
-        RGB standIn(0.0);
-        for (uint32_t r = 0; r < h.numElements(); ++r)
-            for (uint64_t i = h.linkBegin(r); i < h.linkEnd(r); ++i) {
-                const Link& l = h.link(i);
-                if (!(l.flags & Link::kStandIn)) continue;
-                standIn += h.standInSent(l) * h.area(r) * h.rho(r);
-            }
         double reflected = maxComponent(h.reflectedPower());
         res.standInPowerShare = reflected > 0 ? maxComponent(standIn) / reflected : 0.0;
         spdlog::info("stand-in links carry {:.1f} % of the reflected power",

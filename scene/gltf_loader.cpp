@@ -32,26 +32,11 @@ using Mat4 = glm::dmat4;
 
 // ---- file intake -----------------------------------------------------------------
 
-std::vector<unsigned char> readWholeFile(const std::string& path) {
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec))
-        throwInputError(SourceLocation{path, 0, 0}, "not a regular file (a folder or device)");
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throwInputError(SourceLocation{path, 0, 0}, "cannot open file");
-    in.seekg(0, std::ios::end);
-    std::streamoff size = in.tellg();
-    if (size < 0) throwInputError(SourceLocation{path, 0, 0}, "cannot determine the file size");
-    in.seekg(0);
-    std::vector<unsigned char> bytes(static_cast<size_t>(size));
-    if (size > 0 && !in.read(reinterpret_cast<char*>(bytes.data()), size))
-        throwInputError(SourceLocation{path, 0, 0}, "error reading file");
-    return bytes;
-}
-
-/// tinygltf's file callback for buffer and image URIs. Its own reads the size
-/// with seekg/tellg, which for a folder on ext4 is 2^63 - 1, and then resizes
-/// a vector to it: a URI naming a folder (".", "") asked for 8 EiB. Only
-/// regular files are read here, with the size the file system states.
+/// Reads a whole file, only a regular one, with the size the file system
+/// states; false with the reason in *err otherwise. Also tinygltf's file
+/// callback for buffer and image URIs: its own reads the size with
+/// seekg/tellg, which for a folder on ext4 is 2^63 - 1, and then resizes a
+/// vector to it (a URI naming a folder, "." or "", asked for 8 EiB).
 bool readUriFile(std::vector<unsigned char>* out, std::string* err, const std::string& path,
                  void*) {
     std::error_code ec;
@@ -77,6 +62,14 @@ bool readUriFile(std::vector<unsigned char>* out, std::string* err, const std::s
         return false;
     }
     return true;
+}
+
+std::vector<unsigned char> readWholeFile(const std::string& path) {
+    std::vector<unsigned char> bytes;
+    std::string err;
+    if (!readUriFile(&bytes, &err, path, nullptr))
+        throwInputError(SourceLocation{path, 0, 0}, "{}", err);
+    return bytes;
 }
 
 /// Bytes in the file's (little-endian, glTF 2.0 §4.4) order -> native.

@@ -175,6 +175,14 @@ InputError loadError(const std::filesystem::path& file) {
     return InputError(SourceLocation{}, "none");
 }
 
+/// The scene's first material ("red") takes its base colour from a texture
+/// of one image at `uri`.
+void useBaseColorTexture(json& j, const std::string& uri) {
+    j["images"] = json::array({{{"uri", uri}}});
+    j["textures"] = json::array({{{"source", 0}}});
+    j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+}
+
 void checkTestScene(const Scene& s) {
     // floor 2 + light 2 + wall 1 triangles (addPolygon keeps triangles as triangles)
     EXPECT_EQ(s.patches.size(), 5u);
@@ -259,9 +267,7 @@ TEST(GltfLoader, ExternalBufferFileAndRegistry) {
 TEST(GltfLoader, BaseColorTextureMeanMultipliesTheFactor) {
     auto dir = test::tempDir("gltf_tex");
     json j = sceneJson(dataUri(geometryBuffer()));
-    j["images"] = json::array({{{"uri", "data:image/bmp;base64," + base64(bmp2x1())}}});
-    j["textures"] = json::array({{{"source", 0}}});
-    j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+    useBaseColorTexture(j, "data:image/bmp;base64," + base64(bmp2x1()));
     auto file = test::writeFile(dir / "scene.gltf", j.dump());
     Scene s = loadGltf(file.string());
     const Material* red = findMaterial(s, "red");
@@ -275,9 +281,7 @@ TEST(GltfLoader, BaseColorTextureMeanMultipliesTheFactor) {
 TEST(GltfLoader, UnloadableTextureKeepsTheFactorWithAWarning) {
     auto dir = test::tempDir("gltf_badtex");
     json j = sceneJson(dataUri(geometryBuffer()));
-    j["images"] = json::array({{{"uri", "missing.png"}}});
-    j["textures"] = json::array({{{"source", 0}}});
-    j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+    useBaseColorTexture(j, "missing.png");
     auto file = test::writeFile(dir / "scene.gltf", j.dump());
     Scene s = loadGltf(file.string());
     EXPECT_NEAR(findMaterial(s, "red")->rho.r, 0.8, 1e-12);
@@ -293,9 +297,7 @@ TEST(GltfLoader, HugeTextureIsNotDecoded) {
     for (int i = 0; i < 4; ++i) png.push_back(0);  // CRC (stb does not check it)
     auto dir = test::tempDir("gltf_hugetex");
     json j = sceneJson(dataUri(geometryBuffer()));
-    j["images"] = json::array({{{"uri", "data:image/png;base64," + base64(png)}}});
-    j["textures"] = json::array({{{"source", 0}}});
-    j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+    useBaseColorTexture(j, "data:image/png;base64," + base64(png));
     auto file = test::writeFile(dir / "scene.gltf", j.dump());
     Scene s = loadGltf(file.string());
     EXPECT_NEAR(findMaterial(s, "red")->rho.r, 0.8, 1e-12);
@@ -370,9 +372,7 @@ TEST(GltfLoaderErrors, BufferUriNamingAFolderIsAnError) {
     }
     // An image URI naming a folder: the texture is skipped with a warning.
     json j = sceneJson(dataUri(geometryBuffer()));
-    j["images"] = json::array({{{"uri", "sub"}}});
-    j["textures"] = json::array({{{"source", 0}}});
-    j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+    useBaseColorTexture(j, "sub");
     auto file = test::writeFile(dir / "scene.gltf", j.dump());
     Scene s = loadGltf(file.string());
     EXPECT_NEAR(findMaterial(s, "red")->rho.r, 0.8, 1e-12);
