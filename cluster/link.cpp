@@ -16,7 +16,10 @@ ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
     s.separation = p.getDouble("cluster.separation", s.separation, 1.0, 100.0);
     s.surfaceSeparation =
         p.getDouble("cluster.surface_separation", s.surfaceSeparation, 1.0, 100.0);
-    s.sampleNear = p.getEnum("cluster.near", "open", {"open", "sample"}) == "sample";
+    const std::string near = p.getEnum("cluster.near", "open", {"open", "sample", "stand_in"});
+    s.sampleNear = near == "sample";
+    s.standInNear = near == "stand_in";
+    s.nearOverlapping = p.getBool("cluster.near_overlapping", s.nearOverlapping);
     s.nearRays = int(p.getInt("cluster.near_rays", s.nearRays, 2, 4096));
     s.deferDark = p.getBool("cluster.defer_dark", s.deferDark);
     s.ambient = p.getBool("cluster.ambient", s.ambient);
@@ -32,11 +35,13 @@ ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
 std::string ClusterLinkSettings::describe() const {
     return fmt::format(
         "cluster_vis_rays={}, cluster_separation={}, "
-        "cluster_surface_separation={}, cluster_near={}, cluster_near_rays={}, "
+        "cluster_surface_separation={}, cluster_near={}, cluster_near_overlapping={}, "
+        "cluster_near_rays={}, "
         "cluster_face_separation={}, cluster_face_kernel={}, cluster_defer_dark={}, "
         "cluster_ambient={}, cluster_handover={}, cluster_stand_in={}, "
         "cluster_stand_in_rays={}",
-        visRays, separation, surfaceSeparation, sampleNear ? "sample" : "open", nearRays,
+        visRays, separation, surfaceSeparation,
+        sampleNear ? "sample" : (standInNear ? "stand_in" : "open"), nearOverlapping, nearRays,
         faceSeparation, faceDisc ? "disc" : "point", deferDark, ambient,
         visibleHandover ? "visible" : "cosine", standIn, standInRays);
 }
@@ -161,6 +166,13 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
         // point approximation: estimated by sampling when so set.
         bool near = s_.sampleNear && r.isCluster && s.isCluster && !r.singleSurface &&
                     !s.singleSurface && glm::length(r.center - s.center) > r.radius + s.radius;
+        // cluster.near = stand_in: the solver makes the stand-in (once the
+        // sender carries light).
+        if (dark && standInNear(r, s)) {
+            out.open = Opening::None;
+            out.deferred = true;
+            return out;
+        }
         if (near && dark) {
             out.open = Opening::None;
             out.deferred = true;
@@ -529,92 +541,150 @@ bool ClusterLinker::holds(const LinkEnd& e, uint32_t patch, const Vec3& x) const
            std::fabs(d.h - e.domain.h) < tol;
 }
 
+bool ClusterLinker::standInNear(const LinkEnd& r, const LinkEnd& s) const {
+    if (!s_.standInNear || !(r.isCluster || s.isCluster)) return false;
+    if ((r.isCluster && r.singleSurface) || (s.isCluster && s.singleSurface)) return false;
+    return s_.nearOverlapping || glm::length(r.center - s.center) > r.radius + s.radius;
+}
+
 ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
-                                   std::vector<StandInSample>* samples) const {
+                                   std::vector<StandInSample>* samples, bool judge) const {
     ClusterLink out;
     out.sampled = true;
     out.standIn = true;
     const int n = std::max(2, s_.standInRays);
-    Pcg32 rng(hashIds(r.stableId, s.stableId, 0x7374616eULL));
     const Vec3 between = s.center - r.center;
     const double dist = glm::length(between);
     const double gap = dist - r.radius - s.radius;
-    // Samples of the transfer per unit receiver area: their sum and sum of
-    // squares, the rays cast, and those that found s.
-    double sum = 0.0, sum2 = 0.0;
-    int cast = 0, found = 0;
+    const bool apart = gap > 0 || !vis_;
+    // Spheres apart, into an oriented cluster: the part of the estimate that
+    // arrived on surfaces facing away from the sender's centroid (a cosine
+    // hand-over would put it elsewhere).
+    const bool towardsCentroid =
+        gap > 0 && dist > 0 && r.isCluster && !r.singleSurface && model_ == ClusterModel::Oriented;
+    const Vec3 u = dist > 0 ? between / dist : Vec3(0.0);
+    // One estimate of n samples of the transfer per unit receiver area: their
+    // sum and sum of squares, the unoccluded sum (point pairs), the part on
+    // surfaces facing away from the sender, the rays cast and those that
+    // found s; the samples that found s go to `found` when given.
+    struct Estimate {
+        double sum = 0.0, sum2 = 0.0, unoccluded = 0.0, away = 0.0;
+        int cast = 0, found = 0;
+    };
+    auto estimate = [&](Pcg32& rng, std::vector<StandInSample>* kept) {
+        Estimate e;
+        if (apart) {
+            // Spheres apart: point pairs (the kernel is bounded by 1 / gap^2).
+            // One pair at a time, to keep each found sender patch.
+            for (int i = 0; i < n; ++i) {
+                transport::Segment t;
+                t.a = uniformPoint(r, rng, t.patchA);
+                t.b = uniformPoint(s, rng, t.patchB);
+                const Vec3& na = scene_->patches[t.patchA].normal;
+                const Vec3& nb = scene_->patches[t.patchB].normal;
+                Vec3 dv = t.b - t.a;
+                double d2 = glm::dot(dv, dv);
+                double ca = glm::dot(na, dv), cb = -glm::dot(nb, dv);
+                if (!(ca > 0 && cb > 0 && d2 > 0)) continue;
+                ++e.cast;
+                // The sender by area (s at one radiosity): the gather weighs
+                // the samples by their patches' radiosities itself.
+                double v = s.area * ca * cb / (kPi * d2 * d2);
+                e.unoccluded += v;
+                if (vis_ && vis_->occluded(t)) continue;
+                ++e.found;
+                if (towardsCentroid && !(glm::dot(na, u) > 0)) e.away += v;
+                e.sum += v;
+                e.sum2 += v * v;
+                if (kept) kept->push_back({t.patchB, float(v / n)});
+            }
+        } else {
+            // Overlapping spheres: each receiver point gathers along one
+            // cosine-distributed direction (see the header).
+            for (int i = 0; i < n; ++i) {
+                uint32_t pa = 0;
+                const Vec3 x = uniformPoint(r, rng, pa);
+                const Vec3& nx = scene_->patches[pa].normal;
+                const double u1 = rng.nextDouble(), u2 = rng.nextDouble();
+                const Vec3 dir = cosineDirection(nx, u1, u2);
+                // Only a ray that enters s's bounding sphere can find s, and
+                // only before it leaves it.
+                const Vec3 oc = x - s.center;
+                const double bq = glm::dot(dir, oc);
+                const double R = s.radius * (1.0 + 1e-6) + 1e-12;
+                const double disc = bq * bq - (glm::dot(oc, oc) - R * R);
+                if (!(disc > 0)) continue;
+                const double tExit = -bq + std::sqrt(disc);
+                if (!(tExit > 0)) continue;
+                transport::RayHit hit = vis_->intersect(x, dir, 0.0, tExit, pa);
+                ++e.cast;
+                if (!hit.hit || !(glm::dot(scene_->patches[hit.patch].normal, dir) < 0) ||
+                    !holds(s, hit.patch, hit.point))
+                    continue;
+                ++e.found;
+                e.sum += 1.0;
+                e.sum2 += 1.0;
+                if (kept) kept->push_back({hit.patch, float(1.0 / n)});
+            }
+        }
+        return e;
+    };
     std::vector<StandInSample> local;
     if (samples) local.reserve(size_t(n));
-    if (gap > 0 || !vis_) {
-        // Spheres apart: point pairs (the kernel is bounded by 1 / gap^2).
-        // One pair at a time, to keep each found sender patch.
-        for (int i = 0; i < n; ++i) {
-            transport::Segment t;
-            t.a = uniformPoint(r, rng, t.patchA);
-            t.b = uniformPoint(s, rng, t.patchB);
-            const Vec3& na = scene_->patches[t.patchA].normal;
-            const Vec3& nb = scene_->patches[t.patchB].normal;
-            Vec3 dv = t.b - t.a;
-            double d2 = glm::dot(dv, dv);
-            double ca = glm::dot(na, dv), cb = -glm::dot(nb, dv);
-            if (!(ca > 0 && cb > 0 && d2 > 0)) continue;
-            ++cast;
-            if (vis_ && vis_->occluded(t)) continue;
-            ++found;
-            // The sender by area (s at one radiosity): the gather weighs the
-            // samples by their patches' radiosities itself.
-            double v = s.area * ca * cb / (kPi * d2 * d2);
-            sum += v;
-            sum2 += v * v;
-            if (samples) local.push_back({t.patchB, float(v / n)});
-        }
-        out.judged = cast > 0 ? double(found) / cast : 0.0;
-        out.partial = found > 0 && found < cast;
-        out.uncertain = cast > 0 && found == 0;
-    } else {
-        // Overlapping spheres: each receiver point gathers along one
-        // cosine-distributed direction (see the header).
-        for (int i = 0; i < n; ++i) {
-            uint32_t pa = 0;
-            const Vec3 x = uniformPoint(r, rng, pa);
-            const Vec3& nx = scene_->patches[pa].normal;
-            const double u1 = rng.nextDouble(), u2 = rng.nextDouble();
-            const Vec3 dir = cosineDirection(nx, u1, u2);
-            // Only a ray that enters s's bounding sphere can find s, and
-            // only before it leaves it.
-            const Vec3 oc = x - s.center;
-            const double bq = glm::dot(dir, oc);
-            const double R = s.radius * (1.0 + 1e-6) + 1e-12;
-            const double disc = bq * bq - (glm::dot(oc, oc) - R * R);
-            if (!(disc > 0)) continue;
-            const double tExit = -bq + std::sqrt(disc);
-            if (!(tExit > 0)) continue;
-            transport::RayHit hit = vis_->intersect(x, dir, 0.0, tExit, pa);
-            ++cast;
-            if (!hit.hit || !(glm::dot(scene_->patches[hit.patch].normal, dir) < 0) ||
-                !holds(s, hit.patch, hit.point))
-                continue;
-            ++found;
-            sum += 1.0;
-            sum2 += 1.0;
-            if (samples) local.push_back({hit.patch, float(1.0 / n)});
-        }
-        out.judged = 1.0;
+    Pcg32 rng(hashIds(r.stableId, s.stableId, 0x7374616eULL));
+    const Estimate carried = estimate(rng, samples ? &local : nullptr);
+    // The judged estimate: an independent one when asked (a stand-in kept
+    // only when its own estimate is small would carry less than the true
+    // transfer on average; judged by an independent estimate it carries the
+    // true transfer), else the carried one.
+    Estimate judged = carried;
+    if (judge) {
+        Pcg32 rngJudge(hashIds(r.stableId, s.stableId, 0x6a756467ULL));
+        judged = estimate(rngJudge, nullptr);
     }
-    out.rays = uint32_t(cast);
-    const double mean = sum / n;
+    out.rays = uint32_t(carried.cast + (judge ? judged.cast : 0));
     // r cannot take more than s radiates (K <= A_s / A_r) and no receiver
     // point sees a form factor above 1: bounds of the true transfer that
     // keep a noisy estimate from amplifying light.
     const double bound = std::min(1.0, r.area > 0 ? s.area / r.area : 0.0);
-    const double scaleDown = mean > bound ? bound / mean : 1.0;
-    out.K = mean * scaleDown;
-    out.judgedF = out.K;
-    if (mean > 0) {
-        double var = std::max(0.0, sum2 / n - mean * mean);
-        out.relativeError = 2.0 * std::sqrt(var / (n - 1)) / mean;
+    auto clamped = [&](const Estimate& e) { return std::min(bound, e.sum / n); };
+    const double mean = carried.sum / n;
+    double scale = mean > bound ? bound / mean : 1.0;
+    double cosine = 1.0;
+    if (towardsCentroid && carried.sum > 0 && carried.away <= 0.05 * carried.sum) {
+        // Handed over by cosine (see the header): divided by the receiver's
+        // mean cosine towards the sender, so the power is unchanged.
+        const double c = receiverCosine(r, u);
+        if (c > 0) {
+            out.byCosine = true;
+            cosine = c;
+            scale /= c;
+        }
+    }
+    out.K = mean * scale;
+    // The judged transfer, in K's units (divided by the same mean cosine).
+    out.judgedF = clamped(judged) / cosine;
+    if (apart) {
+        out.judged = judged.cast > 0 ? double(judged.found) / judged.cast : 0.0;
+        out.partial = judged.found > 0 && judged.found < judged.cast;
     } else {
-        out.relativeError = found == 0 && cast > 0 ? 1.0 : 0.0;
+        out.judged = 1.0;
+    }
+    const double jmean = judged.sum / n;
+    if (jmean > 0) {
+        double var = std::max(0.0, judged.sum2 / n - jmean * jmean);
+        out.relativeError = 2.0 * std::sqrt(var / (n - 1)) / jmean;
+    } else if (judged.found == 0 && judged.cast > 0) {
+        // Every ray blocked or missed: the estimate is 0, but the transfer
+        // may not be. judgedF is then a 95 % upper bound: the Clopper-Pearson
+        // bound on the visible fraction (zero successes in `cast`) times the
+        // unoccluded estimate (for overlapping spheres, whose samples are 0
+        // or 1, the rays cast over all drawn).
+        out.uncertain = true;
+        out.relativeError = 1.0;
+        const double p95 = 1.0 - std::pow(0.05, 1.0 / judged.cast);
+        out.judgedF =
+            (apart ? p95 * judged.unoccluded / n : p95 * double(judged.cast) / n) / cosine;
     }
     out.Fupper = gap > 0 ? s.area / (kPi * gap * gap) : 3.0e38;
     if (samples) {
@@ -624,9 +694,9 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
         samples->clear();
         for (const StandInSample& x : local) {
             if (!samples->empty() && samples->back().patch == x.patch)
-                samples->back().weight += float(x.weight * scaleDown);
+                samples->back().weight += float(x.weight * scale);
             else
-                samples->push_back({x.patch, float(x.weight * scaleDown)});
+                samples->push_back({x.patch, float(x.weight * scale)});
         }
     }
     return out;

@@ -24,10 +24,11 @@
 //   counts{elements, leaves, links, initial_links, initial_pairs, links_ss, links_sc,
 //          links_cs, links_cc (surface/cluster receiver-sender), rays, form_factors,
 //          deferred_links_computed, deferred_links_left, unopened_links, stand_in_links,
-//          stand_in_rays, handover_rays,
+//          stand_in_rays, near_stand_ins_made, near_stand_in_rays, stand_in_links_final,
+//          handover_rays,
 //          handover_by_openness, handover_by_cosine, iterations},
 //   timings{load, visibility_build, [cluster_build], [handover_openness], linking,
-//           refine, [stand_in], gather, push_pull, solve_total, reference, error,
+//           refine, [stand_in], [near_stand_in], gather, push_pull, solve_total, reference, error,
 //           render}   (seconds)
 //   history[{iteration, stage, eps, links, elements, leaves, refined_links,
 //            rays, form_factors, residual, reflected_power, refine_s, gather_s,

@@ -73,6 +73,9 @@ class HrEntry final : public Solver {
                             {"unopened_links", res->unopenedLinks},
                             {"stand_in_links", res->standInLinks},
                             {"stand_in_rays", res->standInRays},
+                            {"near_stand_ins_made", res->nearStandInsMade},
+                            {"near_stand_in_rays", res->nearStandInRays},
+                            {"stand_in_links_final", res->standInLinksFinal},
                             {"iterations", res->history.size()}};
         {
             // Where refinement spends, by link kind (HrResult::linkCost).
@@ -95,6 +98,7 @@ class HrEntry final : public Solver {
         t["push_pull"] = res->pushPullSeconds;
         t["error_estimate"] = res->errorEstimateSeconds;
         if (res->standInLinks > 0) t["stand_in"] = res->standInSeconds;
+        if (res->nearStandInsMade > 0) t["near_stand_in"] = res->nearStandInSeconds;
         for (const auto& [k, v] : res->memory.all()) out.memory.set(k, v);
         json hist = json::array();
         for (const auto& it : res->history)

@@ -272,6 +272,7 @@ void Hierarchy::setLinks(const std::vector<uint32_t>& receivers, std::vector<Lin
     links_.shrink_to_fit();
     hasStandIns_ = std::any_of(links_.begin(), links_.end(),
                                [](const Link& l) { return (l.flags & Link::kStandIn) != 0; });
+    compactStandIns();
     links.clear();
     links.shrink_to_fit();
     // The coupling matrices belonged to the old links (the solver sets new ones).
@@ -281,7 +282,29 @@ void Hierarchy::setLinks(const std::vector<uint32_t>& receivers, std::vector<Lin
     handOverNewLinks();
 }
 
-uint32_t Hierarchy::addStandIn(std::span<const cluster::StandInSample> samples) {
+void Hierarchy::compactStandIns() {
+    // Blocks of stand-ins that refinement replaced are dropped; the others
+    // are renumbered in link order.
+    if (standInSamples_.empty()) return;
+    std::vector<uint64_t> begin{0};
+    std::vector<cluster::StandInSample> kept;
+    for (Link& l : links_) {
+        if (!(l.flags & Link::kStandIn) || !isCluster(l.sender)) continue;
+        const uint32_t b = std::bit_cast<uint32_t>(l.Fupper);
+        HRAD_DCHECK(size_t(b) + 1 < standInBegin_.size());
+        kept.insert(kept.end(), standInSamples_.begin() + ptrdiff_t(standInBegin_[b]),
+                    standInSamples_.begin() + ptrdiff_t(standInBegin_[b + 1]));
+        begin.push_back(kept.size());
+        l.Fupper = std::bit_cast<float>(uint32_t(begin.size() - 2));
+    }
+    kept.shrink_to_fit();
+    standInSamples_ = std::move(kept);
+    standInBegin_ = std::move(begin);
+}
+
+uint32_t Hierarchy::addStandIn(std::span<const cluster::StandInSample> samples, float judged) {
+    // The block starts with the judged transfer (patch kNone), then the samples.
+    standInSamples_.push_back({kNone, judged});
     standInSamples_.insert(standInSamples_.end(), samples.begin(), samples.end());
     standInBegin_.push_back(standInSamples_.size());
     return uint32_t(standInBegin_.size() - 2);
@@ -292,9 +315,22 @@ RGB Hierarchy::standInSent(const Link& l) const {
     const uint32_t block = std::bit_cast<uint32_t>(l.Fupper);
     HRAD_DCHECK(size_t(block) + 1 < standInBegin_.size());
     RGB sum(0.0);
-    for (uint64_t k = standInBegin_[block]; k < standInBegin_[block + 1]; ++k)
+    for (uint64_t k = standInBegin_[block] + 1; k < standInBegin_[block + 1]; ++k)
         sum += double(standInSamples_[k].weight) * B_[standInSamples_[k].patch];
     return sum;
+}
+
+double Hierarchy::standInJudged(const Link& l) const {
+    if (!isCluster(l.sender)) return l.Fupper;
+    const uint32_t block = std::bit_cast<uint32_t>(l.Fupper);
+    HRAD_DCHECK(size_t(block) + 1 < standInBegin_.size());
+    return standInSamples_[standInBegin_[block]].weight;
+}
+
+RGB Hierarchy::linkSent(uint64_t i, const glm::vec3& dir) const {
+    const Link& l = links_[i];
+    if (l.flags & Link::kStandIn) return standInSent(l);
+    return double(l.K) * directionalB(l.sender, -Vec3(dir));
 }
 
 void Hierarchy::handOverNewLinks() {
@@ -367,11 +403,10 @@ void Hierarchy::prepareOrientedDirections() {
             for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i) {
                 Vec3 d = center(links_[i].sender) - cc;
                 double len = glm::length(d);
-                // A stand-in lights the cluster by area (gatherRow), not by
-                // cosine: no direction, so the push skips it.
-                bool standIn = links_[i].flags & Link::kStandIn;
+                // A stand-in by area lights the cluster in gatherRow, not
+                // by cosine: no direction, so the push skips it.
                 clusterLinkDir_[i - clusterLinkBase_] =
-                    len > 0 && !standIn ? glm::vec3(d / len) : glm::vec3(0);
+                    len > 0 && !links_[i].byArea() ? glm::vec3(d / len) : glm::vec3(0);
             }
         }
     });
@@ -389,12 +424,12 @@ void Hierarchy::gatherRow(uint32_t r) {
     if (oriented && patch_[r] == kNone) {
         // An oriented cluster gathers nothing as a whole: its links light
         // each surface below it with that surface's cosine when pushed
-        // (clusterIrradianceToRoots). Stand-ins (cluster/link.h) light its
-        // surfaces by area: gathered here and handed down as an isotropic
-        // cluster's irradiance is (clusterDown).
+        // (clusterIrradianceToRoots). Stand-ins by area (cluster/link.h)
+        // light its surfaces by area: gathered here and handed down as an
+        // isotropic cluster's irradiance is (clusterDown).
         RGB standIn(0.0);
         for (uint64_t i = linkBegin(r); i < linkEnd(r); ++i)
-            if (links_[i].flags & Link::kStandIn) standIn += standInSent(links_[i]);
+            if (links_[i].byArea()) standIn += standInSent(links_[i]);
         gathered_[r] = standIn;
         return;
     }
@@ -508,9 +543,7 @@ RGB Hierarchy::clusterIrradianceAt(uint32_t root, const std::vector<RGB>& down,
                     cosine *= openness_->openness(view, inside, Vec3(dir), cosine);
                     if (!(cosine > 0)) continue;
                 }
-                h += cosine *
-                     (sent ? RGB(sent[i - clusterLinkBase_])
-                           : double(links_[i].K) * directionalB(links_[i].sender, -Vec3(dir)));
+                h += cosine * (sent ? RGB(sent[i - clusterLinkBase_]) : linkSent(i, dir));
             }
         }
     }
@@ -537,9 +570,7 @@ std::vector<RGB> Hierarchy::clusterIrradianceToRoots() const {
                     // sender cluster holding an emitter and surfaces facing
                     // elsewhere would send its average.
                     sent[i - clusterLinkBase_] =
-                        glm::vec3(double(links_[i].K) *
-                                  directionalB(links_[i].sender,
-                                               -Vec3(clusterLinkDir_[i - clusterLinkBase_])));
+                        glm::vec3(linkSent(i, clusterLinkDir_[i - clusterLinkBase_]));
         });
     }
     // Computed for all patches before any B is overwritten: a link into an

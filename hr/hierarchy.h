@@ -98,8 +98,12 @@ struct Link {
     /// sending cluster it gathers through its samples (Hierarchy::standInSent;
     /// `Fupper` then holds the index of its sample block, not a bound), from
     /// a surface element K times its radiosity. A receiving cluster takes
-    /// the light by area, not by cosine.
+    /// the light by area; with kHandedOver (cluster/link.h: spheres apart,
+    /// oriented receiver) by its surfaces' cosines towards the sender, as a
+    /// point-approximation link's (no openness).
     static constexpr uint8_t kStandIn = 128;
+    /// A stand-in whose receiving cluster takes its light by area.
+    bool byArea() const { return (flags & kStandIn) && !(flags & kHandedOver); }
 
     double vis() const { return visibility / 65535.0; }
     void setVis(double v) {
@@ -223,12 +227,18 @@ class Hierarchy {
                   std::vector<KernelSamples>&& samples);
     /// Stores the samples of a stand-in from a sending cluster and returns
     /// the index of their block (for the link's Fupper; not thread-safe).
-    uint32_t addStandIn(std::span<const cluster::StandInSample> samples);
+    /// setLinks keeps only the blocks its links refer to.
+    uint32_t addStandIn(std::span<const cluster::StandInSample> samples, float judged);
+    /// The transfer refinement judges stand-in link l by (in K's units): its
+    /// independent estimate (cluster.near = stand_in) or K itself.
+    double standInJudged(const Link& l) const;
     /// What stand-in link l sends its receiver per unit area (irradiance):
     /// the sum over its samples of weight times the current radiosity of
     /// the sample's root patch; from a surface element, K times its radiosity.
     RGB standInSent(const Link& l) const;
-    uint64_t standInSampleCount() const { return standInSamples_.size(); }
+    uint64_t standInSampleCount() const {
+        return standInSamples_.size() - (standInBegin_.size() - 1);  // without the block headers
+    }
     /// Kernel samples of every link (empty when no oracle asked for them).
     const std::vector<KernelSamples>& kernelSamples() const { return samples_; }
     uint64_t numLinks() const { return links_.size(); }
@@ -363,6 +373,12 @@ class Hierarchy {
     /// Oriented model: unit direction from each cluster-receiver link's
     /// receiver to its sender, for the links of cluster rows (contiguous).
     std::vector<glm::vec3> clusterLinkDir_;
+    /// What link i into an oriented cluster sends: K times the sender's
+    /// radiosity towards the receiver (`dir` points from receiver to
+    /// sender), or a stand-in's standInSent.
+    RGB linkSent(uint64_t i, const glm::vec3& dir) const;
+    /// Drops the stand-in sample blocks no link refers to (setLinks).
+    void compactStandIns();
     uint64_t clusterLinkBase_ = 0;
     /// Oriented model, per cluster and RGB channel: sum A_k B_k, sum A_k B_k n_k,
     /// sum A_k B_k n_k n_k^T (xx, xy, xz, yy, yz, zz).

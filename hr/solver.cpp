@@ -346,12 +346,27 @@ Link HrSolver::makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint3
 }
 
 Link HrSolver::makeStandIn(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays,
-                           std::vector<cluster::StandInSample>* samples) const {
-    cluster::ClusterLink c = linker_->standIn(endOf(h, r), endOf(h, s), samples);
+                           std::vector<cluster::StandInSample>* samples, bool judge) const {
+    cluster::ClusterLink c = linker_->standIn(endOf(h, r), endOf(h, s), samples, judge);
     rays = c.rays;
     Link l;
     l.sender = s;
+    if (!(c.K > 0)) {
+        // Nothing found: the link carries nothing. Kept as a sampled link
+        // (no samples to gather) judged by its judged estimate (when that
+        // found nothing either, the estimate's 95 % upper bound), so the
+        // oracle opens it where that could matter.
+        if (samples) samples->clear();
+        l.flags = Link::kSampled;
+        if (c.uncertain) l.flags |= Link::kUncertain;
+        if (c.partial) l.flags |= Link::kPartial;
+        l.Fupper = float(c.judgedF);
+        l.setVis(c.judged);
+        l.uncertainty = uint8_t(std::min(255.0, std::ceil(100.0 * c.relativeError)));
+        return l;
+    }
     l.flags = Link::kSampled | Link::kStandIn;
+    if (c.byCosine) l.flags |= Link::kHandedOver;  // by cosine, not by area (Link::kStandIn)
     if (c.partial) l.flags |= Link::kPartial;
     if (c.uncertain) l.flags |= Link::kUncertain;
     l.K = float(c.K);
@@ -361,15 +376,9 @@ Link HrSolver::makeStandIn(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t&
     return l;
 }
 
-void HrSolver::standInUnopened(Hierarchy& h, const std::vector<uint32_t>& recv,
-                               std::vector<Link>& links, HrResult& res,
-                               IterationRecord& rec) const {
-    if (!linker_ || !linker_->settings().standIn) return;
-    Timer t;
-    std::vector<size_t> open;
-    for (size_t i = 0; i < links.size(); ++i)
-        if (links[i].flags & Link::kOpen) open.push_back(i);
-    if (open.empty()) return;
+uint64_t HrSolver::makeStandIns(Hierarchy& h, const std::vector<uint32_t>& recv,
+                                std::vector<Link>& links, const std::vector<size_t>& open,
+                                bool judge) const {
     // Estimated in parallel; the samples of sending clusters are stored in
     // link order afterwards (Hierarchy::addStandIn), so results do not
     // depend on the threads.
@@ -381,25 +390,58 @@ void HrSolver::standInUnopened(Hierarchy& h, const std::vector<uint32_t>& recv,
             const size_t i = open[j];
             const uint32_t s = links[i].sender;
             uint32_t nr = 0;
-            links[i] = makeStandIn(h, recv[i], s, nr, h.isCluster(s) ? &samples[j] : nullptr);
+            links[i] =
+                makeStandIn(h, recv[i], s, nr, h.isCluster(s) ? &samples[j] : nullptr, judge);
             localRays += nr;
         }
         rays += localRays;
     });
     for (size_t j = 0; j < open.size(); ++j) {
         Link& l = links[open[j]];
-        if (!h.isCluster(l.sender)) continue;
-        l.Fupper = std::bit_cast<float>(h.addStandIn(samples[j]));
+        if (!(l.flags & Link::kStandIn) || !h.isCluster(l.sender)) continue;
+        l.Fupper = std::bit_cast<float>(h.addStandIn(samples[j], l.Fupper));
         std::vector<cluster::StandInSample>().swap(samples[j]);
     }
-    res.standInLinks += open.size();
-    res.standInRays += rays;
-    res.standInSeconds += t.seconds();
+    return rays.load();
+}
+
+void HrSolver::standInNear(Hierarchy& h, const std::vector<uint32_t>& recv,
+                           std::vector<Link>& links, HrResult& res, IterationRecord& rec) const {
+    if (!linker_ || !linker_->settings().standInNear) return;
+    Timer t;
+    std::vector<size_t> open;
+    for (size_t i = 0; i < links.size(); ++i)
+        if ((links[i].flags & Link::kOpen) &&
+            linker_->standInNear(endOf(h, recv[i]), endOf(h, links[i].sender)))
+            open.push_back(i);
+    if (open.empty()) return;
+    const uint64_t rays = makeStandIns(h, recv, links, open, true);
+    countStandIns(res, rec, open.size(), rays, t.seconds(), true);
+}
+
+void HrSolver::countStandIns(HrResult& res, IterationRecord& rec, uint64_t links, uint64_t rays,
+                             double seconds, bool near) const {
+    (near ? res.nearStandInsMade : res.standInLinks) += links;
+    (near ? res.nearStandInRays : res.standInRays) += rays;
+    (near ? res.nearStandInSeconds : res.standInSeconds) += seconds;
     res.totalRays += rays;
     rec.rays += rays;
+}
+
+void HrSolver::standInUnopened(Hierarchy& h, const std::vector<uint32_t>& recv,
+                               std::vector<Link>& links, HrResult& res,
+                               IterationRecord& rec) const {
+    if (!linker_ || !linker_->settings().standIn) return;
+    Timer t;
+    std::vector<size_t> open;
+    for (size_t i = 0; i < links.size(); ++i)
+        if (links[i].flags & Link::kOpen) open.push_back(i);
+    if (open.empty()) return;
+    const uint64_t rays = makeStandIns(h, recv, links, open, false);
+    countStandIns(res, rec, open.size(), rays, t.seconds(), false);
     spdlog::info(
         "{} links that had to be opened got a stand-in transfer ({} rays, {} samples, {:.1f} s)",
-        open.size(), rays.load(), h.standInSampleCount(), t.seconds());
+        open.size(), rays, h.standInSampleCount(), t.seconds());
 }
 
 void HrSolver::fillBounds(const Hierarchy& h, uint32_t r, const Link& l,
@@ -527,8 +569,9 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
     if (l.flags & Link::kSampled) {
         // A near cluster pair estimated by sampling (cluster/link.h): the
         // judged estimate, receiver factor included, and its error bound (a
-        // stand-in's K is its estimate; its Fupper may hold a sample block).
-        e.F = (l.flags & Link::kStandIn) ? double(l.K) : double(l.Fupper);
+        // stand-in's is Hierarchy::standInJudged: its Fupper may hold a
+        // sample block).
+        e.F = (l.flags & Link::kStandIn) ? h.standInJudged(l) : double(l.Fupper);
         e.unoccludedF = v > 0 ? e.F / v : e.F;
         e.Fupper = e.F * (1.0 + l.uncertainty / 100.0);
         e.partialVisibility = (l.flags & (Link::kPartial | Link::kUncertain)) != 0;
@@ -703,6 +746,10 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
             }
             break;
         }
+        // cluster.near = stand_in: pairs too close for the point
+        // approximation get a stand-in that is judged below before anything
+        // is opened (cluster/link.h "Judged stand-ins").
+        standInNear(h, recv, pending, res, rec);
         bool capHit = finalLinks.size() + n > s_.maxLinks;
         if (capHit && !res.linkCapHit) {
             res.linkCapHit = true;
@@ -720,14 +767,24 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         std::vector<double> misplaced;
         std::vector<double> clusterMisplaced;
         std::vector<uint32_t> clusterPartial;
-        const bool partialCheck =
-            !capHit && s_.openPartialReceivers && checkEps > 0 && h.numClusters() > 0;
+        const bool nearStandIns = linker_ && linker_->settings().standInNear;
+        const bool partialCheck = !capHit && (s_.openPartialReceivers || nearStandIns) &&
+                                  checkEps > 0 && h.numClusters() > 0;
         if (partialCheck) {
             misplaced.assign(n, 0.0);
             tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const auto& range) {
                 for (size_t i = range.begin(); i != range.end(); ++i) {
                     const Link& l = pending[i];
-                    if (!h.isCluster(recv[i]) || (l.flags & Link::kOpen) ||
+                    if (!h.isCluster(recv[i]) || (l.flags & Link::kOpen)) continue;
+                    if (l.byArea()) {
+                        // A stand-in whose receiving cluster takes the light
+                        // by area may put all of it on the wrong surfaces.
+                        oracles::LinkEstimate e = linkEstimate(h, recv[i], l, false);
+                        misplaced[i] =
+                            maxComponent(e.receiverRho * e.senderB) * e.F * e.receiverArea;
+                        continue;
+                    }
+                    if (!s_.openPartialReceivers ||
                         !(l.flags & (Link::kPartial | Link::kUncertain)))
                         continue;
                     oracles::LinkEstimate e = linkEstimate(h, recv[i], l, false);
@@ -819,6 +876,13 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                             (clusterMisplaced[c] > limit &&
                              misplaced[i] * clusterPartial[c] >= clusterMisplaced[c]))
                             d = oracles::constrain(Decision::RefineReceiver, e);
+                    }
+                    // A refused stand-in (or sampled link that found nothing)
+                    // of a pair too close for the point approximation is
+                    // opened on the side its geometry asks for.
+                    if (d != Decision::Accept && nearStandIns && (l.flags & Link::kSampled)) {
+                        const Decision f = forcedDecision(h, r, s);
+                        if (f != Decision::Accept) d = f;
                     }
                     decision[i] = uint8_t(d);
                 }
@@ -1219,10 +1283,13 @@ HrResult HrSolver::solve(bool progress) {
             (rc ? (sc ? res.linksCC : res.linksCS) : (sc ? res.linksSC : res.linksSS))++;
             if (l.flags & Link::kOpen) ++res.unopenedLinks;
             if (l.flags & Link::kDeferred) ++res.deferredLinksLeft;
-            if (l.flags & Link::kStandIn) standIn += h.standInSent(l) * h.area(r) * h.rho(r);
+            if (l.flags & Link::kStandIn) {
+                standIn += h.standInSent(l) * h.area(r) * h.rho(r);
+                ++res.standInLinksFinal;
+            }
         }
     }
-    if (res.standInLinks > 0) {
+    if (res.standInLinksFinal > 0) {
         double reflected = maxComponent(h.reflectedPower());
         res.standInPowerShare = reflected > 0 ? maxComponent(standIn) / reflected : 0.0;
         spdlog::info("stand-in links carry {:.1f} % of the reflected power",

@@ -406,6 +406,13 @@ struct HrResult {
     /// reflected power.
     uint64_t standInLinks = 0, standInRays = 0;
     double standInSeconds = 0.0, standInPowerShare = 0.0;
+    /// cluster.near = stand_in: stand-ins made for pairs too close for the
+    /// point approximation (judged, then kept or opened), their rays and
+    /// seconds; and the stand-ins of either kind in the final hierarchy
+    /// (standInPowerShare is over these; for those handed over by cosine it
+    /// counts the power before the receiver's mean cosine, an upper bound).
+    uint64_t nearStandInsMade = 0, nearStandInRays = 0, standInLinksFinal = 0;
+    double nearStandInSeconds = 0.0;
     double linkingSeconds = 0.0, refineSeconds = 0.0, gatherSeconds = 0.0, pushPullSeconds = 0.0;
     double minArea = 0.0;
     /// A posteriori estimate of the solve's relative L1 error of the
@@ -480,7 +487,20 @@ class HrSolver {
     /// refinement stopped early (cluster/link.h "Stand-ins"; Link::kStandIn).
     /// `samples` (sending clusters) receives its samples.
     Link makeStandIn(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays,
-                     std::vector<cluster::StandInSample>* samples) const;
+                     std::vector<cluster::StandInSample>* samples, bool judge) const;
+    /// Replaces links[i] for each i in `open` by its stand-in, storing the
+    /// samples of those from sending clusters in h; returns the rays cast.
+    /// `judge`: each also gets an independent estimate to be judged by.
+    uint64_t makeStandIns(Hierarchy& h, const std::vector<uint32_t>& recv, std::vector<Link>& links,
+                          const std::vector<size_t>& open, bool judge) const;
+    /// Adds stand-ins made to the result's counts (near: judged ones).
+    void countStandIns(HrResult& res, IterationRecord& rec, uint64_t links, uint64_t rays,
+                       double seconds, bool near) const;
+    /// cluster.near = stand_in: replaces each link to be opened (Link::kOpen)
+    /// whose pair ClusterLinker::standInNear admits by its stand-in, which
+    /// refinement then judges (cluster/link.h "Judged stand-ins").
+    void standInNear(Hierarchy& h, const std::vector<uint32_t>& recv, std::vector<Link>& links,
+                     HrResult& res, IterationRecord& rec) const;
     /// Replaces every link still to be opened (Link::kOpen) by its stand-in,
     /// storing the samples of those from sending clusters in h.
     void standInUnopened(Hierarchy& h, const std::vector<uint32_t>& recv, std::vector<Link>& links,
