@@ -650,20 +650,25 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
     auto clamped = [&](const Estimate& e) { return std::min(bound, e.sum / n); };
     const double mean = carried.sum / n;
     double scale = mean > bound ? bound / mean : 1.0;
-    double cosine = 1.0;
-    if (towardsCentroid && carried.sum > 0 && carried.away <= 0.05 * carried.sum) {
+    if (towardsCentroid && judged.sum > 0 && judged.away <= 0.05 * judged.sum) {
         // Handed over by cosine (see the header): divided by the receiver's
-        // mean cosine towards the sender, so the power is unchanged.
+        // mean cosine towards the sender, so the power is unchanged. Chosen
+        // by the judged estimate, like everything that decides whether the
+        // link stays (a by-area stand-in faces one more check, HrSolver's
+        // misplaced light): decided by the carried one, the stand-ins kept
+        // would be those whose carried estimate is low.
         const double c = receiverCosine(r, u);
         if (c > 0) {
             out.byCosine = true;
-            cosine = c;
             scale /= c;
         }
     }
     out.K = mean * scale;
-    // The judged transfer, in K's units (divided by the same mean cosine).
-    out.judgedF = clamped(judged) / cosine;
+    // The judged transfer per unit receiver area (ClusterLink::judgedF): not
+    // divided by the mean cosine like K, since the oracle weighs it by the
+    // whole receiver area (a handed-over link delivers K cos_k to each
+    // surface, K c A_r in all).
+    out.judgedF = clamped(judged);
     if (apart) {
         out.judged = judged.cast > 0 ? double(judged.found) / judged.cast : 0.0;
         out.partial = judged.found > 0 && judged.found < judged.cast;
@@ -674,17 +679,18 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
     if (jmean > 0) {
         double var = std::max(0.0, judged.sum2 / n - jmean * jmean);
         out.relativeError = 2.0 * std::sqrt(var / (n - 1)) / jmean;
-    } else if (judged.found == 0 && judged.cast > 0) {
-        // Every ray blocked or missed: the estimate is 0, but the transfer
-        // may not be. judgedF is then a 95 % upper bound: the Clopper-Pearson
-        // bound on the visible fraction (zero successes in `cast`) times the
-        // unoccluded estimate (for overlapping spheres, whose samples are 0
-        // or 1, the rays cast over all drawn).
+    } else if (judged.found == 0 && (judged.cast > 0 || !apart)) {
+        // Nothing found: the estimate is 0, but the transfer may not be.
+        // judgedF is then a 95 % upper bound. Spheres apart: the
+        // Clopper-Pearson bound on the visible fraction (zero successes in
+        // `cast`) times the unoccluded estimate. Overlapping spheres, whose
+        // n samples are 0 or 1 (a direction that misses s's sphere is a 0
+        // like any other): the bound for zero successes in n trials, also
+        // when no ray entered the sphere (0 is then no certainty either).
         out.uncertain = true;
         out.relativeError = 1.0;
-        const double p95 = 1.0 - std::pow(0.05, 1.0 / judged.cast);
-        out.judgedF =
-            (apart ? p95 * judged.unoccluded / n : p95 * double(judged.cast) / n) / cosine;
+        const double p95 = 1.0 - std::pow(0.05, 1.0 / (apart ? judged.cast : n));
+        out.judgedF = apart ? p95 * judged.unoccluded / n : p95;
     }
     out.Fupper = gap > 0 ? s.area / (kPi * gap * gap) : 3.0e38;
     if (samples) {

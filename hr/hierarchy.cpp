@@ -320,6 +320,24 @@ RGB Hierarchy::standInSent(const Link& l) const {
     return sum;
 }
 
+RGB Hierarchy::standInReflected(uint32_t r, const Link& l) const {
+    const RGB sent = standInSent(l);
+    if (!isCluster(r)) return sent * area(r) * scene_->patches[patch_[r]].rho;
+    Vec3 d = center(l.sender) - center(r);
+    const double len = glm::length(d);
+    const bool byCosine = !l.byArea() && model_ == cluster::ClusterModel::Oriented && len > 0;
+    if (byCosine) d /= len;
+    const glm::vec3 dir(d);
+    RGB sum(0.0);
+    const cluster::ClusterNode& node = tree_->node(clusterIndex(r));
+    for (uint32_t q = node.patchBegin; q < node.patchEnd; ++q) {
+        const scene::Patch& P = scene_->patches[tree_->patchAt(q)];
+        const double w = byCosine ? std::max(0.0, double(glm::dot(glm::vec3(P.normal), dir))) : 1.0;
+        sum += (P.area * w) * P.rho;
+    }
+    return sent * sum;
+}
+
 double Hierarchy::standInJudged(const Link& l) const {
     if (!isCluster(l.sender)) return l.Fupper;
     const uint32_t block = std::bit_cast<uint32_t>(l.Fupper);

@@ -229,13 +229,18 @@ class Hierarchy {
     /// the index of their block (for the link's Fupper; not thread-safe).
     /// setLinks keeps only the blocks its links refer to.
     uint32_t addStandIn(std::span<const cluster::StandInSample> samples, float judged);
-    /// The transfer refinement judges stand-in link l by (in K's units): its
-    /// independent estimate (cluster.near = stand_in) or K itself.
+    /// The transfer refinement judges stand-in link l by, per unit receiver
+    /// area: its independent estimate (cluster.near = stand_in) or K itself.
     double standInJudged(const Link& l) const;
     /// What stand-in link l sends its receiver per unit area (irradiance):
     /// the sum over its samples of weight times the current radiosity of
     /// the sample's root patch; from a surface element, K times its radiosity.
     RGB standInSent(const Link& l) const;
+    /// The power receiver r reflects of what stand-in link l delivers:
+    /// standInSent times sum_k A_k rho_k over r's surfaces, each weighted by
+    /// its cosine towards the sender when the link is handed over by cosine
+    /// (as the push delivers it, clusterIrradianceAt).
+    RGB standInReflected(uint32_t r, const Link& l) const;
     uint64_t standInSampleCount() const {
         return standInSamples_.size() - (standInBegin_.size() - 1);  // without the block headers
     }

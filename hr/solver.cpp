@@ -351,26 +351,17 @@ Link HrSolver::makeStandIn(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t&
     rays = c.rays;
     Link l;
     l.sender = s;
-    if (!(c.K > 0)) {
-        // Nothing found: the link carries nothing. Kept as a sampled link
-        // (no samples to gather) judged by its judged estimate (when that
-        // found nothing either, the estimate's 95 % upper bound), so the
-        // oracle opens it where that could matter.
-        if (samples) samples->clear();
-        l.flags = Link::kSampled;
-        if (c.uncertain) l.flags |= Link::kUncertain;
-        if (c.partial) l.flags |= Link::kPartial;
-        l.Fupper = float(c.judgedF);
-        l.setVis(c.judged);
-        l.uncertainty = uint8_t(std::min(255.0, std::ceil(100.0 * c.relativeError)));
-        return l;
-    }
+    // A stand-in whose carried estimate found nothing carries nothing (K =
+    // 0, no samples) but is judged, and handed over, like the others: what
+    // decides whether a stand-in stays must not depend on its carried
+    // estimate (cluster/link.h "Judged stand-ins").
+    if (!(c.K > 0) && samples) samples->clear();
     l.flags = Link::kSampled | Link::kStandIn;
     if (c.byCosine) l.flags |= Link::kHandedOver;  // by cosine, not by area (Link::kStandIn)
     if (c.partial) l.flags |= Link::kPartial;
     if (c.uncertain) l.flags |= Link::kUncertain;
-    l.K = float(c.K);
-    l.Fupper = float(c.judgedF);  // a sending cluster's: its sample block (standInUnopened)
+    l.K = float(c.K > 0 ? c.K : 0.0);
+    l.Fupper = float(c.judgedF);  // a sending cluster's: its sample block (makeStandIns)
     l.setVis(c.judged);
     l.uncertainty = uint8_t(std::min(255.0, std::ceil(100.0 * c.relativeError)));
     return l;
@@ -1284,7 +1275,7 @@ HrResult HrSolver::solve(bool progress) {
             if (l.flags & Link::kOpen) ++res.unopenedLinks;
             if (l.flags & Link::kDeferred) ++res.deferredLinksLeft;
             if (l.flags & Link::kStandIn) {
-                standIn += h.standInSent(l) * h.area(r) * h.rho(r);
+                standIn += h.standInReflected(r, l);
                 ++res.standInLinksFinal;
             }
         }

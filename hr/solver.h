@@ -409,8 +409,8 @@ struct HrResult {
     /// cluster.near = stand_in: stand-ins made for pairs too close for the
     /// point approximation (judged, then kept or opened), their rays and
     /// seconds; and the stand-ins of either kind in the final hierarchy
-    /// (standInPowerShare is over these; for those handed over by cosine it
-    /// counts the power before the receiver's mean cosine, an upper bound).
+    /// (standInPowerShare is over these: the power their receivers reflect of
+    /// what they deliver, Hierarchy::standInReflected).
     uint64_t nearStandInsMade = 0, nearStandInRays = 0, standInLinksFinal = 0;
     double nearStandInSeconds = 0.0;
     double linkingSeconds = 0.0, refineSeconds = 0.0, gatherSeconds = 0.0, pushPullSeconds = 0.0;

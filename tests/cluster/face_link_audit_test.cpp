@@ -10,11 +10,10 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/rng.h"
 #include "hr/solver.h"
-#include "scene/element.h"
 #include "scene/loader.h"
 #include "tests/hr/settings.h"
+#include "tests/link_audit.h"
 #include "transport/visibility.h"
 
 using namespace hrad;
@@ -36,15 +35,6 @@ void auditScene(const std::string& name, bool faces, double& faceRatio, double& 
     const hr::Hierarchy& h = *res.hierarchy;
     const cluster::ClusterTree& t = *res.clusterTree;
     std::vector<uint32_t> recv = h.linkReceivers();
-    const uint32_t k = h.numPatches();
-    auto point = [&](uint32_t e, Pcg32& rng, uint32_t& patch) {
-        double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
-        if (h.isCluster(e)) return t.samplePoint(h.clusterIndex(e), a, b, c, patch);
-        patch = h.patch(e);
-        const auto& P = s.patches[patch];
-        if (P.kind == scene::PatchKind::Triangle && a + b > 1) a = 1 - a, b = 1 - b;
-        return scene::elementPoint(P, h.domain(e), a, b);
-    };
     Audit groups[2];
     struct Worst {
         double diff, model, mc, sepRatio;
@@ -60,55 +50,9 @@ void auditScene(const std::string& name, bool faces, double& faceRatio, double& 
         if (!(l.K > 0)) continue;
         bool face =
             (rc && t.planarFace(h.clusterIndex(r))) || (sc && t.planarFace(h.clusterIndex(sd)));
-        Vec3 u = h.center(r) - h.center(sd);
-        double dist = glm::length(u);
-        u /= dist;
-        // What the model moves: an oriented receiving cluster's surfaces get
-        // K cos_k+(u) w_k each (w_k their openness towards the sender,
-        // cluster/openness.h, for links handed over by openness; 1 by cosine
-        // alone), from the sender's radiosity towards them (the exact sum over
-        // its patches, as the push hands it; the cluster's projectedArea is a
-        // Cauchy-Schwarz bound above it).
-        double recvArea = h.area(r);
-        if (rc) {
-            const auto& nd = t.node(h.clusterIndex(r));
-            const bool byOpenness = res.openness && (l.flags & hr::Link::kOpenHandOver);
-            recvArea = 0;
-            for (uint32_t q = nd.patchBegin; q < nd.patchEnd; ++q) {
-                const uint32_t p = t.patchAt(q);
-                const auto& P = s.patches[p];
-                double cosine = std::max(0.0, glm::dot(P.normal, -u));
-                double w = 1.0;
-                if (byOpenness) {
-                    auto v = res.openness->view(p);
-                    w = res.openness->openness(v, res.openness->inside(v, nd.centroid, nd.radius),
-                                               -u, cosine);
-                }
-                recvArea += P.area * cosine * w;
-            }
-        }
-        double Bs = sc ? h.directionalB(sd, u).g : h.B(sd).g;
-        double model = l.K * recvArea * Bs;
-        Pcg32 rng(hashIds(i, 77));
-        transport::Segment seg[kPairs];
-        double w[kPairs];
-        for (int j = 0; j < kPairs; ++j) {
-            seg[j].a = point(r, rng, seg[j].patchA);
-            seg[j].b = point(sd, rng, seg[j].patchB);
-            Vec3 d = seg[j].b - seg[j].a;
-            double d2 = glm::dot(d, d);
-            double ca = glm::dot(s.patches[seg[j].patchA].normal, d);
-            double cb = -glm::dot(s.patches[seg[j].patchB].normal, d);
-            w[j] = ca > 0 && cb > 0 && d2 > 0 ? ca * cb / (kPi * d2 * d2) : 0.0;
-            // The sender's solved radiosity at that point (its root patch).
-            w[j] *= h.B(seg[j].patchB < k ? seg[j].patchB : 0).g;
-        }
-        uint8_t occ[kPairs];
-        vis.occluded(seg, kPairs, occ);
-        double sum = 0;
-        for (int j = 0; j < kPairs; ++j)
-            if (!occ[j]) sum += w[j];
-        double mc = h.area(r) * h.area(sd) * sum / kPairs;
+        const double dist = glm::length(h.center(r) - h.center(sd));
+        const test::LinkPower p = test::auditLink(s, vis, res, recv, i, kPairs);
+        const double model = p.model, mc = p.mc;
         Audit& g = groups[face ? 0 : 1];
         g.model += model;
         g.mc += mc;

@@ -1,0 +1,126 @@
+// Per-link audit of judged stand-ins (cluster.near = stand_in, cluster/link.h
+// "Judged stand-ins") against Monte Carlo (tests/link_audit.h): every final
+// link of a solved scene, grouped into stand-ins taking their light by area,
+// stand-ins handed over by cosine, sampled links that found nothing (K = 0:
+// whatever they really carry is lost) and the other cluster links, with the
+// model's power against the Monte Carlo power and its standard error. Not a
+// fast test: office:4, and Lost Empire when ../shared/scenes is there.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+
+#include "hr/solver.h"
+#include "scene/loader.h"
+#include "tests/link_audit.h"
+#include "tests/test_util.h"
+#include "transport/visibility.h"
+
+using namespace hrad;
+
+namespace {
+
+struct Group {
+    double model = 0, mc = 0, var = 0;
+    uint64_t links = 0;
+    void add(const test::LinkPower& p, double weight) {
+        model += weight * p.model;
+        mc += weight * p.mc;
+        var += weight * weight * p.mcVar;
+        ++links;
+    }
+    double ratio() const { return mc > 0 ? model / mc : 1.0; }
+    double se() const { return std::sqrt(var); }
+};
+
+enum { kByArea, kByCosine, kFoundNothing, kOther, kGroups };
+
+struct SceneAudit {
+    Group g[kGroups];
+    double totalModel = 0;  ///< every link's model power (all groups, unsampled)
+};
+
+SceneAudit audit(const std::string& spec, const Params& extra, const std::string& near,
+                 uint64_t otherStride) {
+    Params p = extra;
+    p.set("hr.oracle", std::string("bfa"));
+    p.set("oracle.eps", 1e-3);
+    p.set("cluster.model", std::string("oriented"));
+    p.set("cluster.near", near);
+    scene::Scene s = scene::loadScene(spec, p);
+    transport::Visibility vis(s);
+    hr::HrSettings hs = hr::HrSettings::fromParams(p);
+    hr::HrSolver solver(s, vis, hs);
+    hr::HrResult res = solver.solve();
+    const hr::Hierarchy& h = *res.hierarchy;
+    const std::vector<uint32_t> recv = h.linkReceivers();
+    SceneAudit a;
+    constexpr int kPairs = 256;
+    for (uint64_t i = 0; i < h.numLinks(); ++i) {
+        const hr::Link& l = h.link(i);
+        int group;
+        double weight = 1.0;
+        if ((l.flags & hr::Link::kSampled) && !(l.K > 0))
+            group = kFoundNothing;
+        else if (l.flags & hr::Link::kStandIn)
+            group = l.byArea() ? kByArea : kByCosine;
+        else if ((h.isCluster(recv[i]) || h.isCluster(l.sender)) && l.K > 0) {
+            // Every otherStride-th of the other cluster links, weighted by it.
+            if (i % otherStride) continue;
+            group = kOther;
+            weight = double(otherStride);
+        } else
+            continue;
+        const test::LinkPower pw = test::auditLink(s, vis, res, recv, i, kPairs);
+        a.g[group].add(pw, weight);
+    }
+    static const char* names[kGroups] = {"stand-ins by area", "stand-ins by cosine",
+                                         "sampled, found nothing", "other cluster links"};
+    for (int k = 0; k < kGroups; ++k)
+        std::cout << spec << " near=" << near << ", " << names[k] << ": " << a.g[k].links
+                  << " links, model " << a.g[k].model << ", Monte Carlo " << a.g[k].mc << " +- "
+                  << a.g[k].se() << ", ratio " << a.g[k].ratio() << "\n";
+    return a;
+}
+
+// All the stand-ins together (by area, by cosine, and those that found
+// nothing and carry 0) against the Monte Carlo power of the same links.
+// Each stand-in's transfer is an unbiased estimate (cluster/link.h), so the
+// sum must match within its noise and the audit's (measured 1.004 on
+// office:4, 1.003 on Lost Empire). Stand-ins judged by the estimate they
+// carry would be kept more often where it is low, and the sum would fall
+// short. The found-nothing group alone is biased low and the others high by
+// the same power (which of the two a link falls in is its own estimate).
+// The always-opened solve's cluster links are printed for comparison: the
+// point approximation carries 1.5 % (office:4) to 5 % (Lost Empire) more
+// than Monte Carlo.
+void expectStandInsUnbiased(const SceneAudit& a) {
+    double model = 0, mc = 0, var = 0;
+    for (int k : {kByArea, kByCosine, kFoundNothing}) {
+        model += a.g[k].model;
+        mc += a.g[k].mc;
+        var += a.g[k].var;
+    }
+    ASSERT_GT(a.g[kByCosine].links, 0u);
+    ASSERT_GT(mc, 0.0);
+    std::cout << "stand-ins in all: model " << model << ", Monte Carlo " << mc << " +- "
+              << std::sqrt(var) << ", ratio " << model / mc << "\n";
+    EXPECT_NEAR(model / mc, 1.0, 0.015);
+}
+
+}  // namespace
+
+TEST(StandInAudit, StandInsCarryTheirMonteCarloPowerOnOffice4) {
+    expectStandInsUnbiased(audit("office:4", Params{}, "stand_in", 1));
+    audit("office:4", Params{}, "open", 1);
+}
+
+TEST(StandInAudit, StandInsCarryTheirMonteCarloPowerOnLostEmpire) {
+    auto dir = test::sharedScenesDir();
+    if (!dir) GTEST_SKIP() << "../shared/scenes is absent";
+    Params p;
+    p.set("obj.clamp_rho", 0.99);
+    const std::string le = (*dir / "lost-empire/lost_empire.obj").string();
+    expectStandInsUnbiased(audit(le, p, "stand_in", 8));
+    audit(le, p, "open", 8);
+}

@@ -1,0 +1,103 @@
+// Per-link audit against Monte Carlo (the house habit, papers/README.md
+// "Clustering accuracy"): the power one final link of a solved hierarchy
+// moves by the model, against a Monte Carlo integral of what it really
+// carries, A_r A_s E[B_s(y) cos cos V / (pi d^2)] over area-uniform point
+// pairs of its two ends, with the solved root-patch radiosities as B_s
+// (green channel). Used by the face-link and stand-in audits.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "core/rng.h"
+#include "hr/solver.h"
+#include "scene/element.h"
+#include "transport/visibility.h"
+
+namespace hrad::test {
+
+struct LinkPower {
+    double model = 0.0;  ///< what the solver's link moves (green)
+    double mc = 0.0;     ///< the Monte Carlo integral of the same transfer
+    double mcVar = 0.0;  ///< the variance of `mc` (its standard error squared)
+};
+
+/// Link i of res's hierarchy (receiver recv[i]) audited with `pairs` point
+/// pairs (seeded by i, so repeatable).
+inline LinkPower auditLink(const scene::Scene& s, const transport::Visibility& vis,
+                           const hr::HrResult& res, const std::vector<uint32_t>& recv, uint64_t i,
+                           int pairs) {
+    const hr::Hierarchy& h = *res.hierarchy;
+    const cluster::ClusterTree* t = res.clusterTree.get();
+    const hr::Link& l = h.link(i);
+    const uint32_t r = recv[i], sd = l.sender, k = h.numPatches();
+    const bool rc = h.isCluster(r), sc = h.isCluster(sd);
+    auto point = [&](uint32_t e, Pcg32& rng, uint32_t& patch) {
+        double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
+        if (h.isCluster(e)) return t->samplePoint(h.clusterIndex(e), a, b, c, patch);
+        patch = h.patch(e);
+        const auto& P = s.patches[patch];
+        if (P.kind == scene::PatchKind::Triangle && a + b > 1) a = 1 - a, b = 1 - b;
+        return scene::elementPoint(P, h.domain(e), a, b);
+    };
+    Vec3 u = h.center(sd) - h.center(r);
+    u /= std::max(1e-300, glm::length(u));
+    LinkPower out;
+    // What the model moves. A stand-in (Link::kStandIn) sends its sampled
+    // transfer (Hierarchy::standInSent, per unit receiver area): by area over
+    // the receiver, or, handed over, to each surface of a receiving cluster
+    // by its cosine towards the sender. Any other link into an oriented
+    // cluster lights its surfaces by K cos_k w_k (w_k the openness towards
+    // the sender, cluster/openness.h, for links handed over by openness; 1
+    // by cosine alone) from the sender's radiosity towards them.
+    const bool standIn = l.flags & hr::Link::kStandIn;
+    double recvArea = h.area(r);
+    if (rc && (!standIn || !l.byArea())) {
+        const auto& nd = t->node(h.clusterIndex(r));
+        const bool byOpenness = !standIn && res.openness && (l.flags & hr::Link::kOpenHandOver);
+        recvArea = 0;
+        for (uint32_t q = nd.patchBegin; q < nd.patchEnd; ++q) {
+            const uint32_t p = t->patchAt(q);
+            const auto& P = s.patches[p];
+            double cosine = std::max(0.0, glm::dot(P.normal, u));
+            double w = 1.0;
+            if (byOpenness) {
+                auto v = res.openness->view(p);
+                w = res.openness->openness(v, res.openness->inside(v, nd.centroid, nd.radius), u,
+                                           cosine);
+            }
+            recvArea += P.area * cosine * w;
+        }
+    }
+    if (standIn)
+        out.model = recvArea * h.standInSent(l).g;
+    else
+        out.model = l.K * recvArea * (sc ? h.directionalB(sd, -u).g : h.B(sd).g);
+    Pcg32 rng(hashIds(i, 77));
+    std::vector<transport::Segment> seg(static_cast<size_t>(pairs));
+    std::vector<double> w(static_cast<size_t>(pairs));
+    for (int j = 0; j < pairs; ++j) {
+        seg[j].a = point(r, rng, seg[j].patchA);
+        seg[j].b = point(sd, rng, seg[j].patchB);
+        Vec3 d = seg[j].b - seg[j].a;
+        double d2 = glm::dot(d, d);
+        double ca = glm::dot(s.patches[seg[j].patchA].normal, d);
+        double cb = -glm::dot(s.patches[seg[j].patchB].normal, d);
+        w[j] = ca > 0 && cb > 0 && d2 > 0 ? ca * cb / (kPi * d2 * d2) : 0.0;
+        // The sender's solved radiosity at that point (its root patch).
+        w[j] *= h.B(seg[j].patchB < k ? seg[j].patchB : 0).g;
+    }
+    std::vector<uint8_t> occ(static_cast<size_t>(pairs));
+    vis.occluded(seg.data(), size_t(pairs), occ.data());
+    double sum = 0, sum2 = 0;
+    for (int j = 0; j < pairs; ++j)
+        if (!occ[j]) sum += w[j], sum2 += w[j] * w[j];
+    const double scale = h.area(r) * h.area(sd), mean = sum / pairs;
+    out.mc = scale * mean;
+    out.mcVar =
+        pairs > 1 ? scale * scale * std::max(0.0, sum2 / pairs - mean * mean) / (pairs - 1) : 0.0;
+    return out;
+}
+
+}  // namespace hrad::test
