@@ -460,7 +460,6 @@ TEST(HrSolver, JudgedStandInsOpenFewerNearPairsAndKeepTheLight) {
     HrResult judged = run("oriented", "stand_in");
     HrResult overlapping = run("oriented", "stand_in", true);
     EXPECT_LT(overlapping.hierarchy->numLinks(), judged.hierarchy->numLinks());
-    const RGB po = overlapping.hierarchy->radiosityPower() - s.emittedPower();
     EXPECT_EQ(open.nearStandInsMade, 0u);
     EXPECT_GT(judged.nearStandInsMade, 0u);
     EXPECT_GT(judged.standInLinksFinal, 0u);
@@ -475,6 +474,7 @@ TEST(HrSolver, JudgedStandInsOpenFewerNearPairsAndKeepTheLight) {
     const RGB e = s.emittedPower();
     const RGB ref = flat.hierarchy->radiosityPower() - e;
     const RGB pj = judged.hierarchy->radiosityPower() - e;
+    const RGB po = overlapping.hierarchy->radiosityPower() - e;
     std::cout << "office:3: " << open.hierarchy->numLinks() << " links opened, "
               << judged.hierarchy->numLinks() << " with judged stand-ins; reflected power over "
               << "the unclustered solve " << pj.r / ref.r << " " << pj.g / ref.g << " "

@@ -37,7 +37,6 @@ enum { kByArea, kByCosine, kFoundNothing, kOther, kGroups };
 
 struct SceneAudit {
     Group g[kGroups];
-    double totalModel = 0;  ///< every link's model power (all groups, unsampled)
 };
 
 SceneAudit audit(const std::string& spec, const Params& extra, const std::string& near,
