@@ -49,6 +49,8 @@ class HrEntry final : public Solver {
         sm["link_cap_hit"] = res->linkCapHit;
         sm["memory_budget_hit"] = res->memoryBudgetHit;
         sm["time_limit_hit"] = res->timeLimitHit;
+        sm["eps_power"] =
+            json{{"of", res->epsReflected ? "reflected" : "emitted"}, {"value", res->epsPower}};
         sm["min_area"] = res->minArea;
         sm["error_estimate"] = res->errorEstimate;
         sm["stand_in_power_share"] = res->standInPowerShare;

@@ -144,6 +144,8 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.relaxFraction = p.getDouble("hr.relax_fraction", s.relaxFraction, 0.0, 1.0);
     s.relaxSweeps = int(p.getInt("hr.relax_sweeps", s.relaxSweeps, 1, 1 << 20));
     s.refineGrowth = p.getDouble("hr.refine_growth", s.refineGrowth, 0.0, 1e300);
+    s.epsReflected = p.getEnum("hr.eps_power", s.epsReflected ? "reflected" : "emitted",
+                               {"emitted", "reflected"}) == "reflected";
     s.reachRays = int(p.getInt("hr.reach_rays", s.reachRays, 0, 1 << 20));
     s.reachRetryRays = int(p.getInt("hr.reach_retry_rays", s.reachRetryRays, 0, 1 << 20));
     s.gaussSeidel = p.getEnum("hr.iteration", s.gaussSeidel ? "gauss-seidel" : "jacobi",
@@ -198,6 +200,7 @@ HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visib
     minArea_ = s_.minArea > 0 ? s_.minArea : s_.minAreaRel * scene.totalArea();
     emittedPower_ = maxComponent(scene.emittedPower());
     if (!(emittedPower_ > 0)) emittedPower_ = 1.0;
+    epsPower_ = emittedPower_;
     emittedRadiosity_ = 0.0;
     for (const auto& patch : scene.patches)
         emittedRadiosity_ = std::max(emittedRadiosity_, maxComponent(patch.emission));
@@ -610,7 +613,7 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
         e.F *= g;
         e.unoccludedF *= g;
     }
-    e.emittedPower = emittedPower_;
+    e.emittedPower = epsPower_;
     e.emittedRadiosity = emittedRadiosity_;
     e.receiverLevel = h.level(r);
     e.senderLevel = h.level(s);
@@ -1024,7 +1027,10 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
 HrResult HrSolver::solve(bool progress) {
     progress_ = progress;
     solveTimer_.reset();
+    epsPower_ = emittedPower_;
     HrResult res;
+    res.epsPower = epsPower_;
+    res.epsReflected = s_.epsReflected;
     res.minArea = minArea_;
     linkCost_.clear();
     if (s_.clusterModel == cluster::ClusterModel::Auto) {
@@ -1125,8 +1131,18 @@ HrResult HrSolver::solve(bool progress) {
             rec.stage = int(stage);
             rec.eps = stages[stage];
             Timer tr;
-            rec.judged = !lazy || judgedB.empty() || grownSince(h.allB(), judgedB, s_.refineGrowth);
+            // hr.eps_power = reflected: the reflected power so far (the
+            // emitted power until the first gather); a fall by more than the
+            // growth allowance triggers a judging pass.
+            const double reflectedNow = maxComponent(h.reflectedPower());
+            const double powerNow =
+                s_.epsReflected && reflectedNow > 0.0 ? reflectedNow : emittedPower_;
+            rec.judged = !lazy || judgedB.empty() ||
+                         grownSince(h.allB(), judgedB, s_.refineGrowth) ||
+                         powerNow * (1.0 + s_.refineGrowth) < epsPower_;
             if (rec.judged) {
+                epsPower_ = powerNow;
+                res.epsPower = epsPower_;
                 rec.refinedLinks = refine(h, *oracle, stages[stage], res, rec);
                 if (lazy) judgedB = h.allB();
             }

@@ -94,6 +94,14 @@
 //                                       by default: on graz it lowers the non-emitter L2
 //                                       but raises the light on patches the Monte Carlo
 //                                       reference has dark (papers/README.md)
+//   hr.eps_power       string  "emitted"  emitted | reflected: the power eps is a fraction
+//                                       of, for every oracle and every check the solver adds
+//                                       (LinkEstimate::emittedPower). emitted: the scene's
+//                                       emitted power (max channel). reflected: the reflected
+//                                       power B - E of the solution so far (max channel; the
+//                                       emitted power until the first gather), so eps is a
+//                                       fraction of what the error metrics measure (below,
+//                                       "What eps is a fraction of")
 //   hr.refine_growth   double  0.05    lazy refinement (below): an iteration re-judges the
 //                                       links only when some element's radiosity (any
 //                                       channel) has grown by more than this fraction since
@@ -167,6 +175,23 @@
 // summary. Oscillating channels (last two changes of opposite sign) use the
 // change itself; q >= 1 over the window (not contracting) never stops the
 // solve.
+//
+// What eps is a fraction of (hr.eps_power). The oracles compare a power (bfa:
+// rho_r B_s F A_r; error, kv: A_r dB) with eps times a power of the scene,
+// by default its emitted power (max channel). Where the lamps' light mostly
+// leaves the scene or is absorbed, the reflected power B - E that the error
+// metrics measure is a small part of that (one-sided graz.mgf: about 1 %),
+// so at eps 1e-3 one link may carry a tenth of all the reflected light, and
+// the error of its 8-ray visibility estimate (cluster.vis_rays) moves that
+// much light: which set of ray seeds is drawn then decides whether graz
+// comes out right or 18 % too bright (papers/README.md, "What eps is a
+// fraction of"). With hr.eps_power = reflected, eps is a fraction of the
+// reflected power of the solution so far. It is not known before the first
+// gather, so the first judging pass uses the emitted power; the next pass,
+// which every radiosity that turned from dark to lit triggers, re-judges
+// with the reflected power, and a pass is also triggered when that power
+// has fallen by more than hr.refine_growth since the last (it only grows as
+// bounces add up, which makes accepted links safer).
 //
 // Lazy refinement (hr.refine_growth = g). Every oracle's test is linear in
 // the sender's radiosity or does not read it: bfa's rho_r B_s F A_r, the
@@ -291,6 +316,9 @@ struct HrSettings {
     double relaxShare = 0.8;
     double relaxFraction = 0.01;
     int relaxSweeps = 1000;
+    /// hr.eps_power = reflected: eps is a fraction of the reflected power
+    /// so far instead of the emitted power (above).
+    bool epsReflected = false;
     /// hr.refine_growth: lazy refinement (above); 0: judge every iteration.
     double refineGrowth = 0.05;
     /// hr.reach_rays: rays per patch of the reachability pass (0: off).
@@ -360,6 +388,10 @@ struct HrResult {
     bool linkCapHit = false;
     bool memoryBudgetHit = false;  ///< refinement stopped at memory.budget_mb
     bool timeLimitHit = false;     ///< stopped at hr.max_seconds
+    /// The power eps was a fraction of in the last judging pass
+    /// (hr.eps_power: the emitted power, or the reflected power so far).
+    double epsPower = 0.0;
+    bool epsReflected = false;  ///< hr.eps_power = reflected
     uint64_t initialLinks = 0;
     uint64_t initialPairs =
         0;  ///< node pairs evaluated by initial linking (k(k-1) without clusters)
@@ -530,6 +562,9 @@ class HrSolver {
     transport::FormFactorEngine engine_;
     double minArea_ = 0.0;
     double emittedPower_ = 1.0;
+    /// The power eps is a fraction of in the current judging pass
+    /// (hr.eps_power; LinkEstimate::emittedPower).
+    double epsPower_ = 1.0;
     double emittedRadiosity_ = 1.0;  ///< largest max-channel emission of any patch
     IterationHook hook_;
     bool progress_ = false;  ///< progress bars on stderr (solve's argument)
