@@ -1131,10 +1131,10 @@ HrResult HrSolver::solve(bool progress) {
             rec.stage = int(stage);
             rec.eps = stages[stage];
             Timer tr;
-            // hr.eps_power = reflected: the reflected power so far (the
-            // emitted power until the first gather); a fall by more than the
-            // growth allowance triggers a judging pass.
-            const double reflectedNow = maxComponent(h.reflectedPower());
+            // hr.eps_power = reflected: the reflected power so far (that of
+            // the last iteration; the emitted power until the first gather);
+            // a fall by more than the growth allowance triggers a judging pass.
+            const double reflectedNow = maxComponent(lastReflected);
             const double powerNow =
                 s_.epsReflected && reflectedNow > 0.0 ? reflectedNow : emittedPower_;
             rec.judged = !lazy || judgedB.empty() ||

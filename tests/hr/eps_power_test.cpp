@@ -13,8 +13,8 @@
 
 #include "hr/solver.h"
 #include "scene/builtin.h"
-#include "scene/element.h"
-#include "scene/field.h"
+#include "tests/hr/plates.h"
+#include "tests/hr/settings.h"
 
 using namespace hrad;
 using namespace hrad::hr;
@@ -25,32 +25,11 @@ HrResult solvePlates(const scene::Scene& s, const transport::Visibility& vis,
                      const std::string& oracle, double eps, const std::string& basis,
                      const std::string& epsPower) {
     Params p;
-    p.set("hr.oracle", oracle);
-    p.set("oracle.eps", eps);
-    p.set("hr.tolerance", 1e-8);
-    p.set("hr.max_iterations", int64_t(400));
-    p.set("cluster.model", std::string("none"));
-    p.set("hr.basis", basis);
     p.set("hr.eps_power", epsPower);
-    HrSettings hs = HrSettings::fromParams(p);
-    p.reportUnused();
-    return HrSolver(s, vis, hs).solve();
+    return HrSolver(s, vis, test::plateSettings(oracle, eps, basis, p)).solve();
 }
 
-/// Relative L2 (red) of a's level-5 region means against ref's on `patch`.
-double regionL2(const scene::Scene& s, const scene::RadiosityField& a,
-                const scene::RadiosityField& ref, uint32_t patch) {
-    const int level = 5, n = 1 << level;
-    double num = 0, den = 0;
-    for (int i = 0; i < n; ++i)
-        for (int j = 0; j < n; ++j) {
-            auto k = scene::keyAt(s.patches[patch].kind, (i + 0.5) / n, (j + 0.5) / n, level);
-            double x = a.average(patch, k).x, r = ref.average(patch, k).x;
-            num += (x - r) * (x - r);
-            den += r * r;
-        }
-    return std::sqrt(num / den);
-}
+using test::regionL2;
 
 }  // namespace
 

@@ -16,8 +16,8 @@
 
 #include "hr/solver.h"
 #include "scene/builtin.h"
-#include "scene/element.h"
-#include "scene/field.h"
+#include "tests/hr/plates.h"
+#include "tests/hr/settings.h"
 
 using namespace hrad;
 using namespace hrad::hr;
@@ -27,36 +27,11 @@ namespace {
 HrSettings plateSettings(const std::string& oracle, double eps, const std::string& basis,
                          bool senderTotal) {
     Params p;
-    p.set("hr.oracle", oracle);
-    p.set("oracle.eps", eps);
-    p.set("hr.tolerance", 1e-8);
-    p.set("hr.max_iterations", int64_t(400));
-    p.set("cluster.model", std::string("none"));
-    p.set("hr.basis", basis);
     p.set("hr.sender_total", senderTotal);
-    HrSettings s = HrSettings::fromParams(p);
-    p.reportUnused();
-    return s;
+    return test::plateSettings(oracle, eps, basis, p);
 }
 
-/// Relative L2 (red channel) of a's region means against ref's over the
-/// 32 x 32 level-5 regions of patch `patch`, and the ratio of their sums.
-double regionL2(const scene::Scene& s, const scene::RadiosityField& a,
-                const scene::RadiosityField& ref, uint32_t patch, double* ratio) {
-    const int level = 5, n = 1 << level;
-    double num = 0, den = 0, sa = 0, sr = 0;
-    for (int i = 0; i < n; ++i)
-        for (int j = 0; j < n; ++j) {
-            auto k = scene::keyAt(s.patches[patch].kind, (i + 0.5) / n, (j + 0.5) / n, level);
-            double x = a.average(patch, k).x, r = ref.average(patch, k).x;
-            num += (x - r) * (x - r);
-            den += r * r;
-            sa += x;
-            sr += r;
-        }
-    if (ratio) *ratio = sa / sr;
-    return std::sqrt(num / den);
-}
+using test::regionL2;
 
 }  // namespace
 
