@@ -229,6 +229,25 @@ class Hierarchy {
     /// the index of their block (for the link's Fupper; not thread-safe).
     /// setLinks keeps only the blocks its links refer to.
     uint32_t addStandIn(std::span<const cluster::StandInSample> samples, float judged);
+    /// Surface-to-surface links with a judged visibility (hr.judge_visibility
+    /// = independent; HrSolver::evaluateLink): Link::visibility holds an
+    /// estimate from rays independent of those in K, the one the oracle
+    /// judges, and Fupper the unoccluded form factor (the conservative bound
+    /// is recomputed where needed). Otherwise Link::visibility is the
+    /// fraction in K and Fupper the bound. Set by the solver before linking.
+    void setJudgedSurfaceVisibility(bool on) { judgedSurfaceVis_ = on; }
+    bool judgedSurfaceVisibility() const { return judgedSurfaceVis_; }
+    /// A surface-to-surface link's unoccluded form factor and the visibility
+    /// fraction K carries (K = unoccluded x carried), in either layout.
+    double unoccludedF(const Link& l) const {
+        if (judgedSurfaceVis_) return l.Fupper;
+        const double v = l.vis();
+        return v > 0 ? double(l.K) / v : 0.0;
+    }
+    double carriedVisibility(const Link& l) const {
+        if (!judgedSurfaceVis_) return l.vis();
+        return l.Fupper > 0 ? std::min(1.0, double(l.K) / double(l.Fupper)) : 0.0;
+    }
     /// The transfer refinement judges stand-in link l by, per unit receiver
     /// area: its independent estimate (cluster.near = stand_in) or K itself.
     double standInJudged(const Link& l) const;
@@ -417,6 +436,7 @@ class Hierarchy {
     std::vector<uint64_t> standInBegin_{0};
     std::vector<cluster::StandInSample> standInSamples_;
     bool hasStandIns_ = false;  ///< some link is a stand-in (Link::kStandIn)
+    bool judgedSurfaceVis_ = false;  ///< setJudgedSurfaceVisibility
     std::vector<uint32_t> couplingIndex_;
     std::vector<float> couplingData_;
 };

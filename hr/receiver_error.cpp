@@ -156,8 +156,10 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
                 const KernelSamples& vals =
                     (code & 1) ? pendingSamples[code >> 1] : acceptedSamples[code >> 1];
                 const uint32_t s = l.sender;
+                // The judged visibility (hr.judge_visibility) and the
+                // unoccluded form factor.
                 double v = l.vis();
-                double Fu = v > 0 ? double(l.K) / v : 0.0;
+                double Fu = h.unoccludedF(l);
                 RGB w = rho * h.B(s) * v;  // rho_r B_s v per channel
                 double dev = 0.0, wmax = maxComponent(w);
                 // Kernel samples less the link's constant; residual samples

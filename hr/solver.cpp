@@ -144,6 +144,9 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.relaxFraction = p.getDouble("hr.relax_fraction", s.relaxFraction, 0.0, 1.0);
     s.relaxSweeps = int(p.getInt("hr.relax_sweeps", s.relaxSweeps, 1, 1 << 20));
     s.refineGrowth = p.getDouble("hr.refine_growth", s.refineGrowth, 0.0, 1e300);
+    s.judgeVisibility =
+        p.getEnum("hr.judge_visibility", s.judgeVisibility ? "independent" : "carried",
+                  {"independent", "carried"}) == "independent";
     s.epsReflected = p.getEnum("hr.eps_power", s.epsReflected ? "reflected" : "emitted",
                                {"emitted", "reflected"}) == "reflected";
     s.reachRays = int(p.getInt("hr.reach_rays", s.reachRays, 0, 1 << 20));
@@ -262,7 +265,8 @@ uint64_t HrSolver::updateCoupling(Hierarchy& h, const PreviousCoupling* previous
             const Link& l = h.link(i);
             transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
             transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
-            local += coupling_->compute(er, es, l.vis(), (l.flags & Link::kPartial) != 0, out);
+            local += coupling_->compute(er, es, h.carriedVisibility(l),
+                                        (l.flags & Link::kPartial) != 0, out);
         }
         rays += local;
     });
@@ -489,6 +493,21 @@ Link HrSolver::evaluateLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t
     transport::FormFactorResult f = engine_.compute(er, es);
     rays = f.rays;
     l.K = float(f.F);
+    if (s_.judgeVisibility) {
+        // The oracle judges an independent visibility estimate (header,
+        // "Judged visibility"); Fupper keeps the unoccluded form factor.
+        l.Fupper = float(f.unoccludedF);
+        bool partial = false;
+        uint32_t cast = 0;
+        const double judged = f.rays > 0
+                                  ? engine_.visibilityFraction(er, es, s_.ff.visRays, &cast,
+                                                               kJudgedVisibilitySalt, &partial)
+                                  : f.visibility;
+        rays += cast;
+        l.setVis(judged);
+        if (partial) l.flags |= Link::kPartial;
+        return l;
+    }
     l.Fupper = float(std::max(engine_.upperBound(er, es), f.unoccludedF));
     l.setVis(f.visibility);
     if (f.partial) l.flags |= Link::kPartial;
@@ -531,7 +550,7 @@ void HrSolver::initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vect
                 Link l = makeLink(h, r, s, nr);
                 localRays += nr;
                 ++localFf;
-                if (l.K > 0) rows[r].push_back(l);
+                if (l.K > 0 || keepSurfaceLink(l)) rows[r].push_back(l);
             }
             rays += localRays;
             ffs += localFf;
@@ -559,6 +578,15 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
     e.visibility = v;
     e.unoccludedF = v > 0 ? l.K / v : l.K;
     e.Fupper = l.Fupper;
+    if (s_.judgeVisibility && !h.isCluster(r) && !h.isCluster(s)) {
+        // Judged visibility (header): F from the independent estimate; the
+        // link keeps the unoccluded F in Fupper, the bound is made here.
+        e.unoccludedF = l.Fupper;
+        e.F = e.unoccludedF * v;
+        transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
+        transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
+        e.Fupper = std::max(engine_.upperBound(er, es), e.unoccludedF);
+    }
     e.partialVisibility = (l.flags & Link::kPartial) != 0;
     if (l.flags & Link::kSampled) {
         // A near cluster pair estimated by sampling (cluster/link.h): the
@@ -995,8 +1023,9 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         for (size_t i = 0; i < newCount; ++i) {
             bool clusterLink = h.isCluster(nrecv[i]) ||
                                (nlinks[i].sender != kNone && h.isCluster(nlinks[i].sender));
-            bool keep = clusterLink && (nlinks[i].flags & (Link::kOpen | Link::kUncertain |
-                                                           Link::kPartial | Link::kDeferred));
+            bool keep = clusterLink ? (nlinks[i].flags & (Link::kOpen | Link::kUncertain |
+                                                          Link::kPartial | Link::kDeferred)) != 0
+                                    : keepSurfaceLink(nlinks[i]);
             if (!(nlinks[i].K > 0) && !keep) continue;
             nlinks[w] = nlinks[i];
             nrecv[w] = nrecv[i];
@@ -1069,6 +1098,7 @@ HrResult HrSolver::solve(bool progress) {
     res.hierarchy = std::make_unique<Hierarchy>(*scene_, res.clusterTree.get(), s_.clusterModel,
                                                 s_.basisDegree);
     Hierarchy& h = *res.hierarchy;
+    h.setJudgedSurfaceVisibility(s_.judgeVisibility);
     linker_ = std::make_unique<cluster::ClusterLinker>(*scene_, res.clusterTree.get(),
                                                        s_.clusterModel, vis_, s_.clusterLink);
     if (res.clusterTree && h.clusterModel() == cluster::ClusterModel::Oriented &&

@@ -102,6 +102,9 @@
 //                                       emitted power until the first gather), so eps is a
 //                                       fraction of what the error metrics measure (below,
 //                                       "What eps is a fraction of")
+//   hr.judge_visibility string "independent"  independent | carried: the visibility the
+//                                       oracle judges a surface-to-surface link by (below,
+//                                       "Judged visibility")
 //   hr.refine_growth   double  0.05    lazy refinement (below): an iteration re-judges the
 //                                       links only when some element's radiosity (any
 //                                       channel) has grown by more than this fraction since
@@ -175,6 +178,23 @@
 // summary. Oscillating channels (last two changes of opposite sign) use the
 // change itself; q >= 1 over the window (not contracting) never stops the
 // solve.
+//
+// Judged visibility (hr.judge_visibility). A link is accepted when the
+// oracle finds its estimated power below eps, and kept as it is; otherwise
+// it is refined and its estimate replaced. Judged by the visibility
+// estimate it also carries, the links kept are those whose estimate came
+// out low: a selection bias towards darkness wherever the estimate is noisy
+// (16 rays through a window's blinds, ff.vis_rays). On the bathroom,
+// surface links from the window to a cabinet carried a visibility of 0.07
+// where 1,024 rays give 0.78, and the solve was 6 % dark against Monte
+// Carlo, its cabinets and walls most (papers/README.md, "Judged
+// visibility"). As for links touching a cluster (cluster/link.h), a
+// surface-to-surface link now carries K from one estimate and is judged,
+// kept or dropped by a second, independent one (the same number of rays,
+// another seed): the links kept then carry an unbiased estimate. Link::
+// visibility holds the judged fraction and Fupper the unoccluded form factor
+// (Hierarchy::unoccludedF, carriedVisibility). It costs the second set of
+// rays. `carried` is the previous behaviour.
 //
 // What eps is a fraction of (hr.eps_power). The oracles compare a power (bfa:
 // rho_r B_s F A_r; error, kv: A_r dB) with eps times a power of the scene,
@@ -319,6 +339,10 @@ struct HrSettings {
     /// hr.eps_power = reflected: eps is a fraction of the reflected power
     /// so far instead of the emitted power (above).
     bool epsReflected = false;
+    /// hr.judge_visibility = independent: surface-to-surface links are
+    /// judged by a visibility estimate independent of the one they carry
+    /// (above, "Judged visibility").
+    bool judgeVisibility = true;
     /// hr.refine_growth: lazy refinement (above); 0: judge every iteration.
     double refineGrowth = 0.05;
     /// hr.reach_rays: rays per patch of the reachability pass (0: off).
@@ -514,6 +538,15 @@ class HrSolver {
     /// linkCost_.
     Link makeLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
     Link evaluateLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
+    /// Seeds the judged visibility rays of surface links apart from the
+    /// carried ones (transport visibilityEstimate's salt).
+    static constexpr uint64_t kJudgedVisibilitySalt = 0x6a7564676564ULL;
+    /// A surface-to-surface link whose carried estimate found nothing but
+    /// whose judged one did (hr.judge_visibility): kept, carrying 0, so that
+    /// what the oracle decides does not depend on the carried estimate.
+    bool keepSurfaceLink(const Link& l) const {
+        return s_.judgeVisibility && l.vis() > 0 && l.Fupper > 0;
+    }
     Link makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
     /// The stand-in for a link from s to r that had to be opened when
     /// refinement stopped early (cluster/link.h "Stand-ins"; Link::kStandIn).

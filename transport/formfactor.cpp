@@ -281,8 +281,8 @@ struct VisEstimate {
 /// Monte Carlo integral of the same links, white-to-white links between the
 /// floor and the boxes most. Segments with zero weight decide nothing; when
 /// all weights are zero the plain fraction is used.
-VisEstimate visibilityEstimate(const Visibility& vis, const scene::Scene& sc,
-                               const ElementRef& r, const ElementRef& s, int rays) {
+VisEstimate visibilityEstimate(const Visibility& vis, const scene::Scene& sc, const ElementRef& r,
+                               const ElementRef& s, int rays, uint64_t salt = 0) {
     rays = std::min(rays, kMaxVisRays);
     // Order the pair by id so (r,s) and (s,r) use identical segments (the
     // weight is symmetric in the two ends).
@@ -290,7 +290,7 @@ VisEstimate visibilityEstimate(const Visibility& vis, const scene::Scene& sc,
     const ElementRef& hi = r.id <= s.id ? s : r;
     const scene::Patch& plo = sc.patches[lo.patch];
     const scene::Patch& phi = sc.patches[hi.patch];
-    Pcg32 rng(hashIds(lo.id, hi.id));
+    Pcg32 rng(salt ? hashIds(lo.id, hi.id, salt) : hashIds(lo.id, hi.id));
     Vec2 ulo[kMaxVisRays], uhi[kMaxVisRays];
     stratifiedSquare(rays, rng, ulo);
     stratifiedSquare(rays, rng, uhi);
@@ -601,11 +601,14 @@ double FormFactorEngine::upperBound(const ElementRef& r, const ElementRef& s) co
 }
 
 double FormFactorEngine::visibilityFraction(const ElementRef& r, const ElementRef& s, int rays,
-                                            uint32_t* raysCast) const {
+                                            uint32_t* raysCast, uint64_t salt,
+                                            bool* partial) const {
     if (raysCast) *raysCast = 0;
+    if (partial) *partial = false;
     if (!visibility_ || rays <= 0) return 1.0;
-    VisEstimate v = visibilityEstimate(*visibility_, *scene_, r, s, rays);
+    VisEstimate v = visibilityEstimate(*visibility_, *scene_, r, s, rays, salt);
     if (raysCast) *raysCast = v.cast;
+    if (partial) *partial = v.partial;
     return v.fraction;
 }
 

@@ -153,8 +153,12 @@ class FormFactorEngine {
     double upperBound(const ElementRef& r, const ElementRef& s) const;
 
     /// Visibility fraction between two elements with n rays (no form factor).
+    /// A non-zero `salt` draws the segments from a different seed (still the
+    /// same for (r, s) and (s, r)): an estimate independent of compute()'s.
+    /// `partial` (optional): some weighted segments blocked, some not.
     double visibilityFraction(const ElementRef& r, const ElementRef& s, int rays,
-                              uint32_t* raysCast = nullptr) const;
+                              uint32_t* raysCast = nullptr, uint64_t salt = 0,
+                              bool* partial = nullptr) const;
 
     /// True when some point of s is in front of r and vice versa (the elements
     /// can exchange energy when unoccluded).
