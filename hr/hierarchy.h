@@ -236,7 +236,6 @@ class Hierarchy {
     /// is recomputed where needed). Otherwise Link::visibility is the
     /// fraction in K and Fupper the bound. Set by the solver before linking.
     void setJudgedSurfaceVisibility(bool on) { judgedSurfaceVis_ = on; }
-    bool judgedSurfaceVisibility() const { return judgedSurfaceVis_; }
     /// A surface-to-surface link's unoccluded form factor and the visibility
     /// fraction K carries (K = unoccluded x carried), in either layout.
     double unoccludedF(const Link& l) const {

@@ -570,7 +570,7 @@ void HrSolver::initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vect
 }
 
 oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, const Link& l,
-                                             bool bounds) const {
+                                             bool bounds, bool upper) const {
     uint32_t s = l.sender;
     oracles::LinkEstimate e;
     e.F = l.K;
@@ -580,12 +580,16 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
     e.Fupper = l.Fupper;
     if (s_.judgeVisibility && !h.isCluster(r) && !h.isCluster(s)) {
         // Judged visibility (header): F from the independent estimate; the
-        // link keeps the unoccluded F in Fupper, the bound is made here.
+        // link keeps the unoccluded F in Fupper, the bound is made here when
+        // the oracle reads it.
         e.unoccludedF = l.Fupper;
         e.F = e.unoccludedF * v;
-        transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
-        transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
-        e.Fupper = std::max(engine_.upperBound(er, es), e.unoccludedF);
+        e.Fupper = e.unoccludedF;
+        if (upper) {
+            transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
+            transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
+            e.Fupper = std::max(engine_.upperBound(er, es), e.unoccludedF);
+        }
     }
     e.partialVisibility = (l.flags & Link::kPartial) != 0;
     if (l.flags & Link::kSampled) {
@@ -836,7 +840,8 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                     // Surface links judged by the receiver aggregate need no
                     // per-link form-factor range (17 contour integrals each).
                     const bool wantBounds = bounds && !(aggregate && surfacePair(h, r, s));
-                    oracles::LinkEstimate e = linkEstimate(h, r, l, wantBounds);
+                    oracles::LinkEstimate e =
+                        linkEstimate(h, r, l, wantBounds, oracle.needsUpperBound());
                     if (coupling_ && oracle.needsBasisResidual() && surfacePair(h, r, s) &&
                         !(l.flags & Link::kPartial)) {
                         // The part of the transfer the receiver's basis truncates

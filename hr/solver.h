@@ -502,9 +502,12 @@ class HrSolver {
     /// links the point-to-element form factors at the form-factor rule's
     /// receiver points, recomputed without rays (transport pointRange), with
     /// Fmin = 0 for partially visible links; [0, max(F, Fupper)] for links
-    /// touching a cluster. Not stored in the 16-byte Link.
-    oracles::LinkEstimate linkEstimate(const Hierarchy& h, uint32_t r, const Link& l,
-                                       bool bounds) const;
+    /// touching a cluster. Not stored in the 16-byte Link. With `upper`
+    /// (the oracle's needsUpperBound()) a surface link judged by an
+    /// independent visibility gets its conservative Fupper; without, Fupper
+    /// is its unoccluded F (no oracle then reads it).
+    oracles::LinkEstimate linkEstimate(const Hierarchy& h, uint32_t r, const Link& l, bool bounds,
+                                       bool upper = false) const;
 
     /// A posteriori estimate of the relative L1 error of the reflected
     /// radiosity of the solution in h: the sum over surface receivers of

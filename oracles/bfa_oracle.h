@@ -50,6 +50,7 @@ class PowerOracle final : public Oracle {
     explicit PowerOracle(Settings s) : s_(s) {}
     Decision decide(const LinkEstimate& e) const override;
     bool needsBasisResidual() const override { return s_.basisResidual && !s_.useBound; }
+    bool needsUpperBound() const override { return s_.useBound; }
     std::string name() const override { return "bfa"; }
     double powerEps() const override { return s_.eps; }
     std::string describe() const override;

@@ -41,6 +41,7 @@ class FormFactorOracle final : public Oracle {
     explicit FormFactorOracle(Settings s) : s_(s) {}
     Decision decide(const LinkEstimate& e) const override;
     bool needsBasisResidual() const override { return s_.basisResidual && !s_.useBound; }
+    bool needsUpperBound() const override { return s_.useBound; }
     std::string name() const override { return "ff"; }
     std::string describe() const override;
     const Settings& settings() const { return s_; }

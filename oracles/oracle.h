@@ -100,6 +100,10 @@ class Oracle {
     /// extra point-to-element form factors for every link judged, so the
     /// solver only does it when asked.
     virtual bool needsBounds() const { return false; }
+    /// True when decide() reads LinkEstimate::Fupper. For surface links
+    /// judged by an independent visibility (hr.judge_visibility) the bound
+    /// is not stored in the link and costs a geometric bound per link judged.
+    virtual bool needsUpperBound() const { return false; }
     /// True when decide() reads LinkEstimate::basisResidualF (filled only
     /// when the solve uses a basis above constant).
     virtual bool needsBasisResidual() const { return false; }
