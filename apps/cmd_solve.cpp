@@ -54,6 +54,8 @@ int runSolve(const SolveOptions& opt, Params& params) {
     point.outputs.ply = opt.writePly;
     point.outputs.glb = opt.writeGlb;
     point.outputs.errorMap = opt.errorMap;
+    point.outputs.regions = opt.writeRegions;
+    point.outputs.regionsWhere = SourceLocation{"command line (--regions)", 0, 0};
     point.outputs.solution = opt.writeSolution;
     point.outputs.errorMapWhere = SourceLocation{"command line (--error-map)", 0, 0};
 

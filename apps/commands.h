@@ -19,6 +19,7 @@ struct SolveOptions {
     bool writePly = true;
     bool writeGlb = false;  ///< --glb: solution.glb (render/gltf_export.h)
     bool errorMap = false;  ///< --error-map (needs --reference-level)
+    bool writeRegions = false;  ///< --regions: regions.csv (needs --reference-level)
     bool writeSolution = true;  ///< solution.hrsol (--no-solution turns it off)
 };
 

@@ -77,6 +77,9 @@ int main(int argc, char** argv) {
     solve->add_option("-o,--output", so.outDir, "output folder")->capture_default_str();
     auto* refLevelOpt = solve->add_option("--reference-level", refLevel,
                       "also solve a full-matrix reference at this uniform level and report the error");
+    solve->add_flag("--regions", so.writeRegions,
+                    "with --reference-level: write regions.csv, the solution's average and the "
+                    "reference on every reference element (reference/metrics.h)");
     solve->add_flag("--error-map", errorMap,
                     "with --reference-level: render the reference too and write reference.png, "
                     "error.png (16-bit signed relative error) and error_fc.png (false colour)");

@@ -147,6 +147,10 @@ Resolved resolve(const PointSpec& p) {
             "an error map needs a reference ([reference] kind = \"full-matrix\" or "
             "\"montecarlo\"; hrad solve: --reference-level; or render.error_reference = "
             "\"path-traced\")");
+    if (p.outputs.regions && r.refKind == "none")
+        throw InputError(p.outputs.regionsWhere,
+                         "regions.csv needs a reference ([reference] kind = \"full-matrix\" or "
+                         "\"montecarlo\"; hrad solve: --reference-level)");
     if (r.refKind == "full-matrix") r.refFm = reference::FullMatrixSettings::fromParams(ref, "fm");
     if (r.refKind == "montecarlo") r.refMc = reference::MonteCarloSettings::fromParams(ref, "mc");
     ref.reportUnused();
@@ -367,7 +371,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                                  {"dropped_degenerate", sc.stats.droppedDegenerate}};
     spdlog::info("loaded {}: {} patches in {:.2f} s", sc.name, sc.patches.size(), loadSeconds);
     if ((p.outputs.exr || p.outputs.ply || p.outputs.glb || p.outputs.errorMap ||
-         p.outputs.solution) &&
+         p.outputs.solution || p.outputs.regions) &&
         ctx.artefactDir.empty())
         throw Error("outputs requested but no artefact folder given");
 
@@ -472,6 +476,12 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                                       {"reference_reflected", mp.reference}});
         }
         e["reflected_by_material"] = byMaterial;
+        if (p.outputs.regions) {
+            fs::create_directories(ctx.artefactDir);
+            fs::path csv = ctx.artefactDir / "regions.csv";
+            reference::writeRegionsCsv(csv.string(), *field, *ref->field, ref->stdError);
+            summary["artefacts"]["regions"] = csv.string();
+        }
         if (r.refMc) {
             auto [uLum, uRgb] = mcUncertainty(*ref);
             e["mc_stderr_l2_lum"] = uLum;

@@ -346,7 +346,10 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
                 outputs.solution = getBoolNode(*n, k, file);
             else if (k == "history_error")
                 outputs.historyError = getBoolNode(*n, k, file);
-            else if (k == "error_map") {
+            else if (k == "regions") {
+                outputs.regions = getBoolNode(*n, k, file);
+                outputs.regionsWhere = loc(file, n->source());
+            } else if (k == "error_map") {
                 outputs.errorMap = getBoolNode(*n, k, file);
                 outputs.errorMapWhere = loc(file, n->source());
             } else if (k == "dir") {
@@ -359,11 +362,10 @@ Study parseStudy(const std::string& text, const std::string& file, const fs::pat
                                     "'outputs.dir' = '{}' must be a relative folder inside the results "
                                     "store's folder (no absolute path, no '..' leading out)",
                                     outputs.dir);
-            }
-            else
+            } else
                 throwInputError(loc(file, n->source()),
                                 "unknown key 'outputs.{}' (expected exr, ply, glb, solution, "
-                                "history_error, error_map, dir)",
+                                "history_error, error_map, regions, dir)",
                                 k);
         }
     }

@@ -71,6 +71,9 @@ struct OutputOptions {
     bool solution = false;      ///< solution.hrsol (reference/cache.h saveSolution; hrad render)
     bool historyError = false;  ///< L2 error after every iteration (hr solver with a reference)
     bool errorMap = false;      ///< per-pixel error map against the reference (implies exr)
+    bool regions =
+        false;  ///< regions.csv: solution and reference per region (reference::writeRegionsCsv)
+    SourceLocation regionsWhere;   ///< where regions was set (for "needs a reference")
     SourceLocation errorMapWhere;  ///< where error_map was set (for "needs a reference")
     std::string dir = "runs";   ///< artefact folder, relative to the results store
 };

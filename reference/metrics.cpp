@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "core/error.h"
@@ -127,6 +128,51 @@ std::unique_ptr<scene::UniformField> averageOnRegions(const scene::RadiosityFiel
         for (size_t l = 0; l < reference.count(p); ++l)
             out->value(reference.offset(p) + l) = solution.average(p, reference.key(p, l));
     return out;
+}
+
+void writeRegionsCsv(const std::string& path, const scene::RadiosityField& solution,
+                     const scene::UniformField& reference, const std::vector<RGB>& stdError) {
+    std::unique_ptr<scene::UniformField> avg = averageOnRegions(solution, reference);
+    const scene::Scene& scene = reference.scene();
+    const bool withError = stdError.size() == reference.numElements();
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    if (!f) throw Error(fmt::format("cannot write {}", path));
+    std::fputs(
+        "region,patch,element,material,area,E_r,E_g,E_b,S_r,S_g,S_b,R_r,R_g,R_b,"
+        "R_stderr_r,R_stderr_g,R_stderr_b\n",
+        f);
+    for (uint32_t p = 0; p < scene.patches.size(); ++p) {
+        const scene::Patch& patch = scene.patches[p];
+        const std::string& material =
+            patch.material < scene.materials.size() ? scene.materials[patch.material].name : "";
+        // Material names are written as given; one with a comma or a quote is
+        // quoted (RFC 4180).
+        std::string quoted = material;
+        if (material.find_first_of(",\"\n") != std::string::npos) {
+            quoted.assign(1, '"');
+            for (char ch : material) {
+                if (ch == '"') quoted.push_back('"');
+                quoted.push_back(ch);
+            }
+            quoted.push_back('"');
+        }
+        for (size_t l = 0; l < reference.count(p); ++l) {
+            const size_t k = reference.offset(p) + l;
+            const RGB& S = avg->value(k);
+            const RGB& R = reference.value(k);
+            std::string row = fmt::format(
+                "{},{},{},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}",
+                k, p, l, quoted, reference.area(k), patch.emission.r, patch.emission.g,
+                patch.emission.b, S.r, S.g, S.b, R.r, R.g, R.b);
+            if (withError)
+                row += fmt::format(",{:.9g},{:.9g},{:.9g}\n", stdError[k].r, stdError[k].g,
+                                   stdError[k].b);
+            else
+                row += ",,,\n";
+            std::fputs(row.c_str(), f);
+        }
+    }
+    if (std::fclose(f) != 0) throw Error(fmt::format("cannot write {}", path));
 }
 
 }  // namespace hrad::reference

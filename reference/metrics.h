@@ -78,4 +78,14 @@ ErrorMetrics computeError(const scene::RadiosityField& solution,
 std::unique_ptr<scene::UniformField> averageOnRegions(const scene::RadiosityField& solution,
                                                       const scene::UniformField& reference);
 
+/// Writes one CSV row per region (the S_k and R_k the metrics compare), so a
+/// researcher can find where an error comes from: region, patch, element
+/// (its index within the patch), material, area, the patch's emission E
+/// (RGB), the solution's average S (RGB), the reference R (RGB) and, when
+/// `stdError` has one entry per region (a Monte Carlo reference), R's
+/// standard error (RGB; empty columns otherwise). Same checks as
+/// computeError; throws hrad::Error when the file cannot be written.
+void writeRegionsCsv(const std::string& path, const scene::RadiosityField& solution,
+                     const scene::UniformField& reference, const std::vector<RGB>& stdError);
+
 }  // namespace hrad::reference

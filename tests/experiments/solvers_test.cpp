@@ -3,15 +3,18 @@
 // (same field, same counts), so the runner and `hrad solve` report the numbers
 // they reported before the registry existed. Also the runner's pixel error
 // against a path-traced image (render.error_reference = path-traced).
+#include "experiments/solvers.h"
+
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <map>
-
-#include <fmt/format.h>
+#include <set>
+#include <sstream>
 
 #include "experiments/runner.h"
-#include "experiments/solvers.h"
 #include "experiments/study.h"
 #include "hr/solver.h"
 #include "reference/fullmatrix.h"
@@ -219,6 +222,96 @@ TEST(ErrorReference, RegionsModeNeedsAReferenceSolution) {
         FAIL() << "no error";
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("study.toml:11"), std::string::npos) << e.what();
+    }
+}
+
+// ---- outputs.regions: the per-region comparison behind the error metrics ----
+struct RegionRow {
+    uint32_t patch = 0;
+    double area = 0;
+    RGB E{0.0}, S{0.0}, R{0.0};
+    bool hasStdError = false;
+};
+
+std::vector<RegionRow> readRegions(const std::filesystem::path& csv) {
+    std::ifstream in(csv);
+    std::string line;
+    std::getline(in, line);
+    EXPECT_EQ(line.rfind("region,patch,element,material,area,", 0), 0u) << line;
+    std::vector<RegionRow> rows;
+    while (std::getline(in, line)) {
+        std::vector<std::string> f;
+        std::stringstream ss(line);
+        for (std::string c; std::getline(ss, c, ',');) f.push_back(c);
+        if (line.back() == ',') f.push_back("");
+        EXPECT_EQ(f.size(), 17u) << line;
+        if (f.size() != 17) break;
+        RegionRow r;
+        r.patch = uint32_t(std::stoul(f[1]));
+        r.area = std::stod(f[4]);
+        r.E = RGB(std::stod(f[5]), std::stod(f[6]), std::stod(f[7]));
+        r.S = RGB(std::stod(f[8]), std::stod(f[9]), std::stod(f[10]));
+        r.R = RGB(std::stod(f[11]), std::stod(f[12]), std::stod(f[13]));
+        r.hasStdError = !f[14].empty();
+        rows.push_back(r);
+    }
+    return rows;
+}
+
+PointSpec cornellAgainst(const std::string& kind) {
+    PointSpec p;
+    p.scene = p.sceneLabel = "cornell";
+    SourceLocation here{"study.toml", 3, 1};
+    p.settings.set("solver", std::string("hr"), here);
+    p.settings.set("oracle.eps", 1e-2, here);
+    p.reference.set("kind", kind, here);
+    if (kind == "full-matrix") p.reference.set("fm.level", int64_t(2), here);
+    if (kind == "montecarlo") {
+        p.reference.set("mc.level", int64_t(0), here);
+        p.reference.set("mc.samples", int64_t(64), here);
+    }
+    p.outputs.regions = true;
+    return p;
+}
+
+// Every region of the reference gets one row, and the norms recomputed from
+// the rows are the summary's: the file is what the metrics compared.
+TEST(RegionsCsv, RowsAreWhatTheMetricsCompare) {
+    auto dir = test::tempDir("regions_csv");
+    for (std::string kind : {"full-matrix", "montecarlo"}) {
+        RunContext ctx;
+        ctx.artefactDir = dir / kind;
+        ctx.useCache = false;
+        auto s = runPoint(cornellAgainst(kind), ctx);
+        ASSERT_TRUE(s["artefacts"].contains("regions")) << kind;
+        std::vector<RegionRow> rows = readRegions(ctx.artefactDir / "regions.csv");
+        ASSERT_EQ(rows.size(), s["error"]["regions"].get<size_t>()) << kind;
+        double num1 = 0, den1 = 0, neS = 0, neR = 0;
+        std::set<uint32_t> patches;
+        for (const RegionRow& r : rows) {
+            EXPECT_EQ(r.hasStdError, kind == "montecarlo");
+            num1 += r.area * std::fabs(luminance(r.S) - luminance(r.R));
+            den1 += r.area * std::fabs(luminance(r.R));
+            if (maxComponent(r.E) == 0.0) {
+                neS += r.area * luminance(r.S);
+                neR += r.area * luminance(r.R);
+            }
+            patches.insert(r.patch);
+        }
+        EXPECT_EQ(patches.size(), s["scene_info"]["patches"].get<size_t>());
+        EXPECT_NEAR(num1 / den1, s["error"]["l1_lum"].get<double>(), 1e-6) << kind;
+        EXPECT_NEAR(neS / neR, s["error"]["mean_ratio_nonemitter"].get<double>(), 1e-6) << kind;
+    }
+}
+
+TEST(RegionsCsv, NeedsAReference) {
+    PointSpec p = cornellAgainst("none");
+    p.outputs.regionsWhere = SourceLocation{"study.toml", 12, 1};
+    try {
+        validatePoint(p);
+        FAIL() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("study.toml:12"), std::string::npos) << e.what();
     }
 }
 
