@@ -13,18 +13,20 @@
 namespace hrad::transport {
 
 Reachability reachablePatches(const scene::Scene& scene, const Visibility& vis, int rays,
-                              uint64_t seed, int retryRays) {
+                              uint64_t seed, int retryRays, int firstStage) {
     Timer timer;
     const uint32_t n = uint32_t(scene.patches.size());
     const int m = std::max(1, rays);
     // sources[p]: the distinct patches whose fronts p's rays hit first (light
     // can go from each of them to p).
     std::vector<std::vector<uint32_t>> sources(n);
-    // Casts `count` rays from patch p (random stream `stream`) and merges the
-    // patches whose fronts they hit into sources[p].
-    auto cast = [&](uint32_t p, int count, uint64_t stream, std::vector<uint32_t>& hits) {
+    // Casts rays [first, first + count) of patch p's random stream `stream`
+    // and merges the patches whose fronts they hit into sources[p].
+    auto cast = [&](uint32_t p, int first, int count, uint64_t stream,
+                    std::vector<uint32_t>& hits) {
         const scene::Patch& P = scene.patches[p];
         Pcg32 rng(seed, stream);
+        for (int i = 0; i < 4 * first; ++i) rng.nextDouble();  // four draws per ray
         hits.assign(sources[p].begin(), sources[p].end());
         for (int i = 0; i < count; ++i) {
             double u = rng.nextDouble(), v = rng.nextDouble();
@@ -43,13 +45,7 @@ Reachability reachablePatches(const scene::Scene& scene, const Visibility& vis, 
         hits.erase(std::unique(hits.begin(), hits.end()), hits.end());
         sources[p].assign(hits.begin(), hits.end());
     };
-    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 64), [&](const auto& range) {
-        std::vector<uint32_t> hits;
-        for (uint32_t p = range.begin(); p != range.end(); ++p)
-            cast(p, m, 2 * uint64_t(p) + 1, hits);
-    });
     Reachability out;
-    out.rays = uint64_t(n) * uint64_t(m);
     // Breadth-first search from the emitters along the edges source ->
     // receiver (as offsets: counting sort by source).
     auto search = [&]() {
@@ -82,7 +78,34 @@ Reachability reachablePatches(const scene::Scene& scene, const Visibility& vis, 
         }
         out.unreachable = n - uint32_t(queue.size());
     };
-    search();
+    // The `m` rays in stages of firstStage, 4 times that, ... rays per patch: after each
+    // stage only the patches the search has not reached cast the rest of the
+    // next stage's rays (the same rays of the same stream). The reachable set
+    // is exactly that of m rays from every patch: along any path of edges
+    // from an emitter, each patch is either reached at an earlier stage or,
+    // not reached, has cast all m rays and so has the edge of the path into
+    // it. In a room most patches are reached after the first stage.
+    {
+        std::vector<uint32_t> todo(n);
+        for (uint32_t p = 0; p < n; ++p) todo[p] = p;
+        int done = 0;
+        for (int stage = std::min(m, std::max(1, firstStage));; stage = std::min(m, 4 * stage)) {
+            const int first = done, count = stage - done;
+            tbb::parallel_for(tbb::blocked_range<size_t>(0, todo.size(), 64),
+                              [&](const auto& range) {
+                                  std::vector<uint32_t> hits;
+                                  for (size_t i = range.begin(); i != range.end(); ++i)
+                                      cast(todo[i], first, count, 2 * uint64_t(todo[i]) + 1, hits);
+                              });
+            out.rays += uint64_t(todo.size()) * uint64_t(count);
+            done = stage;
+            search();
+            if (done == m || out.unreachable == 0) break;
+            todo.clear();
+            for (uint32_t p = 0; p < n; ++p)
+                if (!out.reachable[p]) todo.push_back(p);
+        }
+    }
     if (retryRays > 0 && out.unreachable > 0) {
         // A second look from every patch the first rays did not connect:
         // `retryRays` more rays each, then the search again.
@@ -92,7 +115,7 @@ Reachability reachablePatches(const scene::Scene& scene, const Visibility& vis, 
         tbb::parallel_for(tbb::blocked_range<size_t>(0, retry.size(), 16), [&](const auto& range) {
             std::vector<uint32_t> hits;
             for (size_t i = range.begin(); i != range.end(); ++i)
-                cast(retry[i], retryRays, 2 * uint64_t(retry[i]) + 2, hits);
+                cast(retry[i], 0, retryRays, 2 * uint64_t(retry[i]) + 2, hits);
         });
         out.rays += uint64_t(retry.size()) * uint64_t(retryRays);
         search();

@@ -24,6 +24,12 @@
 // dark. The light it would have had is at most about x of a fully exposed
 // patch's, but such patches are many where geometry is cluttered: on
 // graz.mgf one-sided 64 rays left out 3,762 patches and 4,096 rays 1,466.
+// The rays are cast in stages (4 per patch, then up to 16, 64, ...): after
+// each stage only the patches not yet reached cast the next stage's rays, the
+// same rays of the same random stream. The reachable set is exactly that of
+// `rays` rays from every patch (a patch on a path from an emitter is either
+// reached early or casts all its rays, the path's edge among them), for a
+// fraction of the rays where most patches see lit surfaces.
 // With `retryRays`, every patch the first rays leave unconnected casts that
 // many more (only those patches: one is then missed with probability
 // (1 - x)^(rays + retryRays)) and the search runs again (hr.reach_retry_rays,
@@ -49,8 +55,10 @@ struct Reachability {
 
 /// `rays` rays per patch (> 0), seeded by `seed` and the patch index (the
 /// same result for any thread count); every patch still unreachable after
-/// them casts `retryRays` more and the search is repeated.
+/// them casts `retryRays` more and the search is repeated. `firstStage`:
+/// the rays per patch of the first stage (>= rays: one stage, every patch
+/// casts all its rays; the reachable set is the same either way).
 Reachability reachablePatches(const scene::Scene& scene, const Visibility& vis, int rays,
-                              uint64_t seed = 1, int retryRays = 0);
+                              uint64_t seed = 1, int retryRays = 0, int firstStage = 4);
 
 }  // namespace hrad::transport
