@@ -207,8 +207,10 @@
 //   cluster.near_overlapping  bool  false  stand_in: overlapping pairs and self-links
 //                                     too (light kept within 0.5 % of the unclustered
 //                                     solve on office:3-4 with 44-48 % fewer links; off
-//                                     by default: classroom at eps 1e-3 has a larger
-//                                     per-patch error, papers/README.md "Judged stand-ins")
+//                                     by default: a stand-in by area lights every surface
+//                                     of its receiver alike, both shells of classroom's
+//                                     lamp housings at eps 1e-3; papers/README.md "Where
+//                                     the classroom's stand-in error lives")
 //   cluster.near_rays   int     32   rays per estimate of a sampled near link (two
 //                                     estimates per link)
 //   cluster.defer_dark  bool    true  links from clusters that carry no light are
