@@ -78,13 +78,14 @@ Reachability reachablePatches(const scene::Scene& scene, const Visibility& vis, 
         }
         out.unreachable = n - uint32_t(queue.size());
     };
-    // The `m` rays in stages of firstStage, 4 times that, ... rays per patch: after each
-    // stage only the patches the search has not reached cast the rest of the
-    // next stage's rays (the same rays of the same stream). The reachable set
-    // is exactly that of m rays from every patch: along any path of edges
-    // from an emitter, each patch is either reached at an earlier stage or,
-    // not reached, has cast all m rays and so has the edge of the path into
-    // it. In a room most patches are reached after the first stage.
+    // The `m` rays in stages of firstStage, 4 times that, ... rays per patch:
+    // after each stage only the patches the search has not reached cast the
+    // rest of the next stage's rays (the same rays of the same stream). The
+    // reachable set is exactly that of m rays from every patch: along any
+    // path of edges from an emitter, each patch is either reached at an
+    // earlier stage or, not reached, has cast all m rays and so has the edge
+    // of the path into it. In a room most patches are reached after the
+    // first stage.
     {
         std::vector<uint32_t> todo(n);
         for (uint32_t p = 0; p < n; ++p) todo[p] = p;
