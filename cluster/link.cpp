@@ -28,6 +28,7 @@ ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
     s.visibleHandover =
         p.getEnum("cluster.handover", "visible", {"visible", "cosine"}) == "visible";
     s.standIn = p.getBool("cluster.stand_in", s.standIn);
+    s.standInSeen = p.getEnum("cluster.stand_in_handover", "area", {"area", "seen"}) == "seen";
     s.standInRays = int(p.getInt("cluster.stand_in_rays", s.standInRays, 2, 4096));
     return s;
 }
@@ -39,11 +40,12 @@ std::string ClusterLinkSettings::describe() const {
         "cluster_near_rays={}, "
         "cluster_face_separation={}, cluster_face_kernel={}, cluster_defer_dark={}, "
         "cluster_ambient={}, cluster_handover={}, cluster_stand_in={}, "
-        "cluster_stand_in_rays={}",
+        "cluster_stand_in_rays={}, cluster_stand_in_handover={}",
         visRays, separation, surfaceSeparation,
         sampleNear ? "sample" : (standInNear ? "stand_in" : "open"), nearOverlapping, nearRays,
         faceSeparation, faceDisc ? "disc" : "point", deferDark, ambient,
-        visibleHandover ? "visible" : "cosine", standIn, standInRays);
+        visibleHandover ? "visible" : "cosine", standIn, standInRays,
+        standInSeen ? "seen" : "area");
 }
 
 ClusterLinker::ClusterLinker(const scene::Scene& scene, const ClusterTree* tree, ClusterModel model,

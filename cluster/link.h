@@ -226,6 +226,19 @@
 //   cluster.stand_in    bool    true  links left unopened when refinement stops early
 //                                     get a stand-in transfer (above); false: they carry nothing
 //   cluster.stand_in_rays  int  32   point pairs (rays) per stand-in
+//   cluster.stand_in_handover  string  "area"  area | seen: a stand-in that no
+//                                     direction hands over (overlapping spheres, or
+//                                     too much light on surfaces facing away) lights
+//                                     every surface of its receiving cluster alike, by
+//                                     area, or each by what it sees of the sender
+//                                     (point-to-polygon form factors with the openness
+//                                     table's visibility; needs cluster.handover = visible;
+//                                     Hierarchy::handOverStandIns). seen puts classroom's
+//                                     lamp light on the housings' inner shells, not the
+//                                     outer ones; not the default: the stand-ins' own
+//                                     estimate on such pairs is still too noisy
+//                                     (papers/README.md, "Where the classroom's stand-in
+//                                     error lives")
 //   cluster.face_separation  double  1.5  the same for links whose ends are planar face
 //                                     clusters or surface elements, at least one a face
 //                                     cluster (cluster.faces; 1: bounding spheres apart)
@@ -298,6 +311,10 @@ struct ClusterLinkSettings {
     /// get a sampled stand-in transfer (ClusterLinker::standIn) instead of none.
     bool standIn = true;
     int standInRays = 32;
+    /// cluster.stand_in_handover: stand-ins no direction hands over give
+    /// each surface a share by what it sees of the sender (true, `seen`) or
+    /// by area (false, the default).
+    bool standInSeen = false;
     static ClusterLinkSettings fromParams(const Params& p);
     std::string describe() const;
 };

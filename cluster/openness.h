@@ -105,6 +105,18 @@ class SurfaceOpenness {
         return open * (1.0 / kPoints);
     }
 
+    /// Whether the table's ray from point j in u's bin (its cosine with the
+    /// normal `cosine` > 0) travelled at least `reach` before its first hit,
+    /// up to the quantisation (the hit's step may reach it). Used as "x_j
+    /// sees a point at distance d along u" with reach a fraction of d: the
+    /// bin's ray differs from u by up to about 35 degrees, so this tells a
+    /// surface hidden right behind another (a shell 2 mm behind a shell) from
+    /// one with a clear view, not a sharp shadow.
+    bool reaches(const View& v, int j, const Vec3& u, double cosine, double reach) const {
+        const uint8_t c = v.dist[bin(v, u, cosine) * kPoints + j];
+        return c >= 254 || distance_[c + 1] >= reach;
+    }
+
     uint64_t rays() const { return rays_; }
     double seconds() const { return seconds_; }
     uint64_t memoryBytes() const { return dist_.capacity() * sizeof(uint8_t); }

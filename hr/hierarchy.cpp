@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "core/rng.h"
 #include "core/timer.h"
+#include "transport/formfactor.h"
 
 namespace hrad::hr {
 
@@ -280,6 +281,7 @@ void Hierarchy::setLinks(const std::vector<uint32_t>& receivers, std::vector<Lin
     couplingData_.clear();
     prepareOrientedDirections();
     handOverNewLinks();
+    handOverStandIns();
 }
 
 void Hierarchy::compactStandIns() {
@@ -320,9 +322,25 @@ RGB Hierarchy::standInSent(const Link& l) const {
     return sum;
 }
 
-RGB Hierarchy::standInReflected(uint32_t r, const Link& l) const {
+RGB Hierarchy::standInReflected(uint32_t r, uint64_t i) const {
+    const Link& l = links_[i];
     const RGB sent = standInSent(l);
     if (!isCluster(r)) return sent * area(r) * scene_->patches[patch_[r]].rho;
+    if (l.bySeen()) {
+        // As the push hands it (clusterIrradianceAt): w_k / W per surface.
+        const uint32_t c = clusterIndex(r);
+        const cluster::ClusterNode& node = tree_->node(c);
+        for (uint64_t e = seenOffsets_[c]; e < seenOffsets_[c + 1]; ++e) {
+            if (seen_[e].link != i) continue;
+            RGB sum(0.0);
+            for (uint32_t q = node.patchBegin; q < node.patchEnd; ++q) {
+                const scene::Patch& P = scene_->patches[tree_->patchAt(q)];
+                const double w = seenWeights_[seen_[e].weights + (q - node.patchBegin)];
+                sum += (P.area * w * double(seen_[e].scale)) * P.rho;
+            }
+            return sent * sum;
+        }
+    }
     Vec3 d = center(l.sender) - center(r);
     const double len = glm::length(d);
     const bool byCosine = !l.byArea() && model_ == cluster::ClusterModel::Oriented && len > 0;
@@ -407,6 +425,162 @@ void Hierarchy::handOverNewLinks() {
     handOverByCosine_ += byCosine.load();
 }
 
+void Hierarchy::handOverStandIns() {
+    if (!openness_ || !seenHandOver_ || !hasStandIns_ || clusterLinkDir_.empty()) {
+        seen_.clear();
+        seenWeights_.clear();
+        seenOffsets_.clear();
+        seenCache_.clear();
+        return;
+    }
+    const uint32_t np = numPatches();
+    if (orderPos_.empty()) {
+        orderPos_.assign(np, kNone);
+        for (uint32_t q = 0; q < tree_->orderSize(); ++q) orderPos_[tree_->patchAt(q)] = q;
+    }
+    // The sender's surfaces, each with the weight of the light it sends.
+    struct Source {
+        uint32_t patch;
+        double weight;
+    };
+    // A stand-in's hand-over: decided once, when the link is first seen
+    // (kept by receiver and sender across setLinks, as the weights are
+    // geometry and the sender's light at that time).
+    struct Made {
+        uint64_t key = 0, link = 0;
+        float scale = 0.f;  // 0: by area
+        std::vector<uint8_t> w;
+    };
+    std::vector<std::vector<Made>> made(numClusters_);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, numClusters_, 1), [&](const auto& range) {
+        std::vector<size_t> fresh;
+        std::vector<uint32_t> sourceBegin;
+        std::vector<Source> sources;
+        std::vector<double> seen;
+        for (uint32_t c = range.begin(); c != range.end(); ++c) {
+            const uint32_t r = np + c;
+            const cluster::ClusterNode& node = tree_->node(c);
+            const uint32_t count = node.patchEnd - node.patchBegin;
+            std::vector<Made>& out = made[c];
+            fresh.clear();
+            sources.clear();
+            sourceBegin.assign(1, 0);
+            for (uint64_t i = linkOffsets_[r]; i < linkOffsets_[r + 1]; ++i) {
+                Link& l = links_[i];
+                if (!l.byArea()) continue;
+                l.flags &= uint8_t(~Link::kOpenHandOver);
+                if (l.sender == r) continue;
+                const uint64_t key = (uint64_t(r) << 32) | l.sender;
+                if (auto it = seenCache_.find(key); it != seenCache_.end()) {
+                    Made m{key, i, 0.f, {}};
+                    if (it->second != UINT64_MAX) {
+                        const SeenEntry& e = seen_[it->second];
+                        m.scale = e.scale;
+                        m.w.assign(seenWeights_.begin() + ptrdiff_t(e.weights),
+                                   seenWeights_.begin() + ptrdiff_t(e.weights + count));
+                    }
+                    out.push_back(std::move(m));
+                    continue;
+                }
+                const size_t first = sources.size();
+                double total = 0.0;
+                if (isCluster(l.sender)) {
+                    const cluster::ClusterNode& sn = tree_->node(clusterIndex(l.sender));
+                    if (sn.patchEnd - sn.patchBegin <= kSeenMaxSources)
+                        for (uint32_t q = sn.patchBegin; q < sn.patchEnd; ++q) {
+                            const uint32_t p = tree_->patchAt(q);
+                            const double b = maxComponent(B_[p]);
+                            if (b > 0) sources.push_back({p, b});
+                            total += b;
+                        }
+                } else {
+                    sources.push_back({patch_[l.sender], 1.0});
+                    total = 1.0;
+                }
+                if (!(total > 0)) {
+                    // Nothing to weigh by (a dark or large sender): by area,
+                    // decided again when the link is next set.
+                    sources.resize(first);
+                    continue;
+                }
+                fresh.push_back(out.size());
+                out.push_back({key, i, 0.f, {}});
+                sourceBegin.push_back(uint32_t(sources.size()));
+            }
+            if (fresh.empty()) continue;
+            seen.assign(fresh.size() * size_t(count), 0.0);
+            for (uint32_t q = node.patchBegin; q < node.patchEnd; ++q) {
+                const uint32_t p = tree_->patchAt(q);
+                const scene::Patch& P = scene_->patches[p];
+                const cluster::SurfaceOpenness::View view = openness_->view(p);
+                for (size_t f = 0; f < fresh.size(); ++f) {
+                    double w = 0.0;
+                    for (uint32_t k = sourceBegin[f]; k < sourceBegin[f + 1]; ++k) {
+                        const scene::Patch& S = scene_->patches[sources[k].patch];
+                        if (sources[k].patch == p || sources[k].patch == P.twin) continue;
+                        const Vec3 cs = S.centroid();
+                        for (int j = 0; j < cluster::SurfaceOpenness::kPoints; ++j) {
+                            const Vec3& x = view.x[j];
+                            // Only the front of a one-sided sender sends.
+                            if (!(glm::dot(x - S.v[0], S.normal) > 0)) continue;
+                            const double F =
+                                transport::pointToPolygon(x, P.normal, S.v.data(), S.numVertices());
+                            if (!(F > 0)) continue;
+                            Vec3 u = cs - x;
+                            const double d = glm::length(u);
+                            if (!(d > 0)) continue;
+                            u /= d;
+                            const double cosine = glm::dot(u, P.normal);
+                            if (cosine > 0 && !openness_->reaches(view, j, u, cosine, 0.5 * d))
+                                continue;
+                            w += sources[k].weight * F;
+                        }
+                    }
+                    seen[f * count + (q - node.patchBegin)] = w;
+                }
+            }
+            for (size_t f = 0; f < fresh.size(); ++f) {
+                Made& m = out[fresh[f]];
+                double top = 0.0, num = 0.0, den = 0.0;
+                for (uint32_t k = 0; k < count; ++k) top = std::max(top, seen[f * count + k]);
+                if (!(top > 0)) continue;  // no surface sees the sender: by area
+                // Bytes scaled to the link's largest surface value.
+                m.w.resize(count);
+                for (uint32_t k = 0; k < count; ++k) {
+                    m.w[k] = uint8_t(std::lround(255.0 * seen[f * count + k] / top));
+                    const double a = scene_->patches[tree_->patchAt(node.patchBegin + k)].area;
+                    num += a * m.w[k];
+                    den += a;
+                }
+                // Surface k takes b_k den / num of the irradiance: the power
+                // sum_k A_k b_k den / num equals sum_k A_k, as by area.
+                if (num > 0)
+                    m.scale = float(den / num);
+                else
+                    m.w.clear();
+            }
+        }
+    });
+    seen_.clear();
+    seenWeights_.clear();
+    seenCache_.clear();
+    seenOffsets_.assign(size_t(numClusters_) + 1, 0);
+    for (uint32_t c = 0; c < numClusters_; ++c) {
+        for (Made& m : made[c]) {
+            if (m.scale > 0.f) {
+                links_[m.link].flags |= Link::kOpenHandOver;
+                seenCache_.emplace(m.key, seen_.size());
+                seen_.push_back({m.link, seenWeights_.size(), m.scale});
+                seenWeights_.insert(seenWeights_.end(), m.w.begin(), m.w.end());
+            } else {
+                seenCache_.emplace(m.key, UINT64_MAX);
+            }
+        }
+        seenOffsets_[c + 1] = seen_.size();
+    }
+    if (seen_.empty()) seenOffsets_.clear();
+}
+
 void Hierarchy::prepareOrientedDirections() {
     clusterLinkDir_.clear();
     clusterLinkBase_ = 0;
@@ -447,7 +621,7 @@ void Hierarchy::gatherRow(uint32_t r) {
         // isotropic cluster's irradiance is (clusterDown).
         RGB standIn(0.0);
         for (uint64_t i = linkBegin(r); i < linkEnd(r); ++i)
-            if (links_[i].byArea()) standIn += standInSent(links_[i]);
+            if (links_[i].byArea() && !links_[i].bySeen()) standIn += standInSent(links_[i]);
         gathered_[r] = standIn;
         return;
     }
@@ -562,6 +736,19 @@ RGB Hierarchy::clusterIrradianceAt(uint32_t root, const std::vector<RGB>& down,
                     if (!(cosine > 0)) continue;
                 }
                 h += cosine * (sent ? RGB(sent[i - clusterLinkBase_]) : linkSent(i, dir));
+            }
+            // Stand-ins handed over by what each surface sees of the sender.
+            if (!seenOffsets_.empty()) {
+                const uint32_t ci = clusterIndex(c);
+                const cluster::ClusterNode& node = tree_->node(ci);
+                for (uint64_t e = seenOffsets_[ci]; e < seenOffsets_[ci + 1]; ++e) {
+                    const SeenEntry& s = seen_[e];
+                    const uint8_t b = seenWeights_[s.weights + (orderPos_[root] - node.patchBegin)];
+                    if (!b) continue;
+                    const RGB sentHere =
+                        sent ? RGB(sent[s.link - clusterLinkBase_]) : standInSent(links_[s.link]);
+                    h += (double(b) * double(s.scale)) * sentHere;
+                }
             }
         }
     }
@@ -956,6 +1143,10 @@ void Hierarchy::reportMemory(MemoryCounters& m) const {
                                       standInSamples_.capacity() * sizeof(cluster::StandInSample));
     if (!clusterLinkDir_.empty())
         m.set("cluster_link_directions", clusterLinkDir_.capacity() * sizeof(glm::vec3));
+    if (!seen_.empty())
+        m.set("stand_in_handover", seen_.capacity() * sizeof(SeenEntry) +
+                                       seenOffsets_.capacity() * sizeof(uint64_t) +
+                                       seenWeights_.capacity() + orderPos_.capacity() * 4);
     if (tree_)
         m.set("clusters", tree_->memoryBytes() + moments_.capacity() * sizeof(RadiantMoments) +
                               maxB_.capacity() * sizeof(RGB));

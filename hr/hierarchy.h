@@ -31,6 +31,7 @@
 #include <functional>
 #include <memory>
 #include <span>
+#include <unordered_map>
 #include <vector>
 
 #include "cluster/transfer.h"
@@ -102,8 +103,12 @@ struct Link {
     /// oriented receiver) by its surfaces' cosines towards the sender, as a
     /// point-approximation link's (no openness).
     static constexpr uint8_t kStandIn = 128;
-    /// A stand-in whose receiving cluster takes its light by area.
+    /// A stand-in whose receiving cluster does not take its light by cosine
+    /// (no direction): by area, or, with kOpenHandOver, by what each surface
+    /// sees of the sender (Hierarchy::handOverStandIns).
     bool byArea() const { return (flags & kStandIn) && !(flags & kHandedOver); }
+    /// A by-area stand-in handed over by what each surface sees of the sender.
+    bool bySeen() const { return byArea() && (flags & kOpenHandOver); }
 
     double vis() const { return visibility / 65535.0; }
     void setVis(double v) {
@@ -175,6 +180,14 @@ class Hierarchy {
     /// when first set (some are refined away later).
     uint64_t handOverByOpenness() const { return handOverByOpenness_; }
     uint64_t handOverByCosine() const { return handOverByCosine_; }
+    /// cluster.stand_in_handover = seen (with the openness table): stand-ins
+    /// that no direction hands over (Link::byArea) give each surface of
+    /// their receiving cluster a share by what it sees of the sender
+    /// (handOverStandIns) instead of by area.
+    void setSeenHandOver(bool on) { seenHandOver_ = on; }
+    /// Stand-ins handed over by what their receivers' surfaces see, at the
+    /// last setLinks().
+    uint64_t handOverSeen() const { return seen_.size(); }
     bool isCluster(uint32_t e) const {
         return e >= numPatches() && e < numPatches() + numClusters_;
     }
@@ -258,7 +271,7 @@ class Hierarchy {
     /// standInSent times sum_k A_k rho_k over r's surfaces, each weighted by
     /// its cosine towards the sender when the link is handed over by cosine
     /// (as the push delivers it, clusterIrradianceAt).
-    RGB standInReflected(uint32_t r, const Link& l) const;
+    RGB standInReflected(uint32_t r, uint64_t i) const;
     uint64_t standInSampleCount() const {
         return standInSamples_.size() - (standInBegin_.size() - 1);  // without the block headers
     }
@@ -378,6 +391,26 @@ class Hierarchy {
     /// cosine), and it is flagged kOpenHandOver; where W = 0 it stays handed
     /// by cosine. Done once per link, cluster by cluster.
     void handOverNewLinks();
+    /// With the openness table and setSeenHandOver: every stand-in into a
+    /// cluster that no direction hands over (Link::byArea), other than a
+    /// self-link, gives each surface k below the cluster the share w_k / W
+    /// of its irradiance, so the power it delivers is unchanged and only
+    /// where it lands moves (flagged kOpenHandOver, Link::bySeen):
+    ///     w_k = sum over the sender's surfaces j of c_j sum over k's four
+    ///           openness points x of F(x -> j) v(x, j),
+    ///     W = sum_k A_k w_k / sum_k A_k,
+    /// F the exact unoccluded point-to-polygon form factor (0 behind a
+    /// one-sided j), v whether the openness table's ray from x in the
+    /// direction of j's centroid travels at least half the way
+    /// (SurfaceOpenness::reaches), c_j j's largest radiosity channel (1 for a
+    /// surface-element sender). The outer shell of a double-shelled lamp
+    /// housing (it faces away from the lamp, or lies 2 mm behind the inner
+    /// shell) gets nothing where by area it got as much as the inner shell
+    /// (papers/README.md, "Where the classroom's stand-in error lives").
+    /// Decided once per (receiver, sender) pair, when its sender carries
+    /// light, and kept across setLinks(); stays by area where the sender
+    /// is dark, has more than kSeenMaxSources surfaces, or no surface sees it.
+    void handOverStandIns();
     /// Push-pull of the polynomial coefficients (basis degree > 0).
     void pushPullPolynomial(const std::vector<RGB>& fromAbove);
     /// Pull of the coefficients of e from its four children (degree > 0).
@@ -403,6 +436,27 @@ class Hierarchy {
     /// Drops the stand-in sample blocks no link refers to (setLinks).
     void compactStandIns();
     uint64_t clusterLinkBase_ = 0;
+    /// handOverStandIns(): per cluster (tree index, +1), the range of its
+    /// entries in seen_; each entry a stand-in (link index), the offset of
+    /// its weights (one byte per surface below the cluster, in tree order,
+    /// w_k scaled to 255) and the scale 255 W that turns a byte into w_k / W.
+    struct SeenEntry {
+        uint64_t link = 0;
+        uint64_t weights = 0;
+        float scale = 0.f;
+    };
+    bool seenHandOver_ = false;
+    /// Senders with more surfaces than this stay by area (the weights cost
+    /// a point-to-polygon form factor per surface pair and point).
+    static constexpr uint32_t kSeenMaxSources = 64;
+    std::vector<uint64_t> seenOffsets_;
+    std::vector<SeenEntry> seen_;
+    std::vector<uint8_t> seenWeights_;
+    /// Every stand-in handOverStandIns() decided, by receiver << 32 |
+    /// sender: its entry in seen_, or UINT64_MAX for by area.
+    std::unordered_map<uint64_t, uint64_t> seenCache_;
+    /// Position of each patch in the tree's order (made when first needed).
+    std::vector<uint32_t> orderPos_;
     /// Oriented model, per cluster and RGB channel: sum A_k B_k, sum A_k B_k n_k,
     /// sum A_k B_k n_k n_k^T (xx, xy, xz, yy, yz, zz).
     struct RadiantMoments {

@@ -1112,6 +1112,7 @@ HrResult HrSolver::solve(bool progress) {
         res.opennessRays = res.openness->rays();
         res.opennessSeconds = res.openness->seconds();
         h.setOpenness(res.openness.get());
+        h.setSeenHandOver(s_.clusterLink.standInSeen);
         spdlog::info("hand-over openness: {} rays, {:.2f} s, {}", res.opennessRays,
                      res.opennessSeconds, formatBytes(res.openness->memoryBytes()));
     }
@@ -1326,7 +1327,7 @@ HrResult HrSolver::solve(bool progress) {
             if (l.flags & Link::kOpen) ++res.unopenedLinks;
             if (l.flags & Link::kDeferred) ++res.deferredLinksLeft;
             if (l.flags & Link::kStandIn) {
-                standIn += h.standInReflected(r, l);
+                standIn += h.standInReflected(r, i);
                 ++res.standInLinksFinal;
             }
         }
