@@ -1146,7 +1146,9 @@ void Hierarchy::reportMemory(MemoryCounters& m) const {
     if (!seen_.empty())
         m.set("stand_in_handover", seen_.capacity() * sizeof(SeenEntry) +
                                        seenOffsets_.capacity() * sizeof(uint64_t) +
-                                       seenWeights_.capacity() + orderPos_.capacity() * 4);
+                                       seenWeights_.capacity() + orderPos_.capacity() * 4 +
+                                       seenCache_.size() * (2 * sizeof(uint64_t) + sizeof(void*)) +
+                                       seenCache_.bucket_count() * sizeof(void*));
     if (tree_)
         m.set("clusters", tree_->memoryBytes() + moments_.capacity() * sizeof(RadiantMoments) +
                               maxB_.capacity() * sizeof(RGB));

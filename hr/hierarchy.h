@@ -90,7 +90,8 @@ struct Link {
     /// (cluster.handover = visible; Hierarchy::handOverNewLinks), once, when
     /// the link is first set: by cosine and openness (kOpenHandOver, its K
     /// divided by the cluster's openness towards the sender) or, where no
-    /// surface is open, by cosine alone.
+    /// surface is open, by cosine alone. On a stand-in without kHandedOver,
+    /// kOpenHandOver means by what each surface sees (Link::bySeen).
     static constexpr uint8_t kHandedOver = 32;
     static constexpr uint8_t kOpenHandOver = 64;
     /// A link that had to be opened when refinement stopped early, given a
