@@ -7,8 +7,49 @@
 
 #include "core/rng.h"
 #include "core/sampling.h"
+#include "scene/element.h"
 
 namespace hrad::cluster {
+
+namespace {
+
+/// Below this solid angle (sr) a stand-in draws a point on a sender polygon
+/// by area instead of a direction over its solid angle: Arvo's construction
+/// loses its precision on triangles of a few 1e-4 rad across.
+constexpr double kMinSolidAngle = 1e-7;
+
+/// A sender polygon (a patch, or a surface element's domain) seen from x:
+/// the unit directions to its corners, the solid angles of its fan
+/// triangles (0, 1, 2) and (0, 2, 3), their sum, and its first corner;
+/// count 0 when x is not in front of its plane.
+struct PolygonView {
+    Vec3 dir[4];
+    Vec3 corner0{0.0};
+    double tri[2] = {0.0, 0.0};
+    double omega = 0.0;
+    int count = 0;
+};
+
+PolygonView viewPolygon(const scene::Patch& P, const scene::Domain& d, const Vec3& x) {
+    PolygonView v;
+    Vec3 c[4];
+    const int count = scene::elementCorners(P, d, c);
+    if (!(glm::dot(P.normal, x - c[0]) > 0)) return v;
+    for (int i = 0; i < count; ++i) {
+        const Vec3 e = c[i] - x;
+        const double l = glm::length(e);
+        if (!(l > 0)) return v;
+        v.dir[i] = e / l;
+    }
+    v.corner0 = c[0];
+    v.tri[0] = sphericalTriangleArea(v.dir[0], v.dir[1], v.dir[2]);
+    if (count == 4) v.tri[1] = sphericalTriangleArea(v.dir[0], v.dir[2], v.dir[3]);
+    v.omega = v.tri[0] + v.tri[1];
+    v.count = count;
+    return v;
+}
+
+}  // namespace
 
 ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
     ClusterLinkSettings s;
@@ -329,11 +370,12 @@ void ClusterLinker::prepareSenders(std::span<const RGB> rootB) {
     }
     const uint32_t n = tree_->orderSize();
     senderPrefix_.assign(size_t(n) + 1, 0.0);
+    senderM_.assign(scene_->patches.size(), 0.0f);
     for (uint32_t i = 0; i < n; ++i) {
         const uint32_t p = tree_->patchAt(i);
-        senderPrefix_[i + 1] =
-            senderPrefix_[i] +
-            scene_->patches[p].area * std::max(0.0, maxComponent(senderRadiosity(p, rootB[p])));
+        const float m = float(std::max(0.0, maxComponent(senderRadiosity(p, rootB[p]))));
+        senderM_[p] = m;
+        senderPrefix_[i + 1] = senderPrefix_[i] + scene_->patches[p].area * double(m);
     }
 }
 
@@ -565,10 +607,69 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
     const bool towardsCentroid =
         gap > 0 && dist > 0 && r.isCluster && !r.singleSurface && model_ == ClusterModel::Oriented;
     const Vec3 u = dist > 0 ? between / dist : Vec3(0.0);
-    // One estimate of n samples of the transfer per unit receiver area: their
-    // sum and sum of squares, the unoccluded sum (point pairs), the part on
-    // surfaces facing away from the sender, the rays cast and those that
-    // found s; the samples that found s go to `found` when given.
+    // Sender surfaces: drawn by area, or, for a sending cluster whose
+    // surfaces carry light (prepareSenders), half by area and half by A_k m_k
+    // (a defensive mixture, Hesterberg 1995; see the header).
+    const ClusterNode* sn = s.isCluster && tree_ ? &tree_->node(s.cluster) : nullptr;
+    const double M = sn && senderM_.size() == scene_->patches.size()
+                         ? senderPrefix_[sn->patchEnd] - senderPrefix_[sn->patchBegin]
+                         : 0.0;
+    const bool weighted = M > 0 && s.area > 0;
+    // The probability of drawing sender patch k (1 for a surface element).
+    auto patchProbability = [&](uint32_t k) {
+        if (!s.isCluster) return 1.0;
+        const double A = scene_->patches[k].area, uniform = s.area > 0 ? A / s.area : 0.0;
+        return weighted ? 0.5 * uniform + 0.5 * A * double(senderM_[k]) / M : uniform;
+    };
+    auto senderPatchDrawn = [&](Pcg32& rng) {
+        if (!s.isCluster) return s.patch;
+        uint32_t k = 0;
+        if (!weighted || rng.nextDouble() < 0.5) {
+            const double a = rng.nextDouble();
+            tree_->samplePoint(s.cluster, a, 0.5, 0.5, k);
+        } else {
+            k = senderPatch(*sn, rng.nextDouble());
+        }
+        return k;
+    };
+    // A point uniform by area on the drawn patch k (on the element's domain
+    // for a surface element).
+    auto pointOn = [&](Pcg32& rng, uint32_t k) {
+        if (!s.isCluster) {
+            uint32_t unused = 0;
+            return uniformPoint(s, rng, unused);
+        }
+        const double a = rng.nextDouble(), b = rng.nextDouble();
+        return tree_->pointOnPatch(k, a, b);
+    };
+    // The sender point density per unit area (apart spheres: points drawn
+    // by patch, then by area on it).
+    auto areaDensity = [&](uint32_t k) {
+        const double A = s.isCluster ? scene_->patches[k].area : s.area;
+        return A > 0 ? patchProbability(k) / A : 0.0;
+    };
+    // A sender polygon seen from x: patch k's, or the surface element's.
+    auto polygonFrom = [&](uint32_t k, const Vec3& x) {
+        return viewPolygon(scene_->patches[k], s.isCluster ? scene::Domain{} : s.domain, x);
+    };
+    // The density per unit sender area, at a point of patch k that x sees at
+    // squared distance d2 under the sender-side cosine cy, of the polygon
+    // draw below: patch k with its probability, then a direction uniform
+    // over its solid angle (or a point by area on a polygon too small).
+    auto senderDensity = [&](const Vec3& x, uint32_t k, double cy, double d2) {
+        const PolygonView pv = polygonFrom(k, x);
+        if (pv.count == 0) return 0.0;
+        return pv.omega >= kMinSolidAngle ? patchProbability(k) * cy / (d2 * pv.omega)
+                                          : areaDensity(k);
+    };
+    // Estimates per receiver point: n point pairs when the spheres are apart,
+    // n / 2 points of two rays each when they overlap.
+    const int points = apart ? n : std::max(2, n / 2);
+    // One estimate of `points` samples of the transfer per unit receiver
+    // area: their sum and sum of squares, the unoccluded sum (point pairs),
+    // the part on surfaces facing away from the sender, the rays cast and
+    // the samples that found s; the contributions that found s go to `kept`
+    // when given.
     struct Estimate {
         double sum = 0.0, sum2 = 0.0, unoccluded = 0.0, away = 0.0;
         int cast = 0, found = 0;
@@ -581,7 +682,8 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
             for (int i = 0; i < n; ++i) {
                 transport::Segment t;
                 t.a = uniformPoint(r, rng, t.patchA);
-                t.b = uniformPoint(s, rng, t.patchB);
+                t.patchB = senderPatchDrawn(rng);
+                t.b = pointOn(rng, t.patchB);
                 const Vec3& na = scene_->patches[t.patchA].normal;
                 const Vec3& nb = scene_->patches[t.patchB].normal;
                 Vec3 dv = t.b - t.a;
@@ -589,9 +691,9 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
                 double ca = glm::dot(na, dv), cb = -glm::dot(nb, dv);
                 if (!(ca > 0 && cb > 0 && d2 > 0)) continue;
                 ++e.cast;
-                // The sender by area (s at one radiosity): the gather weighs
-                // the samples by their patches' radiosities itself.
-                double v = s.area * ca * cb / (kPi * d2 * d2);
+                // The sender at one radiosity: the gather weighs the samples
+                // by their patches' radiosities itself.
+                double v = ca * cb / (kPi * d2 * d2 * areaDensity(t.patchB));
                 e.unoccluded += v;
                 if (vis_ && vis_->occluded(t)) continue;
                 ++e.found;
@@ -601,12 +703,16 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
                 if (kept) kept->push_back({t.patchB, float(v / n)});
             }
         } else {
-            // Overlapping spheres: each receiver point gathers along one
-            // cosine-distributed direction (see the header).
-            for (int i = 0; i < n; ++i) {
+            // Overlapping spheres: each receiver point x gathers along one
+            // cosine-distributed direction and along one direction drawn
+            // over the solid angle of a sender polygon, the two combined by
+            // the balance heuristic (Veach & Guibas 1995, see the header);
+            // each contribution lies in [0, 1].
+            for (int i = 0; i < points; ++i) {
                 uint32_t pa = 0;
                 const Vec3 x = uniformPoint(r, rng, pa);
                 const Vec3& nx = scene_->patches[pa].normal;
+                double v = 0.0;
                 const double u1 = rng.nextDouble(), u2 = rng.nextDouble();
                 const Vec3 dir = cosineDirection(nx, u1, u2);
                 // Only a ray that enters s's bounding sphere can find s, and
@@ -615,24 +721,76 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
                 const double bq = glm::dot(dir, oc);
                 const double R = s.radius * (1.0 + 1e-6) + 1e-12;
                 const double disc = bq * bq - (glm::dot(oc, oc) - R * R);
-                if (!(disc > 0)) continue;
-                const double tExit = -bq + std::sqrt(disc);
-                if (!(tExit > 0)) continue;
-                transport::RayHit hit = vis_->intersect(x, dir, 0.0, tExit, pa);
-                ++e.cast;
-                if (!hit.hit || !(glm::dot(scene_->patches[hit.patch].normal, dir) < 0) ||
-                    !holds(s, hit.patch, hit.point))
-                    continue;
-                ++e.found;
-                e.sum += 1.0;
-                e.sum2 += 1.0;
-                if (kept) kept->push_back({hit.patch, float(1.0 / n)});
+                const double tExit = disc > 0 ? -bq + std::sqrt(disc) : 0.0;
+                if (tExit > 0) {
+                    transport::RayHit hit = vis_->intersect(x, dir, 0.0, tExit, pa);
+                    ++e.cast;
+                    const double cy =
+                        hit.hit ? -glm::dot(scene_->patches[hit.patch].normal, dir) : 0.0;
+                    if (cy > 0 && hit.t > 0 && holds(s, hit.patch, hit.point)) {
+                        // Both densities per unit sender area at the hit:
+                        // the cosine direction's, cos_x cos_y / (pi d^2),
+                        // and the polygon draw's (senderDensity).
+                        const double d2 = hit.t * hit.t;
+                        const double pc = glm::dot(nx, dir) * cy / (kPi * d2);
+                        const double w = pc / (pc + senderDensity(x, hit.patch, cy, d2));
+                        v += w;
+                        if (kept) kept->push_back({hit.patch, float(w / points)});
+                    }
+                }
+                const uint32_t k = senderPatchDrawn(rng);
+                const PolygonView pv = polygonFrom(k, x);
+                if (pv.count > 0) {
+                    // The polygon in front of x: a direction over its solid
+                    // angle, or, for a polygon too small to subtend one
+                    // reliably, a point by area.
+                    transport::Segment t;
+                    t.a = x;
+                    t.patchA = pa;
+                    t.patchB = k;
+                    const Vec3& nk = scene_->patches[k].normal;
+                    double pSelf = 0.0;  // this draw's density per unit sender area
+                    bool ok = false;
+                    if (pv.omega >= kMinSolidAngle) {
+                        const double pick = rng.nextDouble() * pv.omega;
+                        const int tri = pv.count == 4 && pick >= pv.tri[0] ? 1 : 0;
+                        const Vec3 w = sphericalTriangleDirection(
+                            pv.dir[0], pv.dir[1 + tri], pv.dir[2 + tri], pv.tri[tri],
+                            rng.nextDouble(), rng.nextDouble());
+                        const double dn = glm::dot(nk, w);
+                        const double tp = dn < 0 ? glm::dot(nk, pv.corner0 - x) / dn : -1.0;
+                        if (tp > 0) {
+                            t.b = x + tp * w;
+                            pSelf = patchProbability(k) * (-dn) / (tp * tp * pv.omega);
+                            ok = true;
+                        }
+                    } else {
+                        t.b = pointOn(rng, k);
+                        pSelf = areaDensity(k);
+                        ok = true;
+                    }
+                    const Vec3 dv = t.b - x;
+                    const double d2 = glm::dot(dv, dv);
+                    const double ca = glm::dot(nx, dv), cb = -glm::dot(nk, dv);
+                    if (ok && ca > 0 && cb > 0 && d2 > 0) {
+                        ++e.cast;
+                        if (!vis_->occluded(t)) {
+                            const double g = ca * cb / (kPi * d2 * d2);
+                            const double w = g / (g + pSelf);
+                            v += w;
+                            if (kept) kept->push_back({k, float(w / points)});
+                        }
+                    }
+                }
+                if (v > 0) ++e.found;
+                e.sum += v;
+                e.sum2 += v * v;
             }
         }
         return e;
     };
     std::vector<StandInSample> local;
-    if (samples) local.reserve(size_t(n));
+    if (samples) local.reserve(size_t(2 * n));
     Pcg32 rng(hashIds(r.stableId, s.stableId, 0x7374616eULL));
     const Estimate carried = estimate(rng, samples ? &local : nullptr);
     // The judged estimate: an independent one when asked (a stand-in kept
@@ -649,8 +807,8 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
     // point sees a form factor above 1: bounds of the true transfer that
     // keep a noisy estimate from amplifying light.
     const double bound = std::min(1.0, r.area > 0 ? s.area / r.area : 0.0);
-    auto clamped = [&](const Estimate& e) { return std::min(bound, e.sum / n); };
-    const double mean = carried.sum / n;
+    auto clamped = [&](const Estimate& e) { return std::min(bound, e.sum / points); };
+    const double mean = carried.sum / points;
     double scale = mean > bound ? bound / mean : 1.0;
     if (towardsCentroid && judged.sum > 0 && judged.away <= 0.05 * judged.sum) {
         // Handed over by cosine (see the header): divided by the receiver's
@@ -677,21 +835,23 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
     } else {
         out.judged = 1.0;
     }
-    const double jmean = judged.sum / n;
+    const double jmean = judged.sum / points;
     if (jmean > 0) {
-        double var = std::max(0.0, judged.sum2 / n - jmean * jmean);
-        out.relativeError = 2.0 * std::sqrt(var / (n - 1)) / jmean;
+        double var = std::max(0.0, judged.sum2 / points - jmean * jmean);
+        out.relativeError = 2.0 * std::sqrt(var / (points - 1)) / jmean;
     } else if (judged.found == 0 && (judged.cast > 0 || !apart)) {
         // Nothing found: the estimate is 0, but the transfer may not be.
         // judgedF is then a 95 % upper bound. Spheres apart: the
         // Clopper-Pearson bound on the visible fraction (zero successes in
-        // `cast`) times the unoccluded estimate. Overlapping spheres, whose
-        // n samples are 0 or 1 (a direction that misses s's sphere is a 0
-        // like any other): the bound for zero successes in n trials, also
-        // when no ray entered the sphere (0 is then no certainty either).
+        // `cast`) times the unoccluded estimate. Overlapping spheres: each
+        // point's cosine direction finds s with probability its form factor
+        // to s (a direction that misses s's sphere is a miss like any
+        // other), so the bound for zero successes in `points` trials holds,
+        // also when no ray entered the sphere (0 is then no certainty
+        // either); the sender points that found nothing only add evidence.
         out.uncertain = true;
         out.relativeError = 1.0;
-        const double p95 = 1.0 - std::pow(0.05, 1.0 / (apart ? judged.cast : n));
+        const double p95 = 1.0 - std::pow(0.05, 1.0 / (apart ? judged.cast : points));
         out.judgedF = apart ? p95 * judged.unoccluded / n : p95;
     }
     out.Fupper = gap > 0 ? s.area / (kPi * gap * gap) : 3.0e38;

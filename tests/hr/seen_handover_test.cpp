@@ -127,10 +127,11 @@ TEST(SeenHandOver, OuterShellsTakeNoLampLight) {
               << seen.seen << " handed over by what is seen\n";
     ASSERT_GT(area.standIns, 0u);
     ASSERT_GT(seen.seen, 0u);
-    // By area the outer shells take as much of the lamp's light as the inner
-    // ones (measured 0.34 of the inner shells' light); by what each surface
-    // sees, almost none (measured 0.002).
-    EXPECT_GT(misplaced(area), 0.2);
+    // By area the outer shells take the lamp's light like the inner ones
+    // (measured 0.12 of the inner shells' light); by what each surface sees,
+    // almost none (measured 0.001). The first is the control: the housing must
+    // show the by-area error for the second to mean anything.
+    EXPECT_GT(misplaced(area), 0.05);
     EXPECT_LT(misplaced(seen), 0.02);
     // The outer top sees neither the lamp nor the floor.
     EXPECT_EQ(ref.B[h.outer.back()], 0.0);
