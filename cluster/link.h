@@ -164,9 +164,8 @@
 // at y: the balance heuristic of multiple importance sampling (Veach &
 // Guibas 1995). Each count lies in [0, 1], so the variance stays finite,
 // and their mean is the transfer. stand_in_rays / 2 points, two rays each,
-// keep the ray count. A lamp strip next to its reflector
-// (tests/cluster/link_test.cpp): RMS error 49 % of the transfer with 32
-// rays, against 64 % for the cosine directions alone.
+// keep the ray count (measurements: papers/README.md, "The stand-in
+// estimate").
 // The samples that found s are kept, by
 // root patch: the gather sums weight times that patch's current radiosity,
 // so the stand-in follows where on s the light is as the solve goes on
