@@ -652,12 +652,11 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
     auto polygonFrom = [&](uint32_t k, const Vec3& x) {
         return viewPolygon(scene_->patches[k], s.isCluster ? scene::Domain{} : s.domain, x);
     };
-    // The density per unit sender area, at a point of patch k that x sees at
-    // squared distance d2 under the sender-side cosine cy, of the polygon
+    // The density per unit sender area, at a point of patch k (seen as pv)
+    // at squared distance d2 under the sender-side cosine cy, of the polygon
     // draw below: patch k with its probability, then a direction uniform
     // over its solid angle (or a point by area on a polygon too small).
-    auto senderDensity = [&](const Vec3& x, uint32_t k, double cy, double d2) {
-        const PolygonView pv = polygonFrom(k, x);
+    auto polygonDensity = [&](const PolygonView& pv, uint32_t k, double cy, double d2) {
         if (pv.count == 0) return 0.0;
         return pv.omega >= kMinSolidAngle ? patchProbability(k) * cy / (d2 * pv.omega)
                                           : areaDensity(k);
@@ -730,10 +729,12 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
                     if (cy > 0 && hit.t > 0 && holds(s, hit.patch, hit.point)) {
                         // Both densities per unit sender area at the hit:
                         // the cosine direction's, cos_x cos_y / (pi d^2),
-                        // and the polygon draw's (senderDensity).
+                        // and the polygon draw's.
                         const double d2 = hit.t * hit.t;
                         const double pc = glm::dot(nx, dir) * cy / (kPi * d2);
-                        const double w = pc / (pc + senderDensity(x, hit.patch, cy, d2));
+                        const double p =
+                            polygonDensity(polygonFrom(hit.patch, x), hit.patch, cy, d2);
+                        const double w = pc / (pc + p);
                         v += w;
                         if (kept) kept->push_back({hit.patch, float(w / points)});
                     }
@@ -749,8 +750,7 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
                     t.patchA = pa;
                     t.patchB = k;
                     const Vec3& nk = scene_->patches[k].normal;
-                    double pSelf = 0.0;  // this draw's density per unit sender area
-                    bool ok = false;
+                    bool ok = true;
                     if (pv.omega >= kMinSolidAngle) {
                         const double pick = rng.nextDouble() * pv.omega;
                         const int tri = pv.count == 4 && pick >= pv.tri[0] ? 1 : 0;
@@ -759,15 +759,10 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
                             rng.nextDouble(), rng.nextDouble());
                         const double dn = glm::dot(nk, w);
                         const double tp = dn < 0 ? glm::dot(nk, pv.corner0 - x) / dn : -1.0;
-                        if (tp > 0) {
-                            t.b = x + tp * w;
-                            pSelf = patchProbability(k) * (-dn) / (tp * tp * pv.omega);
-                            ok = true;
-                        }
+                        ok = tp > 0;
+                        t.b = x + tp * w;
                     } else {
                         t.b = pointOn(rng, k);
-                        pSelf = areaDensity(k);
-                        ok = true;
                     }
                     const Vec3 dv = t.b - x;
                     const double d2 = glm::dot(dv, dv);
@@ -776,7 +771,8 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
                         ++e.cast;
                         if (!vis_->occluded(t)) {
                             const double g = ca * cb / (kPi * d2 * d2);
-                            const double w = g / (g + pSelf);
+                            const double p = polygonDensity(pv, k, cb / std::sqrt(d2), d2);
+                            const double w = g / (g + p);
                             v += w;
                             if (kept) kept->push_back({k, float(w / points)});
                         }

@@ -40,8 +40,7 @@ inline Vec3 cosineDirection(const Vec3& n, double u1, double u2) {
 inline double sphericalTriangleArea(const Vec3& a, const Vec3& b, const Vec3& c) {
     const double num = std::fabs(glm::dot(a, glm::cross(b, c)));
     const double den = 1.0 + glm::dot(a, b) + glm::dot(b, c) + glm::dot(c, a);
-    double omega = 2.0 * std::atan2(num, den);
-    return omega < 0.0 ? omega + 4.0 * kPi : omega;
+    return 2.0 * std::atan2(num, den);  // num >= 0: in [0, 2 pi]
 }
 
 /// A direction uniformly distributed over the solid angle of the spherical

@@ -1,7 +1,8 @@
 // Spherical triangles (core/sampling.h): the solid angle against the
 // octant's closed form, and Arvo's directions against the exact form factor
 // of a triangle (a uniform density over the solid angle makes the mean of
-// cos / pi times the solid angle the point-to-polygon form factor).
+// cos / pi times the solid angle the point-to-polygon form factor,
+// transport::pointToPolygon).
 #include "core/sampling.h"
 
 #include <gtest/gtest.h>
@@ -9,22 +10,10 @@
 #include <cmath>
 
 #include "core/rng.h"
+#include "transport/formfactor.h"
 
 namespace hrad {
 namespace {
-
-// Point-to-polygon form factor (Lambert's formula), written out here so the
-// test does not depend on transport/.
-double lambert(const Vec3& x, const Vec3& n, const Vec3* v, int count) {
-    double sum = 0.0;
-    for (int i = 0; i < count; ++i) {
-        const Vec3 a = glm::normalize(v[i] - x), b = glm::normalize(v[(i + 1) % count] - x);
-        const Vec3 c = glm::cross(a, b);
-        const double l = glm::length(c);
-        if (l > 0) sum += std::atan2(l, glm::dot(a, b)) * glm::dot(c / l, n);
-    }
-    return std::fabs(sum) / (2.0 * kPi);
-}
 
 TEST(SphericalTriangle, OctantHasAnEighthOfTheSphere) {
     EXPECT_NEAR(sphericalTriangleArea(Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)), kPi / 2, 1e-12);
@@ -63,7 +52,7 @@ TEST(SphericalTriangle, DirectionsAreUniformOverTheSolidAngle) {
         }
         const double mean = sum / count;
         const double se = std::sqrt(std::max(0.0, sum2 / count - mean * mean) / count);
-        const double exact = lambert(Vec3(0.0), n, t, 3);
+        const double exact = transport::pointToPolygon(Vec3(0.0), n, t, 3);
         EXPECT_EQ(outside, 0);
         EXPECT_NEAR(mean, exact, 4.0 * se + 1e-12) << "omega " << omega;
         EXPECT_LT(se, 0.01 * exact);
