@@ -6,5 +6,5 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/asan_tree.sh
-asan_build hrad hrad_core_test hrad_scene_test hrad_oracles_test hrad_experiments_test hrad_cli_test
+asan_build hrad hrad_core_test hrad_sampling_test hrad_scene_test hrad_oracles_test hrad_experiments_test hrad_cli_test
 ctest --test-dir "$ASAN_DIR" -L fast --output-on-failure -j "${HRAD_JOBS:-$(nproc)}"
