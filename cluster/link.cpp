@@ -8,6 +8,7 @@
 #include "core/rng.h"
 #include "core/sampling.h"
 #include "scene/element.h"
+#include "transport/formfactor.h"
 
 namespace hrad::cluster {
 
@@ -71,6 +72,8 @@ ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
     s.standIn = p.getBool("cluster.stand_in", s.standIn);
     s.standInSeen = p.getEnum("cluster.stand_in_handover", "area", {"area", "seen"}) == "seen";
     s.standInRays = int(p.getInt("cluster.stand_in_rays", s.standInRays, 2, 4096));
+    s.standInPairs =
+        uint64_t(p.getInt("cluster.stand_in_pairs", int64_t(s.standInPairs), 0, int64_t(1) << 40));
     return s;
 }
 
@@ -81,12 +84,12 @@ std::string ClusterLinkSettings::describe() const {
         "cluster_near_rays={}, "
         "cluster_face_separation={}, cluster_face_kernel={}, cluster_defer_dark={}, "
         "cluster_ambient={}, cluster_handover={}, cluster_stand_in={}, "
-        "cluster_stand_in_rays={}, cluster_stand_in_handover={}",
+        "cluster_stand_in_rays={}, cluster_stand_in_handover={}, cluster_stand_in_pairs={}",
         visRays, separation, surfaceSeparation,
         sampleNear ? "sample" : (standInNear ? "stand_in" : "open"), nearOverlapping, nearRays,
         faceSeparation, faceDisc ? "disc" : "point", deferDark, ambient,
-        visibleHandover ? "visible" : "cosine", standIn, standInRays,
-        standInSeen ? "seen" : "area");
+        visibleHandover ? "visible" : "cosine", standIn, standInRays, standInSeen ? "seen" : "area",
+        standInPairs);
 }
 
 ClusterLinker::ClusterLinker(const scene::Scene& scene, const ClusterTree* tree, ClusterModel model,
@@ -601,6 +604,8 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
     const double dist = glm::length(between);
     const double gap = dist - r.radius - s.radius;
     const bool apart = gap > 0 || !vis_;
+    if (!apart && s_.standInPairs > 0 && surfaceCount(r) * surfaceCount(s) <= s_.standInPairs)
+        return standInBySurfaces(r, s, samples, judge);
     // Spheres apart, into an oriented cluster: the part of the estimate that
     // arrived on surfaces facing away from the sender's centroid (a cosine
     // hand-over would put it elsewhere).
@@ -861,6 +866,190 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
                 samples->back().weight += float(x.weight * scale);
             else
                 samples->push_back({x.patch, float(x.weight * scale)});
+        }
+    }
+    return out;
+}
+
+uint64_t ClusterLinker::surfaceCount(const LinkEnd& e) const {
+    if (!e.isCluster) return 1;
+    const ClusterNode& nd = tree_->node(e.cluster);
+    return nd.patchEnd - nd.patchBegin;
+}
+
+ClusterLink ClusterLinker::standInBySurfaces(const LinkEnd& r, const LinkEnd& s,
+                                             std::vector<StandInSample>* samples,
+                                             bool judge) const {
+    ClusterLink out;
+    out.sampled = true;
+    out.standIn = true;
+    out.judged = 1.0;
+    out.Fupper = 3.0e38;
+    // The surfaces of an end: (patch, domain, area); a cluster's root
+    // patches, or the surface element itself.
+    struct Surface {
+        uint32_t patch;
+        scene::Domain domain;
+        double area;
+    };
+    auto surfaces = [&](const LinkEnd& e) {
+        std::vector<Surface> v;
+        if (!e.isCluster) {
+            v.push_back({e.patch, e.domain, e.area});
+            return v;
+        }
+        const ClusterNode& nd = tree_->node(e.cluster);
+        v.reserve(nd.patchEnd - nd.patchBegin);
+        for (uint32_t q = nd.patchBegin; q < nd.patchEnd; ++q) {
+            const uint32_t k = tree_->patchAt(q);
+            v.push_back({k, scene::Domain{}, scene_->patches[k].area});
+        }
+        return v;
+    };
+    const std::vector<Surface> rs = surfaces(r), ss = surfaces(s);
+    // Per sender surface, the carried transfer sum_k A_k F_kj / P (its
+    // weight in the gather, before the division by A_r); the judged total
+    // and its per-point spread.
+    std::vector<double> carried(ss.size(), 0.0);
+    double judgedSum = 0.0, unoccluded = 0.0, var = 0.0;
+    int cast = 0;
+    uint64_t traced = 0;
+    // Points per receiver surface, jittered on a side x side grid: at least
+    // kSurfacePoints, and at least as many receiver points in all as the
+    // sampled estimate's (n / 2).
+    const uint64_t want =
+        std::max<uint64_t>(kSurfacePoints, uint64_t(std::max(2, s_.standInRays) / 2) / rs.size());
+    const int side = int(std::ceil(std::sqrt(double(want)) - 1e-9));
+    const int per = side * side;
+    Pcg32 rng(hashIds(r.stableId, s.stableId, 0x73757266ULL));
+    std::vector<transport::Segment> seg;
+    std::vector<std::pair<uint32_t, double>> term;  // (sender surface, F)
+    std::vector<uint8_t> occ;
+    for (const Surface& R : rs) {
+        const scene::Patch& P = scene_->patches[R.patch];
+        double pointSum = 0.0, pointSum2 = 0.0;
+        for (int i = 0; i < per; ++i) {
+            double a = (double(i % side) + rng.nextDouble()) / side;
+            double b = (double(i / side) + rng.nextDouble()) / side;
+            if (P.kind == scene::PatchKind::Triangle && a + b > 1) a = 1 - a, b = 1 - b;
+            const Vec3 x = scene::elementPoint(P, R.domain, a, b);
+            seg.clear();
+            term.clear();
+            for (uint32_t j = 0; j < ss.size(); ++j) {
+                const Surface& S = ss[j];
+                if (S.patch == R.patch || S.patch == P.twin) continue;
+                const scene::Patch& Q = scene_->patches[S.patch];
+                const PolygonView pv = viewPolygon(Q, S.domain, x);
+                if (pv.count == 0 || !(pv.omega >= kMinSolidAngle)) continue;
+                Vec3 c[4];
+                const int nc = scene::elementCorners(Q, S.domain, c);
+                const double F = transport::pointToPolygon(x, P.normal, c, nc);
+                if (!(F > 0)) continue;
+                // Two directions drawn in proportion to the kernel over the
+                // polygon: uniform over its solid angle (Arvo 1995; d omega =
+                // cos_y dA / d^2) and accepted with probability cos_x, so the
+                // rays weigh the visibility as F does (uniform directions
+                // alone overweight grazing ones, which furniture blocks
+                // more often). One ray for the carried transfer, one for
+                // the judged.
+                for (int t = 0; t < 2; ++t) {
+                    Vec3 y(0.0);
+                    bool ok = false, accepted = false;
+                    for (int tries = 0; tries < 32 && !accepted; ++tries) {
+                        const double pick = rng.nextDouble() * pv.omega;
+                        const int tri = pv.count == 4 && pick >= pv.tri[0] ? 1 : 0;
+                        const Vec3 w = sphericalTriangleDirection(
+                            pv.dir[0], pv.dir[1 + tri], pv.dir[2 + tri], pv.tri[tri],
+                            rng.nextDouble(), rng.nextDouble());
+                        const double dn = glm::dot(Q.normal, w);
+                        const double tp = dn < 0 ? glm::dot(Q.normal, pv.corner0 - x) / dn : -1.0;
+                        const double cx = glm::dot(P.normal, w);
+                        if (!(tp > 0) || !(cx > 0)) continue;
+                        // The last direction in front stands in if none is
+                        // accepted.
+                        ok = true;
+                        y = x + tp * w;
+                        accepted = rng.nextDouble() < cx;
+                    }
+                    // A sliver in front that 32 draws missed: its ray is
+                    // not cast and counts as blocked.
+                    const uint32_t tag = j | (t ? 0x80000000u : 0u);
+                    seg.push_back({x, ok ? y : x, R.patch, S.patch});
+                    term.push_back({tag, ok ? F : -F});
+                }
+                unoccluded += R.area * F / per;
+            }
+            occ.assign(seg.size(), 0);
+            size_t castHere = 0;
+            for (size_t m = 0; m < seg.size(); ++m) castHere += term[m].second > 0;
+            traced += castHere;
+            if (castHere > 0 && vis_) {
+                // Only the segments with a direction in front are traced.
+                std::vector<transport::Segment> live;
+                live.reserve(castHere);
+                for (size_t m = 0; m < seg.size(); ++m)
+                    if (term[m].second > 0) live.push_back(seg[m]);
+                std::vector<uint8_t> liveOcc(live.size());
+                vis_->occluded(live.data(), live.size(), liveOcc.data());
+                for (size_t m = 0, l = 0; m < seg.size(); ++m)
+                    occ[m] = term[m].second > 0 ? liveOcc[l++] : 1;
+            } else {
+                for (size_t m = 0; m < seg.size(); ++m) occ[m] = !(term[m].second > 0);
+            }
+            double point = 0.0;
+            for (size_t m = 0; m < seg.size(); ++m) {
+                const bool judgedRay = term[m].first & 0x80000000u;
+                const uint32_t j = term[m].first & 0x7fffffffu;
+                const double F = std::abs(term[m].second);
+                if (judgedRay) {
+                    ++cast;
+                    if (!occ[m]) point += F;
+                } else if (!occ[m]) {
+                    carried[j] += R.area * F / per;
+                }
+            }
+            judgedSum += R.area * point / per;
+            pointSum += point;
+            pointSum2 += point * point;
+        }
+        // The judged total's variance from the spread of its points on
+        // this surface (each point's value is an estimate of the surface's
+        // mean irradiance from s).
+        const double m = pointSum / per;
+        const double v = std::max(0.0, pointSum2 / per - m * m);
+        var += R.area * R.area * v / (per - 1);
+    }
+    out.rays = uint32_t(std::min<uint64_t>(traced, UINT32_MAX));
+    const double Ar = r.area > 0 ? r.area : 1.0;
+    double total = 0.0;
+    for (double c : carried) total += c;
+    // As standIn(): no receiver point sees a form factor above 1 and r
+    // cannot take more than s radiates.
+    const double bound = std::min(1.0, r.area > 0 ? s.area / r.area : 0.0);
+    const double mean = total / Ar;
+    const double scale = mean > bound ? bound / mean : 1.0;
+    out.K = mean * scale;
+    out.judgedF = std::min(bound, (judge ? judgedSum : total) / Ar);
+    if (judgedSum > 0) {
+        out.relativeError = 2.0 * std::sqrt(var) / judgedSum;
+    } else if (unoccluded > 0) {
+        // Every ray blocked: the 95 % bound on the visible fraction (zero
+        // successes in `cast`) times the unoccluded transfer.
+        out.uncertain = true;
+        out.relativeError = 1.0;
+        const double p95 = 1.0 - std::pow(0.05, 1.0 / std::max(1, cast));
+        out.judgedF = std::min(bound, p95 * unoccluded / Ar);
+    }
+    if (samples) {
+        samples->clear();
+        if (s.isCluster) {
+            std::vector<StandInSample> local;
+            for (uint32_t j = 0; j < ss.size(); ++j)
+                if (carried[j] > 0) local.push_back({ss[j].patch, float(carried[j] / Ar * scale)});
+            std::sort(
+                local.begin(), local.end(),
+                [](const StandInSample& a, const StandInSample& b) { return a.patch < b.patch; });
+            *samples = std::move(local);
         }
     }
     return out;

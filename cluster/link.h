@@ -250,14 +250,22 @@
 //                                     too much light on surfaces facing away) lights
 //                                     every surface of its receiving cluster alike, by
 //                                     area, or each by what it sees of the sender
-//                                     (point-to-polygon form factors with the openness
-//                                     table's visibility; needs cluster.handover = visible;
+//                                     (point-to-polygon form factors times a shadow ray
+//                                     per point and sender surface; needs
+//                                     cluster.handover = visible;
 //                                     Hierarchy::handOverStandIns). seen puts classroom's
 //                                     lamp light on the housings' inner shells, not the
-//                                     outer ones; not the default: where that visibility
-//                                     is wrong it can put a link's light on one small
-//                                     surface (papers/README.md, "Where the classroom's
-//                                     stand-in error lives")
+//                                     outer ones (papers/README.md, "Overlapping
+//                                     stand-ins summed over surface pairs")
+//   cluster.stand_in_pairs  int  0    overlapping stand-ins whose two ends have at most
+//                                     this many (receiver surface, sender surface) pairs
+//                                     are summed over every pair (standInBySurfaces:
+//                                     exact point-to-polygon form factors at jittered
+//                                     receiver points, shadow rays drawn by the kernel)
+//                                     instead of sampled; 0: always sampled. Finds the
+//                                     small bright senders that sampling misses (a lamp
+//                                     strip seen by its housing's end caps), at up to
+//                                     8 rays per pair
 //   cluster.face_separation  double  1.5  the same for links whose ends are planar face
 //                                     clusters or surface elements, at least one a face
 //                                     cluster (cluster.faces; 1: bounding spheres apart)
@@ -334,6 +342,10 @@ struct ClusterLinkSettings {
     /// each surface a share by what it sees of the sender (true, `seen`) or
     /// by area (false, the default).
     bool standInSeen = false;
+    /// cluster.stand_in_pairs: overlapping stand-ins whose receiver and
+    /// sender have at most this many surface pairs are summed over every
+    /// pair (ClusterLinker::standInBySurfaces) instead of sampled; 0: never.
+    uint64_t standInPairs = 0;
     static ClusterLinkSettings fromParams(const Params& p);
     std::string describe() const;
 };
@@ -406,6 +418,22 @@ class ClusterLinker {
     /// refinement judges: cluster.near = stand_in), else from the same.
     ClusterLink standIn(const LinkEnd& r, const LinkEnd& s,
                         std::vector<StandInSample>* samples = nullptr, bool judge = false) const;
+
+    /// The stand-in of overlapping ends with few surfaces (at most
+    /// cluster.stand_in_pairs pairs): every receiver surface k against every
+    /// sender surface j, F_kj = the mean over kSurfacePoints stratified
+    /// points x of k of the exact unoccluded point-to-polygon form factor
+    /// F(x -> j) times the visibility of one ray in a direction uniform
+    /// over j's solid angle from x (Arvo 1995). K = sum_kj A_k F_kj / A_r;
+    /// the samples are the sender surfaces with sum_k A_k F_kj / A_r. The
+    /// judged estimate shares the points and form factors and casts its own
+    /// rays; its relative error is twice the standard error from the
+    /// spread of each surface's point values. Same contract as standIn().
+    ClusterLink standInBySurfaces(const LinkEnd& r, const LinkEnd& s,
+                                  std::vector<StandInSample>* samples, bool judge) const;
+    /// Root patches below a cluster end (1 for a surface element).
+    uint64_t surfaceCount(const LinkEnd& e) const;
+    static constexpr int kSurfacePoints = 4;
 
     /// cluster.near = stand_in: whether the pair (r, s), which the point
     /// approximation cannot take (opening() is not None, or r is s), gets a

@@ -14,6 +14,7 @@
 #include "core/rng.h"
 #include "core/timer.h"
 #include "transport/formfactor.h"
+#include "transport/visibility.h"
 
 namespace hrad::hr {
 
@@ -426,7 +427,7 @@ void Hierarchy::handOverNewLinks() {
 }
 
 void Hierarchy::handOverStandIns() {
-    if (!openness_ || !seenHandOver_ || !hasStandIns_ || clusterLinkDir_.empty()) {
+    if (!openness_ || !seenVis_ || !hasStandIns_ || clusterLinkDir_.empty()) {
         seen_.clear();
         seenWeights_.clear();
         seenOffsets_.clear();
@@ -455,8 +456,15 @@ void Hierarchy::handOverStandIns() {
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, numClusters_, 1), [&](const auto& range) {
         std::vector<size_t> fresh;
         std::vector<uint32_t> sourceBegin;
-        std::vector<Source> sources;
-        std::vector<double> seen;
+        std::vector<Source> sources, lit;
+        std::vector<double> seen, cdf;
+        struct Term {
+            uint32_t link;
+            double w;
+        };
+        std::vector<transport::Segment> segments;
+        std::vector<Term> terms;
+        std::vector<uint8_t> blocked;
         for (uint32_t c = range.begin(); c != range.end(); ++c) {
             const uint32_t r = np + c;
             const cluster::ClusterNode& node = tree_->node(c);
@@ -486,13 +494,38 @@ void Hierarchy::handOverStandIns() {
                 double total = 0.0;
                 if (isCluster(l.sender)) {
                     const cluster::ClusterNode& sn = tree_->node(clusterIndex(l.sender));
-                    if (sn.patchEnd - sn.patchBegin <= kSeenMaxSources)
-                        for (uint32_t q = sn.patchBegin; q < sn.patchEnd; ++q) {
-                            const uint32_t p = tree_->patchAt(q);
-                            const double b = maxComponent(B_[p]);
-                            if (b > 0) sources.push_back({p, b});
-                            total += b;
+                    lit.clear();
+                    double power = 0.0;
+                    for (uint32_t q = sn.patchBegin; q < sn.patchEnd; ++q) {
+                        const uint32_t p = tree_->patchAt(q);
+                        const double b = maxComponent(B_[p]);
+                        if (!(b > 0)) continue;
+                        lit.push_back({p, b});
+                        power += b * scene_->patches[p].area;
+                        total += b;
+                    }
+                    if (lit.size() <= kSeenMaxSources) {
+                        sources.insert(sources.end(), lit.begin(), lit.end());
+                    } else {
+                        // Too many to take all: kSeenMaxSources drawn with
+                        // probability A_k b_k / sum A b, each weighted b_k
+                        // over M times that probability, so the weights'
+                        // expectation is the sum over every lit surface.
+                        cdf.resize(lit.size());
+                        double run = 0.0;
+                        for (size_t k = 0; k < lit.size(); ++k)
+                            cdf[k] = run += lit[k].weight * scene_->patches[lit[k].patch].area;
+                        Pcg32 rng(hashIds(r, l.sender));
+                        for (uint32_t m = 0; m < kSeenMaxSources; ++m) {
+                            const double u = rng.nextDouble() * run;
+                            const size_t k = std::min<size_t>(
+                                size_t(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin()),
+                                lit.size() - 1);
+                            sources.push_back(
+                                {lit[k].patch,
+                                 power / (kSeenMaxSources * scene_->patches[lit[k].patch].area)});
                         }
+                    }
                 } else {
                     sources.push_back({patch_[l.sender], 1.0});
                     total = 1.0;
@@ -513,12 +546,18 @@ void Hierarchy::handOverStandIns() {
                 const uint32_t p = tree_->patchAt(q);
                 const scene::Patch& P = scene_->patches[p];
                 const cluster::SurfaceOpenness::View view = openness_->view(p);
+                // One shadow ray per receiver point and sender surface, to a
+                // point stratified over the sender (a fixed 2x2 pattern,
+                // shifted per pair): F(x -> j) counts where it is unblocked.
+                segments.clear();
+                terms.clear();
                 for (size_t f = 0; f < fresh.size(); ++f) {
-                    double w = 0.0;
                     for (uint32_t k = sourceBegin[f]; k < sourceBegin[f + 1]; ++k) {
-                        const scene::Patch& S = scene_->patches[sources[k].patch];
-                        if (sources[k].patch == p || sources[k].patch == P.twin) continue;
-                        const Vec3 cs = S.centroid();
+                        const uint32_t sp = sources[k].patch;
+                        const scene::Patch& S = scene_->patches[sp];
+                        if (sp == p || sp == P.twin) continue;
+                        Pcg32 rng(hashIds(p, sp));
+                        const double su = rng.nextDouble(), sv = rng.nextDouble();
                         for (int j = 0; j < cluster::SurfaceOpenness::kPoints; ++j) {
                             const Vec3& x = view.x[j];
                             // Only the front of a one-sided sender sends.
@@ -526,18 +565,26 @@ void Hierarchy::handOverStandIns() {
                             const double F =
                                 transport::pointToPolygon(x, P.normal, S.v.data(), S.numVertices());
                             if (!(F > 0)) continue;
-                            Vec3 u = cs - x;
-                            const double d = glm::length(u);
-                            if (!(d > 0)) continue;
-                            u /= d;
-                            const double cosine = glm::dot(u, P.normal);
-                            if (cosine > 0 && !openness_->reaches(view, j, u, cosine, 0.5 * d))
+                            const double u1 = std::fmod(0.25 + 0.5 * (j & 1) + su, 1.0);
+                            const double u2 = std::fmod(0.25 + 0.5 * (j >> 1) + sv, 1.0);
+                            const Vec3 y = tree_->pointOnPatch(sp, u1, u2);
+                            // A point behind either surface's plane is not
+                            // seen (the rest of the sender may be: F holds it,
+                            // the ray only tells whether the view is blocked).
+                            if (!(glm::dot(y - x, P.normal) > 0) ||
+                                !(glm::dot(x - y, S.normal) > 0))
                                 continue;
-                            w += sources[k].weight * F;
+                            segments.push_back({x, y, p, sp});
+                            terms.push_back({uint32_t(f), sources[k].weight * F});
                         }
                     }
-                    seen[f * count + (q - node.patchBegin)] = w;
                 }
+                blocked.resize(segments.size());
+                if (!segments.empty())
+                    seenVis_->occluded(segments.data(), segments.size(), blocked.data());
+                for (size_t i = 0; i < segments.size(); ++i)
+                    if (!blocked[i])
+                        seen[terms[i].link * count + (q - node.patchBegin)] += terms[i].w;
             }
             for (size_t f = 0; f < fresh.size(); ++f) {
                 Made& m = out[fresh[f]];

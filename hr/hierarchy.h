@@ -46,6 +46,9 @@
 namespace hrad::cluster {
 class SurfaceOpenness;
 }
+namespace hrad::transport {
+class Visibility;
+}
 
 namespace hrad::hr {
 
@@ -181,11 +184,12 @@ class Hierarchy {
     /// when first set (some are refined away later).
     uint64_t handOverByOpenness() const { return handOverByOpenness_; }
     uint64_t handOverByCosine() const { return handOverByCosine_; }
-    /// cluster.stand_in_handover = seen (with the openness table): stand-ins
-    /// that no direction hands over (Link::byArea) give each surface of
-    /// their receiving cluster a share by what it sees of the sender
-    /// (handOverStandIns) instead of by area.
-    void setSeenHandOver(bool on) { seenHandOver_ = on; }
+    /// cluster.stand_in_handover = seen (with the openness table, whose
+    /// points it uses; `visibility` casts its shadow rays, null: off):
+    /// stand-ins that no direction hands over (Link::byArea) give each
+    /// surface of their receiving cluster a share by what it sees of the
+    /// sender (handOverStandIns) instead of by area.
+    void setSeenHandOver(const transport::Visibility* visibility) { seenVis_ = visibility; }
     /// Stand-ins handed over by what their receivers' surfaces see, at the
     /// last setLinks().
     uint64_t handOverSeen() const { return seen_.size(); }
@@ -401,16 +405,18 @@ class Hierarchy {
     ///           openness points x of F(x -> j) v(x, j),
     ///     W = sum_k A_k w_k / sum_k A_k,
     /// F the exact unoccluded point-to-polygon form factor (0 behind a
-    /// one-sided j), v whether the openness table's ray from x in the
-    /// direction of j's centroid travels at least half the way
-    /// (SurfaceOpenness::reaches), c_j j's largest radiosity channel (1 for a
-    /// surface-element sender). The outer shell of a double-shelled lamp
+    /// one-sided j), v whether a shadow ray from x to a point of j
+    /// (stratified over j, shifted per pair) is unblocked, c_j j's largest
+    /// radiosity channel (1 for a surface-element sender). A sender with
+    /// more than kSeenMaxSources lit surfaces contributes kSeenMaxSources of
+    /// them drawn by A_j c_j, each weighted so that the sum's expectation is
+    /// the sum over all of them. The outer shell of a double-shelled lamp
     /// housing (it faces away from the lamp, or lies 2 mm behind the inner
     /// shell) gets nothing where by area it got as much as the inner shell
     /// (papers/README.md, "Where the classroom's stand-in error lives").
     /// Decided once per (receiver, sender) pair, when its sender carries
     /// light, and kept across setLinks(); stays by area where the sender
-    /// is dark, has more than kSeenMaxSources surfaces, or no surface sees it.
+    /// is dark or no surface sees it.
     void handOverStandIns();
     /// Push-pull of the polynomial coefficients (basis degree > 0).
     void pushPullPolynomial(const std::vector<RGB>& fromAbove);
@@ -446,9 +452,10 @@ class Hierarchy {
         uint64_t weights = 0;
         float scale = 0.f;
     };
-    bool seenHandOver_ = false;
-    /// Senders with more surfaces than this stay by area (the weights cost
-    /// a point-to-polygon form factor per surface pair and point).
+    const transport::Visibility* seenVis_ = nullptr;  ///< setSeenHandOver
+    /// Senders with more lit surfaces than this are represented by this
+    /// many drawn by light (the weights cost a point-to-polygon form factor
+    /// and a shadow ray per surface pair and point).
     static constexpr uint32_t kSeenMaxSources = 64;
     std::vector<uint64_t> seenOffsets_;
     std::vector<SeenEntry> seen_;

@@ -1112,7 +1112,7 @@ HrResult HrSolver::solve(bool progress) {
         res.opennessRays = res.openness->rays();
         res.opennessSeconds = res.openness->seconds();
         h.setOpenness(res.openness.get());
-        h.setSeenHandOver(s_.clusterLink.standInSeen);
+        h.setSeenHandOver(s_.clusterLink.standInSeen ? vis_ : nullptr);
         spdlog::info("hand-over openness: {} rays, {:.2f} s, {}", res.opennessRays,
                      res.opennessSeconds, formatBytes(res.openness->memoryBytes()));
     }

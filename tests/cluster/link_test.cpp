@@ -167,29 +167,35 @@ TEST(ClusterLink, StandInMatchesClosedFormsForSelfAndTouchingPairs) {
     ls.standInRays = 16384;
     const auto check = [&](const scene::Scene& s, const ClusterTree& tree, const LinkEnd& r,
                            const LinkEnd& snd, double exact) {
-        transport::Visibility vis(s);
-        ClusterLinker linker(s, &tree, ClusterModel::Oriented, &vis, ls);
-        std::vector<StandInSample> samples;
-        ClusterLink l = linker.standIn(r, snd, &samples);
-        EXPECT_TRUE(l.standIn);
-        // The samples that found the sender, one per patch, sum to K (the
-        // gather weighs each by its patch's radiosity).
-        double sum = 0.0;
-        for (size_t i = 0; i < samples.size(); ++i) {
-            sum += samples[i].weight;
-            if (i > 0) {
-                EXPECT_LT(samples[i - 1].patch, samples[i].patch);
+        // Both estimators: sampled (no pair budget, the default) and
+        // summed over the surface pairs (cluster.stand_in_pairs).
+        for (uint64_t pairs : {uint64_t(0), uint64_t(4096)}) {
+            ls.standInPairs = pairs;
+            SCOPED_TRACE(pairs ? "by surfaces" : "sampled");
+            transport::Visibility vis(s);
+            ClusterLinker linker(s, &tree, ClusterModel::Oriented, &vis, ls);
+            std::vector<StandInSample> samples;
+            ClusterLink l = linker.standIn(r, snd, &samples);
+            EXPECT_TRUE(l.standIn);
+            // The samples that found the sender, one per patch, sum to K (the
+            // gather weighs each by its patch's radiosity).
+            double sum = 0.0;
+            for (size_t i = 0; i < samples.size(); ++i) {
+                sum += samples[i].weight;
+                if (i > 0) {
+                    EXPECT_LT(samples[i - 1].patch, samples[i].patch);
+                }
             }
+            EXPECT_GT(samples.size(), 0u);
+            EXPECT_NEAR(sum, l.K, 1e-5 * l.K);
+            EXPECT_TRUE(l.sampled);
+            EXPECT_EQ(l.open, Opening::None);
+            double bound = 0.5 * l.relativeError * l.K;  // one standard error
+            std::cout << "stand-in K " << l.K << " +- " << bound << ", exact " << exact << "\n";
+            EXPECT_GT(l.relativeError, 0.0);
+            EXPECT_LT(l.relativeError, 0.1);
+            EXPECT_NEAR(l.K, exact, 4 * bound);
         }
-        EXPECT_GT(samples.size(), 0u);
-        EXPECT_NEAR(sum, l.K, 1e-5 * l.K);
-        EXPECT_TRUE(l.sampled);
-        EXPECT_EQ(l.open, Opening::None);
-        double bound = 0.5 * l.relativeError * l.K;  // one standard error
-        std::cout << "stand-in K " << l.K << " +- " << bound << ", exact " << exact << "\n";
-        EXPECT_GT(l.relativeError, 0.0);
-        EXPECT_LT(l.relativeError, 0.1);
-        EXPECT_NEAR(l.K, exact, 4 * bound);
     };
     {
         // An open unit box (no lid): its self-link is the mean over its five
@@ -280,4 +286,23 @@ TEST(ClusterLink, StandInFindsASmallSenderInsideItsReceiver) {
     // points land: the transfer is concentrated on the panel's strip next
     // to the lamp.
     EXPECT_LT(rms, 0.56 * exact);
+
+    // Summed over the surface pair instead (cluster.stand_in_pairs = 4096):
+    // 16 jittered panel points, each with the exact
+    // point-to-polygon form factor to the strip and a ray drawn over it by
+    // the kernel. Measured: RMS error 27 %.
+    ClusterLinkSettings bySurfaces;
+    bySurfaces.standInPairs = 4096;
+    ClusterLinker summing(s, nullptr, ClusterModel::Oriented, &vis, bySurfaces);
+    sum = sum2 = 0.0;
+    for (int i = 0; i < count; ++i) {
+        strip.stableId = 7000 + uint64_t(i);
+        const double K = summing.standIn(panel, strip).K;
+        sum += K;
+        sum2 += (K - exact) * (K - exact);
+    }
+    const double meanS = sum / count, rmsS = std::sqrt(sum2 / count);
+    std::cout << "by surfaces: mean " << meanS << ", RMS error " << rmsS / exact << "\n";
+    EXPECT_NEAR(meanS, exact, 4.0 * rmsS / std::sqrt(double(count)));
+    EXPECT_LT(rmsS, 0.35 * exact);
 }
