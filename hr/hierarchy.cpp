@@ -531,9 +531,15 @@ void Hierarchy::handOverStandIns() {
                     total = 1.0;
                 }
                 if (!(total > 0)) {
-                    // Nothing to weigh by (a dark or large sender): by area,
-                    // decided again when the link is next set.
+                    // Nothing to weigh by (a dark sender): by area, decided
+                    // again when the link is next set.
                     sources.resize(first);
+                    continue;
+                }
+                if (uint64_t(sources.size() - first) * count > kSeenMaxPairs) {
+                    // Too many surface pairs to weigh: by area, for good.
+                    sources.resize(first);
+                    out.push_back({key, i, 0.f, {}});
                     continue;
                 }
                 fresh.push_back(out.size());

@@ -416,7 +416,8 @@ class Hierarchy {
     /// (papers/README.md, "Where the classroom's stand-in error lives").
     /// Decided once per (receiver, sender) pair, when its sender carries
     /// light, and kept across setLinks(); stays by area where the sender
-    /// is dark or no surface sees it.
+    /// is dark, no surface sees it, or the pair has more than kSeenMaxPairs
+    /// surface pairs to weigh.
     void handOverStandIns();
     /// Push-pull of the polynomial coefficients (basis degree > 0).
     void pushPullPolynomial(const std::vector<RGB>& fromAbove);
@@ -457,6 +458,9 @@ class Hierarchy {
     /// many drawn by light (the weights cost a point-to-polygon form factor
     /// and a shadow ray per surface pair and point).
     static constexpr uint32_t kSeenMaxSources = 64;
+    /// Links whose receiver surfaces times sender surfaces weighed exceed
+    /// this stay by area (each pair costs kPoints form factors and rays).
+    static constexpr uint64_t kSeenMaxPairs = 8192;
     std::vector<uint64_t> seenOffsets_;
     std::vector<SeenEntry> seen_;
     std::vector<uint8_t> seenWeights_;
