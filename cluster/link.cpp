@@ -940,7 +940,7 @@ ClusterLink ClusterLinker::standInBySurfaces(const LinkEnd& r, const LinkEnd& s,
                 if (S.patch == R.patch || S.patch == P.twin) continue;
                 const scene::Patch& Q = scene_->patches[S.patch];
                 const PolygonView pv = viewPolygon(Q, S.domain, x);
-                if (pv.count == 0 || !(pv.omega >= kMinSolidAngle)) continue;
+                if (pv.count == 0) continue;
                 Vec3 c[4];
                 const int nc = scene::elementCorners(Q, S.domain, c);
                 const double F = transport::pointToPolygon(x, P.normal, c, nc);
@@ -955,6 +955,17 @@ ClusterLink ClusterLinker::standInBySurfaces(const LinkEnd& r, const LinkEnd& s,
                 for (int t = 0; t < 2; ++t) {
                     Vec3 y(0.0);
                     bool ok = false, accepted = false;
+                    if (!(pv.omega >= kMinSolidAngle)) {
+                        // A polygon too small to subtend a solid angle
+                        // reliably: a point on it by area (the kernel is
+                        // nearly constant over it).
+                        double ua = rng.nextDouble(), ub = rng.nextDouble();
+                        if (Q.kind == scene::PatchKind::Triangle && ua + ub > 1)
+                            ua = 1 - ua, ub = 1 - ub;
+                        y = scene::elementPoint(Q, S.domain, ua, ub);
+                        ok = glm::dot(P.normal, y - x) > 0 && glm::dot(Q.normal, x - y) > 0;
+                        accepted = true;
+                    }
                     for (int tries = 0; tries < 32 && !accepted; ++tries) {
                         const double pick = rng.nextDouble() * pv.omega;
                         const int tri = pv.count == 4 && pick >= pv.tri[0] ? 1 : 0;

@@ -421,10 +421,13 @@ class ClusterLinker {
 
     /// The stand-in of overlapping ends with few surfaces (at most
     /// cluster.stand_in_pairs pairs): every receiver surface k against every
-    /// sender surface j, F_kj = the mean over kSurfacePoints stratified
-    /// points x of k of the exact unoccluded point-to-polygon form factor
-    /// F(x -> j) times the visibility of one ray in a direction uniform
-    /// over j's solid angle from x (Arvo 1995). K = sum_kj A_k F_kj / A_r;
+    /// sender surface j, F_kj = the mean over jittered points x of k (at
+    /// least kSurfacePoints, and n / 2 over all of r) of the exact
+    /// unoccluded point-to-polygon form factor F(x -> j) times the
+    /// visibility of one ray drawn in proportion to the kernel over j
+    /// (uniform over j's solid angle, Arvo 1995, accepted with probability
+    /// cos_x; a point by area on a polygon below kMinSolidAngle).
+    /// K = sum_kj A_k F_kj / A_r;
     /// the samples are the sender surfaces with sum_k A_k F_kj / A_r. The
     /// judged estimate shares the points and form factors and casts its own
     /// rays; its relative error is twice the standard error from the
