@@ -50,6 +50,21 @@ PolygonView viewPolygon(const scene::Patch& P, const scene::Domain& d, const Vec
     return v;
 }
 
+/// A direction w uniform over the solid angle of pv (seen from x; Arvo
+/// 1995) and the point y where it meets the polygon's plane (normal n).
+/// False when, by rounding at an edge, it does not meet it in front of x.
+bool pointOverSolidAngle(const PolygonView& pv, const Vec3& n, const Vec3& x, Pcg32& rng, Vec3& w,
+                         Vec3& y) {
+    const double pick = rng.nextDouble() * pv.omega;
+    const int tri = pv.count == 4 && pick >= pv.tri[0] ? 1 : 0;
+    w = sphericalTriangleDirection(pv.dir[0], pv.dir[1 + tri], pv.dir[2 + tri], pv.tri[tri],
+                                   rng.nextDouble(), rng.nextDouble());
+    const double dn = glm::dot(n, w);
+    const double tp = dn < 0 ? glm::dot(n, pv.corner0 - x) / dn : -1.0;
+    y = x + tp * w;
+    return tp > 0;
+}
+
 }  // namespace
 
 ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
@@ -757,15 +772,8 @@ ClusterLink ClusterLinker::standIn(const LinkEnd& r, const LinkEnd& s,
                     const Vec3& nk = scene_->patches[k].normal;
                     bool ok = true;
                     if (pv.omega >= kMinSolidAngle) {
-                        const double pick = rng.nextDouble() * pv.omega;
-                        const int tri = pv.count == 4 && pick >= pv.tri[0] ? 1 : 0;
-                        const Vec3 w = sphericalTriangleDirection(
-                            pv.dir[0], pv.dir[1 + tri], pv.dir[2 + tri], pv.tri[tri],
-                            rng.nextDouble(), rng.nextDouble());
-                        const double dn = glm::dot(nk, w);
-                        const double tp = dn < 0 ? glm::dot(nk, pv.corner0 - x) / dn : -1.0;
-                        ok = tp > 0;
-                        t.b = x + tp * w;
+                        Vec3 w;
+                        ok = pointOverSolidAngle(pv, nk, x, rng, w, t.b);
                     } else {
                         t.b = pointOn(rng, k);
                     }
@@ -923,7 +931,14 @@ ClusterLink ClusterLinker::standInBySurfaces(const LinkEnd& r, const LinkEnd& s,
     const int per = side * side;
     Pcg32 rng(hashIds(r.stableId, s.stableId, 0x73757266ULL));
     std::vector<transport::Segment> seg;
-    std::vector<std::pair<uint32_t, double>> term;  // (sender surface, F)
+    // Per traced ray: its sender surface, whether it is the judged
+    // estimate's, and F(x -> j).
+    struct Term {
+        uint32_t surface;
+        bool judged;
+        double F;
+    };
+    std::vector<Term> term;
     std::vector<uint8_t> occ;
     for (const Surface& R : rs) {
         const scene::Patch& P = scene_->patches[R.patch];
@@ -967,57 +982,35 @@ ClusterLink ClusterLinker::standInBySurfaces(const LinkEnd& r, const LinkEnd& s,
                         accepted = true;
                     }
                     for (int tries = 0; tries < 32 && !accepted; ++tries) {
-                        const double pick = rng.nextDouble() * pv.omega;
-                        const int tri = pv.count == 4 && pick >= pv.tri[0] ? 1 : 0;
-                        const Vec3 w = sphericalTriangleDirection(
-                            pv.dir[0], pv.dir[1 + tri], pv.dir[2 + tri], pv.tri[tri],
-                            rng.nextDouble(), rng.nextDouble());
-                        const double dn = glm::dot(Q.normal, w);
-                        const double tp = dn < 0 ? glm::dot(Q.normal, pv.corner0 - x) / dn : -1.0;
+                        Vec3 w, z;
+                        if (!pointOverSolidAngle(pv, Q.normal, x, rng, w, z)) continue;
                         const double cx = glm::dot(P.normal, w);
-                        if (!(tp > 0) || !(cx > 0)) continue;
+                        if (!(cx > 0)) continue;
                         // The last direction in front stands in if none is
                         // accepted.
                         ok = true;
-                        y = x + tp * w;
+                        y = z;
                         accepted = rng.nextDouble() < cx;
                     }
-                    // A sliver in front that 32 draws missed: its ray is
-                    // not cast and counts as blocked.
-                    const uint32_t tag = j | (t ? 0x80000000u : 0u);
-                    seg.push_back({x, ok ? y : x, R.patch, S.patch});
-                    term.push_back({tag, ok ? F : -F});
+                    if (t == 1) ++cast;
+                    // A sliver in front that 32 draws missed: no ray, and
+                    // for the judged estimate a blocked one.
+                    if (!ok) continue;
+                    seg.push_back({x, y, R.patch, S.patch});
+                    term.push_back({j, t == 1, F});
                 }
                 unoccluded += R.area * F / per;
             }
-            occ.assign(seg.size(), 0);
-            size_t castHere = 0;
-            for (size_t m = 0; m < seg.size(); ++m) castHere += term[m].second > 0;
-            traced += castHere;
-            if (castHere > 0 && vis_) {
-                // Only the segments with a direction in front are traced.
-                std::vector<transport::Segment> live;
-                live.reserve(castHere);
-                for (size_t m = 0; m < seg.size(); ++m)
-                    if (term[m].second > 0) live.push_back(seg[m]);
-                std::vector<uint8_t> liveOcc(live.size());
-                vis_->occluded(live.data(), live.size(), liveOcc.data());
-                for (size_t m = 0, l = 0; m < seg.size(); ++m)
-                    occ[m] = term[m].second > 0 ? liveOcc[l++] : 1;
-            } else {
-                for (size_t m = 0; m < seg.size(); ++m) occ[m] = !(term[m].second > 0);
-            }
+            occ.resize(seg.size());
+            if (!seg.empty()) vis_->occluded(seg.data(), seg.size(), occ.data());
+            traced += seg.size();
             double point = 0.0;
             for (size_t m = 0; m < seg.size(); ++m) {
-                const bool judgedRay = term[m].first & 0x80000000u;
-                const uint32_t j = term[m].first & 0x7fffffffu;
-                const double F = std::abs(term[m].second);
-                if (judgedRay) {
-                    ++cast;
-                    if (!occ[m]) point += F;
-                } else if (!occ[m]) {
-                    carried[j] += R.area * F / per;
-                }
+                if (occ[m]) continue;
+                if (term[m].judged)
+                    point += term[m].F;
+                else
+                    carried[term[m].surface] += R.area * term[m].F / per;
             }
             judgedSum += R.area * point / per;
             pointSum += point;

@@ -419,25 +419,6 @@ class ClusterLinker {
     ClusterLink standIn(const LinkEnd& r, const LinkEnd& s,
                         std::vector<StandInSample>* samples = nullptr, bool judge = false) const;
 
-    /// The stand-in of overlapping ends with few surfaces (at most
-    /// cluster.stand_in_pairs pairs): every receiver surface k against every
-    /// sender surface j, F_kj = the mean over jittered points x of k (at
-    /// least kSurfacePoints, and n / 2 over all of r) of the exact
-    /// unoccluded point-to-polygon form factor F(x -> j) times the
-    /// visibility of one ray drawn in proportion to the kernel over j
-    /// (uniform over j's solid angle, Arvo 1995, accepted with probability
-    /// cos_x; a point by area on a polygon below kMinSolidAngle).
-    /// K = sum_kj A_k F_kj / A_r;
-    /// the samples are the sender surfaces with sum_k A_k F_kj / A_r. The
-    /// judged estimate shares the points and form factors and casts its own
-    /// rays; its relative error is twice the standard error from the
-    /// spread of each surface's point values. Same contract as standIn().
-    ClusterLink standInBySurfaces(const LinkEnd& r, const LinkEnd& s,
-                                  std::vector<StandInSample>* samples, bool judge) const;
-    /// Root patches below a cluster end (1 for a surface element).
-    uint64_t surfaceCount(const LinkEnd& e) const;
-    static constexpr int kSurfacePoints = 4;
-
     /// cluster.near = stand_in: whether the pair (r, s), which the point
     /// approximation cannot take (opening() is not None, or r is s), gets a
     /// stand-in that the oracle judges before it is opened: at least one end
@@ -480,6 +461,25 @@ class ClusterLinker {
     bool coplanar(const LinkEnd& r, const LinkEnd& s) const;
 
   private:
+    /// The stand-in of overlapping ends with few surfaces (at most
+    /// cluster.stand_in_pairs pairs): every receiver surface k against every
+    /// sender surface j, F_kj = the mean over jittered points x of k (at
+    /// least kSurfacePoints, and n / 2 over all of r) of the exact
+    /// unoccluded point-to-polygon form factor F(x -> j) times the
+    /// visibility of one ray drawn in proportion to the kernel over j
+    /// (uniform over j's solid angle, Arvo 1995, accepted with probability
+    /// cos_x; a point by area on a polygon below kMinSolidAngle).
+    /// K = sum_kj A_k F_kj / A_r;
+    /// the samples are the sender surfaces with sum_k A_k F_kj / A_r. The
+    /// judged estimate shares the points and form factors and casts its own
+    /// rays; its relative error is twice the standard error from the
+    /// spread of each surface's point values. Same contract as standIn();
+    /// called by it for overlapping spheres, where vis_ is set.
+    ClusterLink standInBySurfaces(const LinkEnd& r, const LinkEnd& s,
+                                  std::vector<StandInSample>* samples, bool judge) const;
+    /// Root patches below a cluster end (1 for a surface element).
+    uint64_t surfaceCount(const LinkEnd& e) const;
+    static constexpr int kSurfacePoints = 4;
     /// Whether the surface point x on `patch` belongs to end e (a patch
     /// below the cluster, or inside the surface element's domain).
     bool holds(const LinkEnd& e, uint32_t patch, const Vec3& x) const;

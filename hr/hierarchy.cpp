@@ -495,13 +495,11 @@ void Hierarchy::handOverStandIns() {
                 if (isCluster(l.sender)) {
                     const cluster::ClusterNode& sn = tree_->node(clusterIndex(l.sender));
                     lit.clear();
-                    double power = 0.0;
                     for (uint32_t q = sn.patchBegin; q < sn.patchEnd; ++q) {
                         const uint32_t p = tree_->patchAt(q);
                         const double b = maxComponent(B_[p]);
                         if (!(b > 0)) continue;
                         lit.push_back({p, b});
-                        power += b * scene_->patches[p].area;
                         total += b;
                     }
                     if (lit.size() <= kSeenMaxSources) {
@@ -521,9 +519,10 @@ void Hierarchy::handOverStandIns() {
                             const size_t k = std::min<size_t>(
                                 size_t(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin()),
                                 lit.size() - 1);
+                            // run is sum_k A_k b_k.
                             sources.push_back(
                                 {lit[k].patch,
-                                 power / (kSeenMaxSources * scene_->patches[lit[k].patch].area)});
+                                 run / (kSeenMaxSources * scene_->patches[lit[k].patch].area)});
                         }
                     }
                 } else {

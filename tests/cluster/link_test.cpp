@@ -267,25 +267,30 @@ TEST(ClusterLink, StandInFindsASmallSenderInsideItsReceiver) {
     LinkEnd strip = surface(0), panel = surface(1);
     ASSERT_LT(glm::length(strip.center - panel.center), strip.radius + panel.radius);
     const double exact = transport::perpendicularRectangles(0.3, 0.04, 1.0);
-    // Independent estimates (each pair of ids seeds its own stream).
+    // The mean and RMS error of independent estimates (each pair of ids
+    // seeds its own stream).
     const int count = 1024;
-    double sum = 0.0, sum2 = 0.0;
-    for (int i = 0; i < count; ++i) {
-        strip.stableId = 7000 + uint64_t(i);
-        const double K = linker.standIn(panel, strip).K;
-        sum += K;
-        sum2 += (K - exact) * (K - exact);
-    }
-    const double mean = sum / count, rms = std::sqrt(sum2 / count);
-    std::cout << "exact " << exact << ", mean " << mean << ", RMS error " << rms / exact << "\n";
-    // Unbiased: within four standard errors of the mean.
-    EXPECT_NEAR(mean, exact, 4.0 * rms / std::sqrt(double(count)));
+    const auto estimates = [&](const ClusterLinker& l, const char* name) {
+        double sum = 0.0, sum2 = 0.0;
+        for (int i = 0; i < count; ++i) {
+            strip.stableId = 7000 + uint64_t(i);
+            const double K = l.standIn(panel, strip).K;
+            sum += K;
+            sum2 += (K - exact) * (K - exact);
+        }
+        const double mean = sum / count, rms = std::sqrt(sum2 / count);
+        std::cout << name << ": exact " << exact << ", mean " << mean << ", RMS error "
+                  << rms / exact << "\n";
+        // Unbiased: within four standard errors of the mean.
+        EXPECT_NEAR(mean, exact, 4.0 * rms / std::sqrt(double(count))) << name;
+        return rms;
+    };
     // Found by the directions drawn over the strip's solid angle (measured:
     // RMS error 49 % of the transfer; cosine directions counted 1 on a hit,
     // the estimator before, 64 %). What remains is where the receiver
     // points land: the transfer is concentrated on the panel's strip next
     // to the lamp.
-    EXPECT_LT(rms, 0.56 * exact);
+    EXPECT_LT(estimates(linker, "sampled"), 0.56 * exact);
 
     // Summed over the surface pair instead (cluster.stand_in_pairs = 4096):
     // 16 jittered panel points, each with the exact
@@ -294,15 +299,5 @@ TEST(ClusterLink, StandInFindsASmallSenderInsideItsReceiver) {
     ClusterLinkSettings bySurfaces;
     bySurfaces.standInPairs = 4096;
     ClusterLinker summing(s, nullptr, ClusterModel::Oriented, &vis, bySurfaces);
-    sum = sum2 = 0.0;
-    for (int i = 0; i < count; ++i) {
-        strip.stableId = 7000 + uint64_t(i);
-        const double K = summing.standIn(panel, strip).K;
-        sum += K;
-        sum2 += (K - exact) * (K - exact);
-    }
-    const double meanS = sum / count, rmsS = std::sqrt(sum2 / count);
-    std::cout << "by surfaces: mean " << meanS << ", RMS error " << rmsS / exact << "\n";
-    EXPECT_NEAR(meanS, exact, 4.0 * rmsS / std::sqrt(double(count)));
-    EXPECT_LT(rmsS, 0.35 * exact);
+    EXPECT_LT(estimates(summing, "by surfaces"), 0.35 * exact);
 }
