@@ -282,6 +282,12 @@ class Hierarchy {
     }
     /// Kernel samples of every link (empty when no oracle asked for them).
     const std::vector<KernelSamples>& kernelSamples() const { return samples_; }
+    /// Moves the cached samples out (refinement hands them back with setLinks).
+    std::vector<KernelSamples> takeKernelSamples() {
+        std::vector<KernelSamples> out = std::move(samples_);
+        samples_.clear();
+        return out;
+    }
     uint64_t numLinks() const { return links_.size(); }
     /// Links of receiver e: [linkBegin(e), linkEnd(e)).
     uint64_t linkBegin(uint32_t e) const {

@@ -137,7 +137,13 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.clusterModel = cluster::parseClusterModel(
         p.getEnum("cluster.model", "auto", cluster::clusterModelNames()));
     s.cluster = cluster::ClusterSettings::fromParams(p);
-    s.receiverEps = p.getDouble("hr.receiver_eps", -1.0, -1.0, 1.0);
+    // "auto" (the default), "off", or a fraction of the emitted power.
+    if (auto it = p.entries().find("hr.receiver_eps");
+        it != p.entries().end() && std::holds_alternative<std::string>(it->second.value))
+        s.receiverEps =
+            p.getEnum("hr.receiver_eps", "auto", {"auto", "off"}) == "auto" ? -1.0 : 0.0;
+    else if (p.has("hr.receiver_eps"))
+        s.receiverEps = p.getDouble("hr.receiver_eps", 0.0, 0.0, 1.0);
     s.senderTotal = p.getBool("hr.sender_total", s.senderTotal);
     s.extrapolate = p.getBool("hr.extrapolate", s.extrapolate);
     s.relaxShare = p.getDouble("hr.relax_share", s.relaxShare, 0.0, 1.0);
@@ -661,13 +667,9 @@ KernelSamples HrSolver::linkSamples(const Hierarchy& h, uint32_t r, uint32_t s) 
                      : linkKernelSamples(h, engine_, r, s);
 }
 
-std::vector<KernelSamples> HrSolver::kernelSamplesOf(const Hierarchy& h,
-                                                     const std::vector<uint32_t>& recv,
-                                                     const std::vector<Link>& links) const {
-    // The cached samples when h holds them for these links (they were made
-    // with the links); otherwise computed now (initial links, or an oracle
-    // that did not ask for them).
-    if (h.kernelSamples().size() == links.size()) return h.kernelSamples();
+std::vector<KernelSamples> HrSolver::computeKernelSamples(const Hierarchy& h,
+                                                          const std::vector<uint32_t>& recv,
+                                                          const std::vector<Link>& links) const {
     std::vector<KernelSamples> out(links.size(), KernelSamples{});
     tbb::parallel_for(tbb::blocked_range<size_t>(0, links.size(), 256), [&](const auto& range) {
         for (size_t i = range.begin(); i != range.end(); ++i)
@@ -680,7 +682,11 @@ std::vector<KernelSamples> HrSolver::kernelSamplesOf(const Hierarchy& h,
 double HrSolver::estimateError(const Hierarchy& h) const {
     std::vector<uint32_t> recv = h.linkReceivers();
     const std::vector<Link>& links = h.links();
-    std::vector<KernelSamples> samples = kernelSamplesOf(h, recv, links);
+    // The cached samples when h holds them for these links (made with the
+    // links), else computed now (an oracle that did not ask for them).
+    std::vector<KernelSamples> computed;
+    if (h.kernelSamples().size() != links.size()) computed = computeKernelSamples(h, recv, links);
+    const std::vector<KernelSamples>& samples = computed.empty() ? h.kernelSamples() : computed;
     std::vector<ReceiverError> err;
     receiverErrors(h, recv, links, samples, {}, {}, {}, err, coupling_ != nullptr);
     double sum = 0.0;
@@ -720,7 +726,10 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
     // themselves (guardEps > 0).
     double guardEps = 0.0;
     if (!oracle.needsReceiverError() && s_.oracle != "uniform") {
-        guardEps = s_.receiverEps > 0.0 ? s_.receiverEps : 0.0;
+        if (s_.receiverEps > 0.0)
+            guardEps = s_.receiverEps;
+        else if (s_.receiverEps < 0.0)  // auto: the oracle's own power eps
+            guardEps = std::isnan(oracle.powerEps()) ? HrSettings::kAutoReceiverEps : checkEps;
     }
     const bool aggregate = oracle.needsReceiverError() || guardEps > 0.0;
     std::vector<ReceiverError> rerr;
@@ -728,7 +737,11 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
     // the link is made; the initial links get theirs here).
     std::vector<KernelSamples> pendingS, finalS;
     if (aggregate) {
-        pendingS = kernelSamplesOf(h, recv, pending);
+        // Moved out of the hierarchy, not copied: refinement hands them
+        // back with the final links (setLinks below).
+        pendingS = h.kernelSamples().size() == pending.size()
+                       ? h.takeKernelSamples()
+                       : computeKernelSamples(h, recv, pending);
         finalS.reserve(pendingS.size());
     }
 
@@ -782,7 +795,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
             spdlog::warn("hr.max_links = {} reached: refinement stops here", s_.maxLinks);
         }
         std::vector<SenderTotal> stot;
-        if (!capHit && s_.senderTotal && oracle.needsReceiverError())
+        if (!capHit && s_.senderTotal && (oracle.needsReceiverError() || guardEps > 0.0))
             senderTotals(h, recv, pending, finalRecv, finalLinks, stot);
         if (!capHit && aggregate)
             receiverErrors(h, recv, pending, pendingS, finalRecv, finalLinks, finalS, rerr,
@@ -877,6 +890,13 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                         e.linkDeviation * std::max<uint32_t>(1, e.receiverLinks) >=
                             e.receiverDeviation)
                         d = oracles::constrain(Decision::RefineReceiver, e);
+                    // The sender side of the same check (hr.sender_total): a
+                    // subdivided sender's average, gathered by all its
+                    // receivers, within the check's eps share of the power.
+                    if (d == Decision::Accept && guardEps > 0.0 && e.senderTotal >= 0.0 &&
+                        e.senderTotal * e.importance > guardEps * e.emittedPower &&
+                        e.linkSenderTotal * std::max<uint32_t>(1, e.senderLinks) >= e.senderTotal)
+                        d = oracles::constrain(Decision::RefineSender, e);
                     // A sampled near cluster link the oracle accepts must also
                     // be known well enough: the power it may carry wrongly
                     // (its error bound) within the oracle's eps share.

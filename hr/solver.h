@@ -49,16 +49,27 @@
 //                                       the solve then finishes on the coarser hierarchy.
 //                                       0: 80 % of the machine's physical memory
 //   ff.*                               form-factor settings (transport/formfactor.h)
-//   hr.receiver_eps    double  0       receiver check for oracles that do not read the
+//   hr.receiver_eps    auto    auto    receiver check for oracles that do not read the
 //                                       receiver aggregate themselves (bfa, ff): a link the
 //                                       oracle accepts is still refined on the receiver side
 //                                       while its receiver's aggregate kernel error
 //                                       (hr/receiver_error.h) carries more than this fraction
 //                                       of the emitted power (A_r * range > eps * Phi) and the
-//                                       link carries at least an even share of it; 0: off
-//                                       (bfa and ff as published). Measured on the furnace:
-//                                       bfa eps 1e-3 with hr.receiver_eps 1e-3 has L1 0.9 %
-//                                       (without: 5.2 %), for 7x the links
+//                                       link carries at least an even share of it; with
+//                                       hr.sender_total, the sender side likewise (a subdivided
+//                                       sender's mean, summed over its receivers: without it
+//                                       the check's receiver-side refinement lost 0.9 % of the
+//                                       power of a closed room at bfa 1e-4). auto: the
+//                                       oracle's own eps where it is a power fraction (bfa, and
+//                                       each stage of hr.eps_schedule), else 1e-3 (ff, whose
+//                                       eps is a form factor); off (or 0): the published
+//                                       oracles, link by link; a number: that fraction.
+//                                       Without it bfa and ff judge each link alone, and the
+//                                       links a coarse receiver next to a finely linked wall
+//                                       accepts add up: in the furnace (closed cube) bfa left
+//                                       11 % of the reflected radiosity wrong at eps 1e-3 and
+//                                       ff diverged at rho 0.9 (papers/README.md, "The receiver
+//                                       check by default")
 //   hr.sender_total    bool    true    error and kv also bound the sender-side error (gathering
 //                                       a subdivided sender's mean) summed per sender over all
 //                                       its receivers, refining the links with at least an
@@ -328,8 +339,11 @@ struct HrSettings {
     /// per sender over all its receivers (hr/receiver_error.h SenderTotal).
     bool senderTotal = true;
     /// hr.receiver_eps: the receiver-aggregate check for oracles that do not
-    /// judge it themselves (see solver.h header); negative = the default.
+    /// judge it themselves (see the header): negative = auto, 0 = off.
     double receiverEps = -1.0;
+    /// The check's eps under auto for oracles whose eps is not a power
+    /// fraction (ff): bfa's default eps.
+    static constexpr double kAutoReceiverEps = 1e-3;
     bool extrapolate = true;
     /// hr.relax_share, hr.relax_fraction, hr.relax_sweeps: relaxation of the
     /// few root patches that carry most of an iteration's change (above).
@@ -522,11 +536,11 @@ class HrSolver {
 
   private:
     struct Pending;
-    /// Kernel samples of `links` (receivers `recv`): h's cache when it holds
-    /// them, else computed for the surface links.
-    std::vector<KernelSamples> kernelSamplesOf(const Hierarchy& h,
-                                               const std::vector<uint32_t>& recv,
-                                               const std::vector<Link>& links) const;
+    /// Kernel samples of `links` (receivers `recv`), computed for the
+    /// surface links (zeros for links that touch a cluster).
+    std::vector<KernelSamples> computeKernelSamples(const Hierarchy& h,
+                                                    const std::vector<uint32_t>& recv,
+                                                    const std::vector<Link>& links) const;
     /// The samples the receiver aggregate sums for the surface link s -> r:
     /// the kernel's (constant basis) or its projection residual's
     /// (polynomial basis), hr/receiver_error.h.

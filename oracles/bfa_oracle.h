@@ -27,6 +27,11 @@
 // miss). use_bound and basis_residual = false restore the constant rule for
 // every basis.
 //
+// The solver adds, by default, the error oracles' receiver check to this
+// rule (hr.receiver_eps = auto, hr/solver.h): link by link, the errors of the
+// links a coarse receiver accepts add up (furnace, papers/README.md "The
+// receiver check by default"); hr.receiver_eps = off gives the rule alone.
+//
 // Settings:
 //   eps          double  1e-3   fraction of total emitted power (0, 1]
 //   basis_residual bool  true   higher-order bases: judge by R_rs (above)

@@ -15,6 +15,11 @@
 // shadow edge). basis_residual = false or use_bound restore the constant rule.
 // (`uniform` fixes the mesh by definition and stays blind to the basis.)
 //
+// The solver adds, by default, the error oracles' receiver check to this
+// rule (hr.receiver_eps = auto, hr/solver.h): link by link, the errors of the
+// links a coarse receiver accepts add up (furnace, papers/README.md "The
+// receiver check by default"); hr.receiver_eps = off gives the rule alone.
+//
 // Settings:
 //   eps          double  0.01   F_eps, form-factor threshold (0, 1]
 //   basis_residual bool  true   higher-order bases: judge by R_rs (above)

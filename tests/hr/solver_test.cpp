@@ -34,18 +34,20 @@ class FurnaceAllOracles : public ::testing::TestWithParam<std::string> {};
 // (hr/receiver_error.h): in a closed box the point form factors to all
 // senders sum to one at every point, so nothing needs refining and the
 // solve stays exact (L1 <= 0.5 %; per-link criteria gave 7.1 % and 7.5 % at
-// eps 1e-3). `bfa` and `ff` judge links one by one by power or form factor,
-// not by error: links accepted on coarse receivers next to finely linked
-// walls add up, and the area-weighted error stays at several per cent
-// (measured: bfa eps 1e-3 5.2 %, 1e-4 4.4 %; ff eps 0.02 4.7 %), so for them
-// the test checks their measured error and that it shrinks as eps
-// decreases; with the receiver check (hr.receiver_eps) bfa stays within 1 %.
+// eps 1e-3). `bfa` and `ff` judge links one by one, by power or form factor:
+// links accepted on coarse receivers next to finely linked walls add up. As
+// published (hr.receiver_eps = off) bfa leaves 11 % of the reflected
+// radiosity wrong at eps 1e-3 and 8.7 % at 1e-4, and ff diverges at rho 0.9.
+// With the receiver check (hr.receiver_eps = auto, the default) both are
+// held by the receivers' aggregate error too: bfa within 1 % of the
+// reflected radiosity at eps 1e-3 and 1e-4, ff converges at rho 0.9.
+// The error is over the reflected radiosity B - E, per leaf.
 namespace {
 struct FurnaceRun {
     double worst = 0, l1 = 0;
     uint64_t links = 0, elements = 0, patches = 0;
 };
-FurnaceRun runFurnace(const std::string& oracle, double eps, double rho, double receiverEps = 0) {
+FurnaceRun runFurnace(const std::string& oracle, double eps, double rho, double receiverEps = -1) {
     scene::Scene s = test::furnaceBox(1.0, rho);
     transport::Visibility vis(s);
     HrSettings st = settingsFor(oracle, eps);
@@ -63,7 +65,7 @@ FurnaceRun runFurnace(const std::string& oracle, double eps, double rho, double 
     for (uint32_t e = 0; e < h.numElements(); ++e) {
         if (!h.isLeaf(e)) continue;
         double d = 0;
-        for (int c = 0; c < 3; ++c) d = std::max(d, std::fabs(h.B(e)[c] - exact) / exact);
+        for (int c = 0; c < 3; ++c) d = std::max(d, std::fabs(h.B(e)[c] - exact) / (exact - 1.0));
         out.worst = std::max(out.worst, d);
         out.l1 += h.area(e) * d;
         area += h.area(e);
@@ -94,21 +96,29 @@ TEST_P(FurnaceAllOracles, RadiosityIsEOverOneMinusRho) {
             }
         return;
     }
-    double coarse = oracle == "ff" ? 0.02 : 1e-3;
-    double fine = oracle == "ff" ? 0.005 : 1e-4;
-    FurnaceRun c = runFurnace(oracle, coarse, 0.5), f = runFurnace(oracle, fine, 0.5);
-    EXPECT_GT(c.elements, c.patches) << "the oracle refined nothing";
-    EXPECT_LT(c.l1, 0.06);  // measured 5.2 % (bfa), 4.7 % (ff): see above
-    EXPECT_LT(f.l1, c.l1);
-}
-
-// bfa with the receiver check: the links bfa accepts on a receiver whose
-// links together misplace more than eps of the power are refined on the
-// receiver side (hr/solver.h hr.receiver_eps).
-TEST(HrSolver, ReceiverCheckBringsBfaWithinOnePercentInTheFurnace) {
-    FurnaceRun f = runFurnace("bfa", 1e-3, 0.5, 1e-3);
-    EXPECT_GT(f.elements, f.patches);
-    EXPECT_LT(f.l1, 0.01);  // measured 0.9 % (5.2 % without the check)
+    if (oracle == "bfa") {
+        // Measured, reflected L1 per leaf: rho 0.5 0.99 % (19,200 links) and
+        // 0.72 % (165 k) at eps 1e-3 and 1e-4; rho 0.9 at eps 1e-3 0.41 %
+        // (91 k); off, rho 0.5, eps 1e-3: 11.3 % (2,208).
+        FurnaceRun c = runFurnace(oracle, 1e-3, 0.5), f = runFurnace(oracle, 1e-4, 0.5);
+        EXPECT_GT(c.elements, c.patches) << "the oracle refined nothing";
+        EXPECT_LT(c.l1, 0.01);
+        EXPECT_LT(f.l1, c.l1);
+        EXPECT_LT(runFurnace(oracle, 1e-3, 0.9).l1, 0.01);
+        // As published, link by link: several per cent (the check's reason).
+        EXPECT_GT(runFurnace(oracle, 1e-3, 0.5, 0.0).l1, 0.05);
+        return;
+    }
+    // ff: its eps is a form factor and the check's is the default 1e-3 of
+    // the emitted power, so its error does not fall with ff's eps; the check
+    // keeps the gather from diverging at rho 0.9 (as published: reflected
+    // power 90 times the exact value at the 100-iteration cap). Measured:
+    // 3.5 % (rho 0.5) and 1.1 % (rho 0.9).
+    for (double rho : {0.5, 0.9}) {
+        FurnaceRun f = runFurnace(oracle, 0.1, rho);
+        EXPECT_GT(f.elements, f.patches) << "the oracle refined nothing";
+        EXPECT_LT(f.l1, 0.05) << "rho " << rho;
+    }
 }
 
 INSTANTIATE_TEST_SUITE_P(Oracles, FurnaceAllOracles,
@@ -159,7 +169,7 @@ TEST(HrSolver, EnergyBalanceInClosedScene) {
     scene::Scene s = test::closedRoom();
     transport::Visibility vis(s);
     Params p;
-    p.set("oracle.eps", 1e-5);
+    p.set("oracle.eps", 1e-4);
     p.set("hr.tolerance", 1e-8);
     HrSolver solver(s, vis, HrSettings::fromParams(p));
     HrResult r = solver.solve();
@@ -176,11 +186,13 @@ TEST(HrSolver, EnergyBalanceInClosedScene) {
     for (int c = 0; c < 3; ++c) {
         std::cout << "channel " << c << ": emitted " << emitted[c] << " absorbed " << absorbed[c]
                   << "\n";
-        // Measured: 0.9982 / 0.9993 / 0.9978 of emitted (eps 1e-4 gives 0.994):
-        // hierarchical radiosity is not exactly conservative (a sender's
-        // average radiosity leaves through its links' coverage), and 16
-        // visibility rays per link bias partial links slightly; both shrink
-        // with eps and ff.vis_rays. The full-matrix solver meets 1e-3
+        // Measured at eps 1e-4: 0.9971 / 0.9970 / 0.9975 of emitted (eps
+        // 1e-3 0.993, 1e-5 0.998; the published bfa, hr.receiver_eps = off,
+        // 1.0001 at 1e-4). Hierarchical radiosity is not exactly
+        // conservative: a subdivided sender's average leaves through links
+        // whose coverage differs across its parts (hr/receiver_error.h
+        // SenderTotal), and 16 visibility rays per link bias partial links
+        // slightly; both shrink with eps. The full-matrix solver meets 1e-3
         // (tests/reference).
         EXPECT_NEAR(absorbed[c], emitted[c], 3e-3 * emitted[c]);
     }
@@ -382,6 +394,11 @@ TEST(HrSolver, CappedSolveKeepsTheLightWithStandIns) {
         p.set("oracle.eps", 1e-3);
         p.set("hr.iteration", std::string(iteration));
         p.set("cluster.stand_in", standIn);
+        // The published bfa, whose cap at half the links falls while the
+        // near cluster pairs are being opened (with the receiver check, the
+        // default, half the links are reached later: without stand-ins the
+        // capped solve keeps 0.86-0.90 of the light, with them 1.005-1.008).
+        p.set("hr.receiver_eps", std::string("off"));
         if (cap > 0) p.set("hr.max_links", cap);
         HrSolver solver(s, vis, HrSettings::fromParams(p));
         return solver.solve();
