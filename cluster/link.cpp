@@ -20,12 +20,12 @@ namespace {
 constexpr double kMinSolidAngle = 1e-7;
 
 /// A sender polygon (a patch, or a surface element's domain) seen from x:
-/// the unit directions to its corners, the solid angles of its fan
-/// triangles (0, 1, 2) and (0, 2, 3), their sum, and its first corner;
+/// its corners, the unit directions to them, the solid angles of its fan
+/// triangles (0, 1, 2) and (0, 2, 3), and their sum;
 /// count 0 when x is not in front of its plane.
 struct PolygonView {
     Vec3 dir[4];
-    Vec3 corner0{0.0};
+    Vec3 corner[4];
     double tri[2] = {0.0, 0.0};
     double omega = 0.0;
     int count = 0;
@@ -33,16 +33,14 @@ struct PolygonView {
 
 PolygonView viewPolygon(const scene::Patch& P, const scene::Domain& d, const Vec3& x) {
     PolygonView v;
-    Vec3 c[4];
-    const int count = scene::elementCorners(P, d, c);
-    if (!(glm::dot(P.normal, x - c[0]) > 0)) return v;
+    const int count = scene::elementCorners(P, d, v.corner);
+    if (!(glm::dot(P.normal, x - v.corner[0]) > 0)) return v;
     for (int i = 0; i < count; ++i) {
-        const Vec3 e = c[i] - x;
+        const Vec3 e = v.corner[i] - x;
         const double l = glm::length(e);
         if (!(l > 0)) return v;
         v.dir[i] = e / l;
     }
-    v.corner0 = c[0];
     v.tri[0] = sphericalTriangleArea(v.dir[0], v.dir[1], v.dir[2]);
     if (count == 4) v.tri[1] = sphericalTriangleArea(v.dir[0], v.dir[2], v.dir[3]);
     v.omega = v.tri[0] + v.tri[1];
@@ -60,7 +58,7 @@ bool pointOverSolidAngle(const PolygonView& pv, const Vec3& n, const Vec3& x, Pc
     w = sphericalTriangleDirection(pv.dir[0], pv.dir[1 + tri], pv.dir[2 + tri], pv.tri[tri],
                                    rng.nextDouble(), rng.nextDouble());
     const double dn = glm::dot(n, w);
-    const double tp = dn < 0 ? glm::dot(n, pv.corner0 - x) / dn : -1.0;
+    const double tp = dn < 0 ? glm::dot(n, pv.corner[0] - x) / dn : -1.0;
     y = x + tp * w;
     return tp > 0;
 }
@@ -313,12 +311,7 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
                 return best;
             }
             patch = e.patch;
-            const auto& P = scene_->patches[patch];
-            if (P.kind == scene::PatchKind::Triangle && a + b > 1) {
-                a = 1 - a;
-                b = 1 - b;
-            }
-            return scene::elementPoint(P, e.domain, a, b);
+            return scene::elementSamplePoint(scene_->patches[patch], e.domain, a, b);
         };
         // One estimate of the visibility fraction from n rays: the
         // kernel-weighted fraction of unblocked rays, sum w_i V_i / sum w_i
@@ -439,12 +432,7 @@ Vec3 ClusterLinker::uniformPoint(const LinkEnd& e, Pcg32& rng, uint32_t& patch) 
     double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
     if (e.isCluster) return tree_->samplePoint(e.cluster, a, b, c, patch);
     patch = e.patch;
-    const auto& P = scene_->patches[patch];
-    if (P.kind == scene::PatchKind::Triangle && a + b > 1) {
-        a = 1 - a;
-        b = 1 - b;
-    }
-    return scene::elementPoint(P, e.domain, a, b);
+    return scene::elementSamplePoint(scene_->patches[patch], e.domain, a, b);
 }
 
 ClusterLink ClusterLinker::sampledLink(const LinkEnd& r, const LinkEnd& s,
@@ -944,10 +932,9 @@ ClusterLink ClusterLinker::standInBySurfaces(const LinkEnd& r, const LinkEnd& s,
         const scene::Patch& P = scene_->patches[R.patch];
         double pointSum = 0.0, pointSum2 = 0.0;
         for (int i = 0; i < per; ++i) {
-            double a = (double(i % side) + rng.nextDouble()) / side;
-            double b = (double(i / side) + rng.nextDouble()) / side;
-            if (P.kind == scene::PatchKind::Triangle && a + b > 1) a = 1 - a, b = 1 - b;
-            const Vec3 x = scene::elementPoint(P, R.domain, a, b);
+            const double a = (double(i % side) + rng.nextDouble()) / side;
+            const double b = (double(i / side) + rng.nextDouble()) / side;
+            const Vec3 x = scene::elementSamplePoint(P, R.domain, a, b);
             seg.clear();
             term.clear();
             for (uint32_t j = 0; j < ss.size(); ++j) {
@@ -956,9 +943,7 @@ ClusterLink ClusterLinker::standInBySurfaces(const LinkEnd& r, const LinkEnd& s,
                 const scene::Patch& Q = scene_->patches[S.patch];
                 const PolygonView pv = viewPolygon(Q, S.domain, x);
                 if (pv.count == 0) continue;
-                Vec3 c[4];
-                const int nc = scene::elementCorners(Q, S.domain, c);
-                const double F = transport::pointToPolygon(x, P.normal, c, nc);
+                const double F = transport::pointToPolygon(x, P.normal, pv.corner, pv.count);
                 if (!(F > 0)) continue;
                 // Two directions drawn in proportion to the kernel over the
                 // polygon: uniform over its solid angle (Arvo 1995; d omega =
@@ -974,10 +959,8 @@ ClusterLink ClusterLinker::standInBySurfaces(const LinkEnd& r, const LinkEnd& s,
                         // A polygon too small to subtend a solid angle
                         // reliably: a point on it by area (the kernel is
                         // nearly constant over it).
-                        double ua = rng.nextDouble(), ub = rng.nextDouble();
-                        if (Q.kind == scene::PatchKind::Triangle && ua + ub > 1)
-                            ua = 1 - ua, ub = 1 - ub;
-                        y = scene::elementPoint(Q, S.domain, ua, ub);
+                        const double ua = rng.nextDouble(), ub = rng.nextDouble();
+                        y = scene::elementSamplePoint(Q, S.domain, ua, ub);
                         ok = glm::dot(P.normal, y - x) > 0 && glm::dot(Q.normal, x - y) > 0;
                         accepted = true;
                     }

@@ -887,15 +887,13 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                     Decision d = oracles::constrain(oracle.decide(e), e);
                     if (d == Decision::Accept && guardEps > 0.0 && e.receiverRange >= 0.0 &&
                         e.receiverRange * e.receiverArea > guardEps * e.emittedPower &&
-                        e.linkDeviation * std::max<uint32_t>(1, e.receiverLinks) >=
-                            e.receiverDeviation)
+                        oracles::carriesReceiverShare(e))
                         d = oracles::constrain(Decision::RefineReceiver, e);
                     // The sender side of the same check (hr.sender_total): a
                     // subdivided sender's average, gathered by all its
                     // receivers, within the check's eps share of the power.
-                    if (d == Decision::Accept && guardEps > 0.0 && e.senderTotal >= 0.0 &&
-                        e.senderTotal * e.importance > guardEps * e.emittedPower &&
-                        e.linkSenderTotal * std::max<uint32_t>(1, e.senderLinks) >= e.senderTotal)
+                    if (d == Decision::Accept && guardEps > 0.0 &&
+                        oracles::senderTotalRefines(e, guardEps))
                         d = oracles::constrain(Decision::RefineSender, e);
                     // A sampled near cluster link the oracle accepts must also
                     // be known well enough: the power it may carry wrongly

@@ -81,9 +81,7 @@ Decision VariationOracle::decide(const LinkEstimate& e) const {
         double err = receiverError(e) * e.importance;
         // The share compares deviations with deviations (the range of one
         // link's error can exceed its largest deviation from the mean).
-        bool receiverBad = !errorWithinEps(err, s_.eps, s_.norm, e) &&
-                           e.linkDeviation * std::max<uint32_t>(1, e.receiverLinks) >=
-                               e.receiverDeviation;
+        bool receiverBad = !errorWithinEps(err, s_.eps, s_.norm, e) && carriesReceiverShare(e);
         // The sender side is judged by its own aggregate when the solver
         // gives one: the receiver's averaged senders together within eps,
         // the links with at least an even share of it refined on the sender.
@@ -96,9 +94,7 @@ Decision VariationOracle::decide(const LinkEstimate& e) const {
         // The same error summed over every receiver of the sender (when the
         // solver gives it, hr.sender_total): in power, against eps times
         // the emitted power, the links with at least an even share refined.
-        if (!senderBad && e.senderTotal >= 0.0 && s_.norm == ErrorNorm::Power &&
-            e.senderTotal * e.importance > s_.eps * e.emittedPower &&
-            e.linkSenderTotal * std::max<uint32_t>(1, e.senderLinks) >= e.senderTotal)
+        if (!senderBad && s_.norm == ErrorNorm::Power && senderTotalRefines(e, s_.eps))
             senderBad = true;
         if (!receiverBad && !senderBad) return Decision::Accept;
         Decision d = receiverBad && senderBad ? Decision::RefineBoth

@@ -6,9 +6,10 @@
 // new oracles are written and tested in isolation.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
-#include <memory>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -175,6 +176,22 @@ class VariationOracle : public Oracle {
   protected:
     Settings s_;
 };
+
+/// Whether the link carries at least an even share of its receiver's
+/// aggregate error (its deviation times the receiver's link count reaches
+/// the receiver's): the links refined when the aggregate is over eps.
+inline bool carriesReceiverShare(const LinkEstimate& e) {
+    return e.linkDeviation * std::max<uint32_t>(1, e.receiverLinks) >= e.receiverDeviation;
+}
+
+/// Whether the sender-side error summed over all the sender's receivers
+/// (LinkEstimate::senderTotal, when given) exceeds eps of the emitted power
+/// and the link carries at least an even share of it: the link is then
+/// refined on the sender side.
+inline bool senderTotalRefines(const LinkEstimate& e, double eps) {
+    return e.senderTotal >= 0.0 && e.senderTotal * e.importance > eps * e.emittedPower &&
+           e.linkSenderTotal * std::max<uint32_t>(1, e.senderLinks) >= e.senderTotal;
+}
 
 /// Makes a decision consistent with what each side may do: a refinement of a
 /// side that cannot subdivide falls back to the other side, or to Accept.

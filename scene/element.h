@@ -88,6 +88,16 @@ inline Vec3 elementPoint(const Patch& p, const Domain& d, double a, double b) {
     Vec2 uv = domainParam(d, a, b);
     return p.point(uv.x, uv.y);
 }
+/// A point of the element from (a, b) in [0, 1)^2, uniform by area on a
+/// triangle's domain ((a, b) folded into a + b <= 1) and by the local map on
+/// a quad's.
+inline Vec3 elementSamplePoint(const Patch& p, const Domain& d, double a, double b) {
+    if (p.kind == PatchKind::Triangle && a + b > 1) {
+        a = 1 - a;
+        b = 1 - b;
+    }
+    return elementPoint(p, d, a, b);
+}
 /// Jacobian |dP/da x dP/db| at local (a,b): the area density of the local map.
 double elementJacobian(const Patch& p, const Domain& d, double a, double b);
 
