@@ -728,8 +728,8 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
     if (!oracle.needsReceiverError() && s_.oracle != "uniform") {
         if (s_.receiverEps > 0.0)
             guardEps = s_.receiverEps;
-        else if (s_.receiverEps < 0.0)  // auto: the oracle's own power eps
-            guardEps = std::isnan(oracle.powerEps()) ? HrSettings::kAutoReceiverEps : checkEps;
+        else if (s_.receiverEps < 0.0 && !std::isnan(oracle.receiverCheckEps()))
+            guardEps = oracle.receiverCheckEps();  // auto: the (stage's) oracle maps its eps
     }
     const bool aggregate = oracle.needsReceiverError() || guardEps > 0.0;
     std::vector<ReceiverError> rerr;

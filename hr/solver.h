@@ -61,8 +61,8 @@
 //                                       the check's receiver-side refinement lost 0.9 % of the
 //                                       power of a closed room at bfa 1e-4). auto: the
 //                                       oracle's own eps where it is a power fraction (bfa, and
-//                                       each stage of hr.eps_schedule), else 1e-3 (ff, whose
-//                                       eps is a form factor); off (or 0): the published
+//                                       each stage of hr.eps_schedule), for ff (whose eps
+//                                       is a form factor) F_eps / 100; off (or 0): the published
 //                                       oracles, link by link; a number: that fraction.
 //                                       Without it bfa and ff judge each link alone, and the
 //                                       links a coarse receiver next to a finely linked wall
@@ -341,9 +341,6 @@ struct HrSettings {
     /// hr.receiver_eps: the receiver-aggregate check for oracles that do not
     /// judge it themselves (see the header): negative = auto, 0 = off.
     double receiverEps = -1.0;
-    /// The check's eps under auto for oracles whose eps is not a power
-    /// fraction (ff): bfa's default eps.
-    static constexpr double kAutoReceiverEps = 1e-3;
     bool extrapolate = true;
     /// hr.relax_share, hr.relax_fraction, hr.relax_sweeps: relaxation of the
     /// few root patches that carry most of an iteration's change (above).

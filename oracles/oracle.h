@@ -119,6 +119,10 @@ class Oracle {
     /// sampled link or a partially visible cluster link may misplace); NaN
     /// for an oracle without a power threshold (ff, uniform).
     virtual double powerEps() const { return std::numeric_limits<double>::quiet_NaN(); }
+    /// The fraction of the emitted power the solver's receiver check uses
+    /// under hr.receiver_eps = auto (hr/solver.h): powerEps() where eps is a
+    /// power fraction; an oracle with another eps maps it (ff); NaN: no check.
+    virtual double receiverCheckEps() const { return powerEps(); }
     /// One line with every setting, written next to each result.
     virtual std::string describe() const = 0;
 };
