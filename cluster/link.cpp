@@ -71,10 +71,12 @@ ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
     s.separation = p.getDouble("cluster.separation", s.separation, 1.0, 100.0);
     s.surfaceSeparation =
         p.getDouble("cluster.surface_separation", s.surfaceSeparation, 1.0, 100.0);
-    const std::string near = p.getEnum("cluster.near", "open", {"open", "sample", "stand_in"});
+    const std::string near = p.getEnum("cluster.near", "stand_in", {"open", "sample", "stand_in"});
     s.sampleNear = near == "sample";
     s.standInNear = near == "stand_in";
     s.nearOverlapping = p.getBool("cluster.near_overlapping", s.nearOverlapping);
+    s.nearOpenPairs = uint64_t(
+        p.getInt("cluster.near_open_pairs", int64_t(s.nearOpenPairs), 0, int64_t(1) << 40));
     s.nearRays = int(p.getInt("cluster.near_rays", s.nearRays, 2, 4096));
     s.deferDark = p.getBool("cluster.defer_dark", s.deferDark);
     s.ambient = p.getBool("cluster.ambient", s.ambient);
@@ -94,12 +96,14 @@ std::string ClusterLinkSettings::describe() const {
     return fmt::format(
         "cluster_vis_rays={}, cluster_separation={}, "
         "cluster_surface_separation={}, cluster_near={}, cluster_near_overlapping={}, "
+        "cluster_near_open_pairs={}, "
         "cluster_near_rays={}, "
         "cluster_face_separation={}, cluster_face_kernel={}, cluster_defer_dark={}, "
         "cluster_ambient={}, cluster_handover={}, cluster_stand_in={}, "
         "cluster_stand_in_rays={}, cluster_stand_in_handover={}, cluster_stand_in_pairs={}",
         visRays, separation, surfaceSeparation,
-        sampleNear ? "sample" : (standInNear ? "stand_in" : "open"), nearOverlapping, nearRays,
+        sampleNear ? "sample" : (standInNear ? "stand_in" : "open"), nearOverlapping, nearOpenPairs,
+        nearRays,
         faceSeparation, faceDisc ? "disc" : "point", deferDark, ambient,
         visibleHandover ? "visible" : "cosine", standIn, standInRays, standInSeen ? "seen" : "area",
         standInPairs);
@@ -594,6 +598,8 @@ bool ClusterLinker::holds(const LinkEnd& e, uint32_t patch, const Vec3& x) const
 bool ClusterLinker::standInNear(const LinkEnd& r, const LinkEnd& s) const {
     if (!s_.standInNear || !(r.isCluster || s.isCluster)) return false;
     if ((r.isCluster && r.singleSurface) || (s.isCluster && s.singleSurface)) return false;
+    if (s_.nearOpenPairs > 0 && surfaceCount(r) * surfaceCount(s) <= s_.nearOpenPairs)
+        return false;
     return s_.nearOverlapping || glm::length(r.center - s.center) > r.radius + s.radius;
 }
 

@@ -206,6 +206,22 @@
 // none entered the sender's sphere). The link count of cluttered scenes is
 // then set by eps where the error allows, not by the separation rule.
 //
+// Small pairs are opened (cluster.near_open_pairs, the default). Opening a
+// pair of n and m surfaces costs at most about n m surface links, so where
+// n m is small the exact links are cheap, and the stand-in's failure mode
+// is worst there: a pair of few surfaces whose light arrives on a small part
+// of the receiver (a lamp and its housing's end caps on classroom: 72 and
+// 73 surfaces) is missed by a few sample points and, by area, lit alike on
+// both shells. Pairs with at most near_open_pairs (receiver surface, sender
+// surface) pairs are therefore opened as before, and only larger ones, where
+// forced opening multiplies, are judged (the bathroom, 380 k triangles, with
+// every near pair opened: rounds of 75-125 M candidate links, unfinished
+// after 47 minutes; bench/results/large_scenes.md).
+// With 8,192: classroom and corridor as accurate as opening everything,
+// graz more accurate with a tenth of the links, Lost Empire 0.6 % darker at
+// eps 1e-3 (equal at 1e-4) for a third of the CPU, and the bathroom solves
+// (papers/README.md, "Small near pairs opened, large ones judged").
+//
 // Settings (Params keys):
 //   cluster.vis_rays    int     8    visibility rays per estimate for links that
 //                                     touch a cluster (two independent estimates)
@@ -217,19 +233,21 @@
 //                                     Classroom loses 6.8 % of its reflected light with
 //                                     clustering at 1 and 3.7 % at 3, for 2.1x the links
 //                                     (papers/README.md, "Classroom")
-//   cluster.near        string  "open"  near cluster pairs (spheres apart, closer
+//   cluster.near        string  "stand_in"  near cluster pairs (spheres apart, closer
 //                                     than `separation`): open (always opened) | sample
 //                                     (Monte Carlo transfer, above; experimental) |
-//                                     stand_in (a judged stand-in, below "Judged
-//                                     stand-ins"; 30 % fewer links on office:3-4 and
-//                                     classroom at the same error, half on Lost Empire)
-//   cluster.near_overlapping  bool  false  stand_in: overlapping pairs and self-links
-//                                     too (light kept within 0.5 % of the unclustered
-//                                     solve on office:3-4 with 44-48 % fewer links; off
-//                                     by default: a stand-in by area lights every surface
-//                                     of its receiver alike, both shells of classroom's
-//                                     lamp housings at eps 1e-3; papers/README.md "Where
+//                                     stand_in (a judged stand-in, above "Judged
+//                                     stand-ins", unless near_open_pairs opens it)
+//   cluster.near_overlapping  bool  true  stand_in: overlapping pairs and self-links
+//                                     too (false: always opened; by area a stand-in
+//                                     lights every surface of its receiver alike, both
+//                                     shells of classroom's lamp housings, which
+//                                     near_open_pairs opens; papers/README.md "Where
 //                                     the classroom's stand-in error lives")
+//   cluster.near_open_pairs  int  8192  stand_in: pairs whose two ends have at most
+//                                     this many (receiver surface, sender surface) pairs
+//                                     are opened, not judged (above); 0: every near pair
+//                                     is judged
 //   cluster.near_rays   int     32   rays per estimate of a sampled near link (two
 //                                     estimates per link)
 //   cluster.defer_dark  bool    true  links from clusters that carry no light are
@@ -322,10 +340,14 @@ struct ClusterLinkSettings {
     bool sampleNear = false;
     /// cluster.near = stand_in: pairs that must be opened get a judged
     /// stand-in first (ClusterLinker::standInNear).
-    bool standInNear = false;
+    bool standInNear = true;
     /// cluster.near_overlapping: with stand_in, also overlapping pairs and
     /// a cluster's self-link (not only spheres apart).
-    bool nearOverlapping = false;
+    bool nearOverlapping = true;
+    /// cluster.near_open_pairs: with near_overlapping, overlapping pairs with
+    /// at most this many (receiver surface, sender surface) pairs are opened
+    /// instead (0: none).
+    uint64_t nearOpenPairs = 8192;
     int nearRays = 32;
     bool deferDark = true;
     bool ambient = true;

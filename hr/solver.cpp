@@ -428,8 +428,7 @@ void HrSolver::countStandIns(HrResult& res, IterationRecord& rec, uint64_t links
     (near ? res.nearStandInsMade : res.standInLinks) += links;
     (near ? res.nearStandInRays : res.standInRays) += rays;
     (near ? res.nearStandInSeconds : res.standInSeconds) += seconds;
-    res.totalRays += rays;
-    rec.rays += rays;
+    rec.rays += rays;  // the iteration's rays join res.totalRays when it ends
 }
 
 void HrSolver::standInUnopened(Hierarchy& h, const std::vector<uint32_t>& recv,

@@ -46,6 +46,11 @@ SceneAudit audit(const std::string& spec, const Params& extra, const std::string
     p.set("oracle.eps", 1e-3);
     p.set("cluster.model", std::string("oriented"));
     p.set("cluster.near", near);
+    // The audited regime: every near pair whose spheres are apart judged,
+    // overlapping pairs opened (the default judges large overlapping pairs
+    // too and opens small pairs, cluster.near_open_pairs).
+    p.set("cluster.near_overlapping", false);
+    p.set("cluster.near_open_pairs", int64_t(0));
     scene::Scene s = scene::loadScene(spec, p);
     transport::Visibility vis(s);
     hr::HrSettings hs = hr::HrSettings::fromParams(p);
