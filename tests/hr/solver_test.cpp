@@ -474,13 +474,16 @@ TEST(HrSolver, CappedSolveKeepsTheLightWithStandIns) {
 TEST(HrSolver, JudgedStandInsOpenFewerNearPairsAndKeepTheLight) {
     scene::Scene s = scene::loadScene("office:3");
     transport::Visibility vis(s);
-    auto run = [&](const char* model, const char* near, bool overlapping = false) {
+    auto run = [&](const char* model, const char* near, bool overlapping = false,
+                   bool defaults = false) {
         Params p;
         p.set("cluster.model", std::string(model));
         p.set("oracle.eps", 1e-3);
-        p.set("cluster.near", std::string(near));
-        p.set("cluster.near_overlapping", overlapping);
-        p.set("cluster.near_open_pairs", int64_t(0));  // every near pair judged
+        if (!defaults) {
+            p.set("cluster.near", std::string(near));
+            p.set("cluster.near_overlapping", overlapping);
+            p.set("cluster.near_open_pairs", int64_t(0));  // every near pair judged
+        }
         HrSolver solver(s, vis, HrSettings::fromParams(p));
         return solver.solve();
     };
@@ -488,6 +491,11 @@ TEST(HrSolver, JudgedStandInsOpenFewerNearPairsAndKeepTheLight) {
     HrResult open = run("oriented", "open");
     HrResult judged = run("oriented", "stand_in");
     HrResult overlapping = run("oriented", "stand_in", true);
+    // The default: pairs of at most 8,192 surface pairs opened, larger ones
+    // judged (cluster.near_open_pairs).
+    HrResult byDefault = run("oriented", "", false, true);
+    EXPECT_GT(byDefault.nearStandInsMade, 0u);
+    EXPECT_LT(byDefault.nearStandInsMade, overlapping.nearStandInsMade);
     EXPECT_LT(overlapping.hierarchy->numLinks(), judged.hierarchy->numLinks());
     EXPECT_EQ(open.nearStandInsMade, 0u);
     EXPECT_GT(judged.nearStandInsMade, 0u);
@@ -504,6 +512,7 @@ TEST(HrSolver, JudgedStandInsOpenFewerNearPairsAndKeepTheLight) {
     const RGB ref = flat.hierarchy->radiosityPower() - e;
     const RGB pj = judged.hierarchy->radiosityPower() - e;
     const RGB po = overlapping.hierarchy->radiosityPower() - e;
+    const RGB pd = byDefault.hierarchy->radiosityPower() - e;
     std::cout << "office:3: " << open.hierarchy->numLinks() << " links opened, "
               << judged.hierarchy->numLinks() << " with judged stand-ins; reflected power over "
               << "the unclustered solve " << pj.r / ref.r << " " << pj.g / ref.g << " "
@@ -513,7 +522,12 @@ TEST(HrSolver, JudgedStandInsOpenFewerNearPairsAndKeepTheLight) {
     for (int c = 0; c < 3; ++c) {
         EXPECT_NEAR(pj[c] / ref[c], 1.0, 0.01) << c;
         EXPECT_NEAR(po[c] / ref[c], 1.0, 0.01) << c;
+        EXPECT_NEAR(pd[c] / ref[c], 1.0, 0.01) << c;
     }
+    std::cout << "  by default: " << byDefault.hierarchy->numLinks() << " links, "
+              << byDefault.nearStandInsMade << " stand-ins made (" << overlapping.nearStandInsMade
+              << " judging every pair), " << pd.r / ref.r << " " << pd.g / ref.g << " "
+              << pd.b / ref.b << "\n";
 }
 
 // hr.max_seconds: past the limit, refinement and iteration stop and the
