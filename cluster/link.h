@@ -344,9 +344,9 @@ struct ClusterLinkSettings {
     /// cluster.near_overlapping: with stand_in, also overlapping pairs and
     /// a cluster's self-link (not only spheres apart).
     bool nearOverlapping = true;
-    /// cluster.near_open_pairs: with near_overlapping, overlapping pairs with
-    /// at most this many (receiver surface, sender surface) pairs are opened
-    /// instead (0: none).
+    /// cluster.near_open_pairs: with stand_in, near and overlapping pairs with
+    /// at most this many (receiver surface, sender surface) pairs are opened,
+    /// not judged (0: every such pair is judged).
     uint64_t nearOpenPairs = 8192;
     int nearRays = 32;
     bool deferDark = true;

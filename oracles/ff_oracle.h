@@ -24,7 +24,7 @@
 // F_eps is a form factor; under auto it takes F_eps / 100, so that the error
 // falls with F_eps (at a fixed 1e-3 the Cornell box stayed at 4.9-5.7 % for
 // F_eps 0.2 to 0.05). The factor is a choice, not a bound: F_eps / 1000
-// cuts the error 3-6 times for 5-20 times the links (papers/README.md "ff's
+// cuts the error 3-6 times for 6-21 times the links (papers/README.md "ff's
 // check follows its eps"). hr.receiver_eps = off gives the rule alone.
 //
 // Settings:

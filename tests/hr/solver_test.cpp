@@ -474,12 +474,12 @@ TEST(HrSolver, CappedSolveKeepsTheLightWithStandIns) {
 TEST(HrSolver, JudgedStandInsOpenFewerNearPairsAndKeepTheLight) {
     scene::Scene s = scene::loadScene("office:3");
     transport::Visibility vis(s);
-    auto run = [&](const char* model, const char* near, bool overlapping = false,
-                   bool defaults = false) {
+    // near == nullptr: the default near-pair settings.
+    auto run = [&](const char* model, const char* near, bool overlapping = false) {
         Params p;
         p.set("cluster.model", std::string(model));
         p.set("oracle.eps", 1e-3);
-        if (!defaults) {
+        if (near) {
             p.set("cluster.near", std::string(near));
             p.set("cluster.near_overlapping", overlapping);
             p.set("cluster.near_open_pairs", int64_t(0));  // every near pair judged
@@ -493,7 +493,7 @@ TEST(HrSolver, JudgedStandInsOpenFewerNearPairsAndKeepTheLight) {
     HrResult overlapping = run("oriented", "stand_in", true);
     // The default: pairs of at most 8,192 surface pairs opened, larger ones
     // judged (cluster.near_open_pairs).
-    HrResult byDefault = run("oriented", "", false, true);
+    HrResult byDefault = run("oriented", nullptr);
     EXPECT_GT(byDefault.nearStandInsMade, 0u);
     EXPECT_LT(byDefault.nearStandInsMade, overlapping.nearStandInsMade);
     EXPECT_LT(overlapping.hierarchy->numLinks(), judged.hierarchy->numLinks());
