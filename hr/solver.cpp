@@ -75,6 +75,14 @@ bool grownSince(const std::vector<RGB>& now, const std::vector<RGB>& judged, dou
 /// surfaces of a facing pair whose light alternates between them are
 /// found), the fewest that do, when they are at most `fraction` of all root
 /// patches; empty otherwise. In index order.
+// A judging pass that refines at most this share of the links leaves its
+// iteration quiet for relaxation and extrapolation (header, "Relaxation" and
+// "Extrapolation"): with lazy refinement a slowly brightening scene is judged
+// every iteration, and on the bathroom 1 to 56 of 1.4 M links were refined in
+// most iterations after the first sixteen, which held both back while its
+// reflected power still rose by 0.1 % per iteration.
+constexpr double kQuietRefinement = 1e-4;
+
 std::vector<uint32_t> concentratedChange(const Hierarchy& h, const std::vector<RGB>& previous,
                                          std::vector<double>& lastChange, double share,
                                          double fraction) {
@@ -1212,10 +1220,15 @@ HrResult HrSolver::solve(bool progress) {
                 h.pushPull();
                 rec.pushPullSeconds = tp.seconds();
             }
+            // A refinement of at most kQuietRefinement of the links leaves
+            // the iteration quiet: relaxation and extrapolation go on.
+            const bool quiet = rec.refinedLinks == 0 ||
+                               double(rec.refinedLinks) <= kQuietRefinement * double(h.numLinks());
             // Relaxation of the few patches that carry most of the change
-            // (the change history restarts after a refinement).
-            if (rec.refinedLinks > 0) prevRootChange.clear();
-            if (relaxOn && rec.refinedLinks == 0 && prevRoots.size() == np) {
+            // (the change history restarts after a refinement that is not
+            // quiet).
+            if (!quiet) prevRootChange.clear();
+            if (relaxOn && quiet && prevRoots.size() == np) {
                 std::vector<uint32_t> hot = concentratedChange(h, prevRoots, prevRootChange,
                                                                s_.relaxShare, s_.relaxFraction);
                 if (!hot.empty()) {
@@ -1231,8 +1244,9 @@ HrResult HrSolver::solve(bool progress) {
                         rec.relaxedPatches = uint32_t(hot.size());
                         rec.relaxSweeps = rx.sweeps;
                         // A relaxation that did not reach its target leaves
-                        // the sequence irregular: no tail estimate from it,
-                        // no extrapolation right after it.
+                        // the sequence irregular: the tail estimate takes the
+                        // slowest step of its window, and no extrapolation
+                        // follows right after it.
                         rec.relaxIncomplete = !rx.reached;
                         if (rec.relaxIncomplete) sinceExtrapolation = 0;
                     }
@@ -1241,7 +1255,7 @@ HrResult HrSolver::solve(bool progress) {
             RGB reflected = h.reflectedPower();
             if (s_.extrapolate) {
                 RGB change = reflected - lastReflected, ratio(0.0), factor(0.0);
-                quietIterations = rec.refinedLinks == 0 ? quietIterations + 1 : 0;
+                quietIterations = quiet ? quietIterations + 1 : 0;
                 bool ok = quietIterations >= 2 && sinceExtrapolation >= 2 &&
                           previousB.size() == h.allB().size();
                 for (int c = 0; c < 3; ++c) {
@@ -1273,9 +1287,11 @@ HrResult HrSolver::solve(bool progress) {
             }
             rec.reflectedPower = reflected;
             rec.residual = relativeChange(reflected, lastReflected);
-            rec.iterationError =
-                tail.add(reflected - lastReflected, reflected,
-                         rec.refinedLinks == 0 && rec.extrapolation == 0.0 && !rec.relaxIncomplete);
+            rec.iterationError = tail.add(reflected - lastReflected, reflected,
+                                          rec.refinedLinks > 0 || rec.extrapolation != 0.0
+                                              ? IterationTail::Step::kBreak
+                                          : rec.relaxIncomplete ? IterationTail::Step::kIrregular
+                                                                : IterationTail::Step::kClean);
             if (relaxOn) {
                 prevRoots.resize(np);
                 for (uint32_t p = 0; p < np; ++p) prevRoots[p] = h.B(p);

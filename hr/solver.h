@@ -262,7 +262,8 @@
 // extrapolation below, which needs a steady one-step ratio, never applies.
 // Such a mode is local: measured on the bathroom after 60 iterations, 97 %
 // of the change of B (area-weighted) was on the 4 triangles of the two
-// panes. So after each iteration that refined nothing, the solver finds the
+// panes. So after each quiet iteration (one that refined nothing, or at most
+// a ten-thousandth of the links: kQuietRefinement), the solver finds the
 // fewest root patches that carry hr.relax_share of the change of the last
 // two iterations (two, so that both surfaces of an alternating pair are
 // found) and, when they are few (hr.relax_fraction of all root patches),
@@ -275,9 +276,10 @@
 // relaxation, which progressive radiosity is; Gortler, Cohen & Slusallek
 // 1994, "Radiosity and relaxation methods"): the fixed point is the solve's
 // own, only the path to it changes (measured on the bathroom:
-// bench/results/large_scenes.md). The iteration's tail estimate holds when
-// each relaxation reached its target, and one that did not (budget) starts
-// a new sequence, as an extrapolation does.
+// bench/results/large_scenes.md). An iteration whose relaxation did not
+// reach its target (budget) makes the run of changes the tail estimate reads
+// irregular: the estimate then takes the slowest step of its window
+// (hr/iteration_tail.h), and no extrapolation follows it directly.
 //
 // Extrapolation (hr.extrapolate). The gather iteration is a Jacobi iteration
 // whose error shrinks by about the scene's largest reflectance per iteration:
@@ -289,7 +291,8 @@
 // that multiple of its own last change (Aitken's delta-squared process
 // applied to the vector of leaf radiosities; the dominant-mode extrapolation
 // used in power iterations, e.g. Wilkinson 1965 ch. 9). It is applied only
-// when no link was refined in the last two iterations, 0 < q < 0.99999 and q
+// when the last two iterations were quiet (as for relaxation; the leaves
+// must be the same), 0 < q < 0.99999 and q
 // has changed by less than 5 % since the previous iteration, and at most
 // every other iteration; the following iterations correct any error, since
 // the fixed point is the same.
