@@ -15,11 +15,11 @@
 // iterations stay in the run but mark it irregular: its rate is then the
 // largest single-step ratio over the window (at least two steps), not the
 // last one, so that one step the relaxation made look fast does not stop
-// the solve. Measured on office:2:12 (bench/results/large_scenes.md): every
-// iteration after refinement relaxed about 300 patches without reaching the
-// target, and when such iterations broke the run the solve went on for 19
-// iterations after its changes had fallen below 1e-5 with a steady ratio
-// of about 0.4.
+// the solve. Such iterations can be all there is once refinement stops: on
+// office:2:12 every one relaxed about 300 patches without reaching the
+// target, while the changes fell with a steady ratio of about 0.4
+// (bench/results/large_scenes.md, "Stopping after a relaxation stopped by
+// its budget").
 #pragma once
 
 #include <cstddef>
