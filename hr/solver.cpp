@@ -69,12 +69,6 @@ bool grownSince(const std::vector<RGB>& now, const std::vector<RGB>& judged, dou
     return false;
 }
 
-/// The root patches that carry at least `share` of the change of the last
-/// two iterations (A_p max_c |B_p - previous_p| plus `lastChange`_p, the
-/// same one iteration earlier, which it updates; two iterations, so that both
-/// surfaces of a facing pair whose light alternates between them are
-/// found), the fewest that do, when they are at most `fraction` of all root
-/// patches; empty otherwise. In index order.
 // A judging pass that refines at most this share of the links leaves its
 // iteration quiet for relaxation and extrapolation (header, "Relaxation" and
 // "Extrapolation"): with lazy refinement a slowly brightening scene is judged
@@ -83,6 +77,12 @@ bool grownSince(const std::vector<RGB>& now, const std::vector<RGB>& judged, dou
 // reflected power still rose by 0.1 % per iteration.
 constexpr double kQuietRefinement = 1e-4;
 
+/// The root patches that carry at least `share` of the change of the last
+/// two iterations (A_p max_c |B_p - previous_p| plus `lastChange`_p, the
+/// same one iteration earlier, which it updates; two iterations, so that both
+/// surfaces of a facing pair whose light alternates between them are
+/// found), the fewest that do, when they are at most `fraction` of all root
+/// patches; empty otherwise. In index order.
 std::vector<uint32_t> concentratedChange(const Hierarchy& h, const std::vector<RGB>& previous,
                                          std::vector<double>& lastChange, double share,
                                          double fraction) {
