@@ -942,6 +942,17 @@ void Hierarchy::sweep(int blocks, double* gatherSeconds, double* pushPullSeconds
     if (pushPullSeconds) *pushPullSeconds = tp;
 }
 
+uint64_t Hierarchy::iterationLinkReads() const {
+    uint64_t reads = numLinks();
+    if (model_ != cluster::ClusterModel::Oriented) return reads;
+    const uint32_t np = numPatches();
+    for (uint32_t c = 0; c < numClusters_; ++c) {
+        const cluster::ClusterNode& node = tree_->node(c);
+        reads += (linkEnd(np + c) - linkBegin(np + c)) * uint64_t(node.patchEnd - node.patchBegin);
+    }
+    return reads;
+}
+
 Hierarchy::RelaxResult Hierarchy::relax(const std::vector<uint32_t>& roots, int maxSweeps,
                                         uint64_t linkBudget, double target) {
     HRAD_CHECK(nb_ == 1);

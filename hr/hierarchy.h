@@ -326,14 +326,19 @@ class Hierarchy {
     /// What relax() did.
     struct RelaxResult {
         int sweeps = 0;
-        uint64_t linkGathers = 0;  ///< links gathered, all sweeps together
+        uint64_t linkGathers = 0;  ///< links read, all sweeps together (iterationLinkReads' unit)
         bool reached = false;      ///< stopped because the tail fell below `target`
     };
+    /// The links one iteration (gather() and pushPull()) reads, in relax()'s
+    /// unit: every link once, and with oriented clusters each link into a
+    /// cluster once more for every root patch below it (the push hands it
+    /// to each surface with that surface's cosine, clusterIrradianceAt).
+    uint64_t iterationLinkReads() const;
     /// Relaxes a few root patches alone (hr.relax_share, HrSolver): Gauss-
     /// Seidel sweeps over `roots`, each root gathering its rows from the
     /// current radiosities and pushing and pulling at once, with everything
     /// else held (other patches, and the irradiance clusters hand these
-    /// roots). Stops after `maxSweeps`, before the links gathered would pass
+    /// roots). Stops after `maxSweeps`, before the links read would pass
     /// `linkBudget`, or when the change still to come, a geometric tail
     /// with the rate over two sweeps, is below `target` (power: A times
     /// radiosity, max channel). Clusters pull at the end. The fixed point is

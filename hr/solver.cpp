@@ -485,13 +485,18 @@ void HrSolver::fillBounds(const Hierarchy& h, uint32_t r, const Link& l,
 }
 
 Link HrSolver::makeLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const {
-    const auto t0 = std::chrono::steady_clock::now();
-    Link l = evaluateLink(h, r, s, rays);
     const int kind = (h.isCluster(r) ? 2 : 0) + (h.isCluster(s) ? 1 : 0);  // SS, SC, CS, CC
     HrResult::LinkKindCost& c = linkCost_.local();
-    ++c.evaluations[kind];
+    // Timed once per stride (HrResult::linkCost).
+    const bool timed = c.evaluations[kind]++ % HrResult::kLinkTimingStride == 0;
+    const auto t0 =
+        timed ? std::chrono::steady_clock::now() : std::chrono::steady_clock::time_point();
+    Link l = evaluateLink(h, r, s, rays);
     c.rays[kind] += rays;
-    c.seconds[kind] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (timed)
+        c.seconds[kind] +=
+            double(HrResult::kLinkTimingStride) *
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return l;
 }
 
@@ -1237,8 +1242,8 @@ HrResult HrSolver::solve(bool progress) {
                     // iteration's reflected power sets the scale).
                     const double target =
                         0.1 * s_.tolerance * maxComponent(glm::abs(lastReflected));
-                    Hierarchy::RelaxResult rx =
-                        h.relax(hot, s_.relaxSweeps, std::max<uint64_t>(h.numLinks(), 1), target);
+                    Hierarchy::RelaxResult rx = h.relax(
+                        hot, s_.relaxSweeps, std::max<uint64_t>(h.iterationLinkReads(), 1), target);
                     rec.gatherSeconds += tx.seconds();
                     if (rx.sweeps > 0) {
                         rec.relaxedPatches = uint32_t(hot.size());

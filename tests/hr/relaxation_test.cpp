@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "hr/solver.h"
 #include "tests/scenes.h"
@@ -115,6 +116,31 @@ TEST(Relaxation, TheGapBetweenTwoMirrorsConvergesFast) {
     for (uint32_t p : {216u, 218u}) {
         const double be = exact.hierarchy->B(p).g, br = relaxed.hierarchy->B(p).g;
         EXPECT_NEAR(br / be, 1.0, 1e-3) << p;
+    }
+}
+
+// A relaxation may read as many links as one iteration does. With oriented
+// clusters the push reads each link into a cluster once for every surface
+// below it, so the budget counts those reads, walked here patch by patch.
+TEST(Relaxation, TheBudgetCountsTheLinksThePushReads) {
+    scene::Scene s = gapRoom();
+    transport::Visibility vis(s);
+    for (const char* model : {"oriented", "isotropic"}) {
+        Params p;
+        p.set("cluster.model", std::string(model));
+        p.set("hr.max_iterations", int64_t(3));
+        hr::HrSettings settings = hr::HrSettings::fromParams(p);
+        hr::HrResult res = hr::HrSolver(s, vis, settings).solve();
+        const hr::Hierarchy& h = *res.hierarchy;
+        uint64_t intoClusters = 0, reads = h.numLinks();
+        for (uint32_t e = 0; e < h.numElements(); ++e)
+            if (h.isCluster(e)) intoClusters += h.linkEnd(e) - h.linkBegin(e);
+        ASSERT_GT(intoClusters, 0u) << model;
+        if (std::string(model) == "oriented")
+            for (uint32_t root = 0; root < h.numPatches(); ++root)
+                for (uint32_t c = h.parent(root); c != hr::kNone; c = h.parent(c))
+                    reads += h.linkEnd(c) - h.linkBegin(c);
+        EXPECT_EQ(h.iterationLinkReads(), reads) << model;
     }
 }
 
