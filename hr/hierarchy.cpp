@@ -991,7 +991,7 @@ Hierarchy::RelaxResult Hierarchy::relax(const std::vector<uint32_t>& roots, int 
     std::vector<RGB> fromAbove(roots.size(), RGB(0.0));
     std::vector<PushFrame> frames;
     double c1 = 0.0, c2 = 0.0;  // the changes of the last two sweeps
-    while (out.sweeps < maxSweeps && out.linkGathers + linksPerSweep <= linkBudget) {
+    while (out.sweeps < maxSweeps && out.linkReads + linksPerSweep <= linkBudget) {
         if (!ancestors.empty()) {
             // Clusters above the roots: pull (children first: pre-order
             // indices, so backwards), gather (isotropic clusters gather as a
@@ -1019,7 +1019,7 @@ Hierarchy::RelaxResult Hierarchy::relax(const std::vector<uint32_t>& roots, int 
             change += area_[roots[k]] * maxComponent(glm::abs(B_[roots[k]] - before));
         }
         ++out.sweeps;
-        out.linkGathers += linksPerSweep;
+        out.linkReads += linksPerSweep;
         // The change still to come: a geometric tail with the rate over two
         // sweeps (a pair of facing surfaces alternates within one).
         bool done = change == 0.0;

@@ -326,7 +326,7 @@ class Hierarchy {
     /// What relax() did.
     struct RelaxResult {
         int sweeps = 0;
-        uint64_t linkGathers = 0;  ///< links read, all sweeps together (iterationLinkReads' unit)
+        uint64_t linkReads = 0;    ///< links read, all sweeps together (iterationLinkReads' unit)
         bool reached = false;      ///< stopped because the tail fell below `target`
     };
     /// The links one iteration (gather() and pushPull()) reads, in relax()'s
