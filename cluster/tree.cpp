@@ -394,6 +394,9 @@ ClusterTree::ClusterTree(const scene::Scene& scene, const ClusterSettings& setti
 }
 
 void ClusterTree::finalize() {
+    // The builders grow these by doubling; the tree lives as long as the solve.
+    nodes_.shrink_to_fit();
+    children_.shrink_to_fit();
     const auto& P = scene_->patches;
     areaPrefix_.resize(order_.size() + 1);
     areaPrefix_[0] = 0;

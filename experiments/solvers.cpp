@@ -127,6 +127,7 @@ class HrEntry final : public Solver {
                      {"push_pull_s", it.pushPullSeconds},
                      {"element_bytes", it.elementBytes},
                      {"link_bytes", it.linkBytes},
+                     {"peak_rss", it.peakRss},
                      {"l2_lum", nanToNull(it.l2Lum)}});
         sm["history"] = hist;
         if (h.numLinks())

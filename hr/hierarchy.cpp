@@ -218,6 +218,22 @@ void Hierarchy::subdivide(uint32_t e) {
     }
 }
 
+void Hierarchy::reserveElements(size_t more) {
+    const size_t n = size_t(numElements()) + more;
+    if (n <= patch_.capacity()) return;
+    patch_.reserve(n);
+    key_.reserve(n);
+    parent_.reserve(n);
+    firstChild_.reserve(n);
+    area_.reserve(n);
+    B_.reserve(n);
+    gathered_.reserve(n);
+    if (nb_ > 1) {
+        hi_.reserve(n * size_t(nb_ - 1));
+        gatheredHi_.reserve(n * size_t(nb_ - 1));
+    }
+}
+
 RGB Hierarchy::evaluate(uint32_t e, double a, double b) const {
     if (nb_ == 1) return B_[e];
     double phi[scene::kMaxBasisSize];
@@ -242,14 +258,29 @@ uint32_t Hierarchy::numLeaves() const {
     return n;
 }
 
+std::vector<Link> Hierarchy::takeLinks() {
+    std::vector<Link> out = std::move(links_);
+    links_ = {};
+    linkOffsets_.assign(1, 0);
+    linkOffsets_.shrink_to_fit();
+    clusterLinkDir_ = {};
+    couplingIndex_ = {};
+    couplingData_ = {};
+    return out;
+}
+
 void Hierarchy::setLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links) {
-    setLinks(receivers, std::move(links), {});
+    placeLinks(receivers, std::move(links), nullptr);
 }
 
 void Hierarchy::setLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links,
                          std::vector<KernelSamples>&& samples) {
+    placeLinks(receivers, std::move(links), &samples);
+}
+
+void Hierarchy::placeLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links,
+                           std::vector<KernelSamples>* samples) {
     HRAD_CHECK(receivers.size() == links.size());
-    HRAD_CHECK(samples.empty() || samples.size() == links.size());
     uint32_t n = numElements();
     // Counting sort by receiver; stable, so each row keeps the given order.
     linkOffsets_.assign(size_t(n) + 1, 0);
@@ -260,15 +291,24 @@ void Hierarchy::setLinks(const std::vector<uint32_t>& receivers, std::vector<Lin
     for (uint32_t i = 0; i < n; ++i) linkOffsets_[i + 1] += linkOffsets_[i];
     std::vector<Link> sorted(links.size());
     std::vector<uint64_t> fill(linkOffsets_.begin(), linkOffsets_.end() - 1);
+    // The samples follow their links into receiver order: per receiver, the
+    // offset of its first sample, then a stable scatter.
     samples_.clear();
-    if (!samples.empty()) {
-        samples_.resize(links.size());
-        std::vector<uint64_t> fill2(fill);
-        for (size_t i = 0; i < links.size(); ++i) samples_[fill2[receivers[i]]++] = samples[i];
-        samples.clear();
-        samples.shrink_to_fit();
-    }
     samples_.shrink_to_fit();
+    hasSamples_ = samples != nullptr;
+    if (samples) {
+        std::vector<uint64_t> sampleFill(size_t(n) + 1, 0);
+        for (size_t i = 0; i < links.size(); ++i)
+            if (carriesKernelSamples(receivers[i], links[i])) ++sampleFill[receivers[i] + 1];
+        for (uint32_t i = 0; i < n; ++i) sampleFill[i + 1] += sampleFill[i];
+        HRAD_CHECK(samples->size() == sampleFill[n]);
+        samples_.resize(samples->size());
+        for (size_t i = 0, k = 0; i < links.size(); ++i)
+            if (carriesKernelSamples(receivers[i], links[i]))
+                samples_[sampleFill[receivers[i]]++] = (*samples)[k++];
+        samples->clear();
+        samples->shrink_to_fit();
+    }
     for (size_t i = 0; i < links.size(); ++i) sorted[fill[receivers[i]]++] = links[i];
     links_ = std::move(sorted);
     links_.shrink_to_fit();

@@ -126,6 +126,10 @@ static_assert(sizeof(Link) == 16, "Link must stay 16 bytes");
 /// points (transport FormFactorEngine::kernelSamples), cached per link for
 /// the receiver-aggregate error (hr/receiver_error.h): geometry only, so
 /// computed once when the link is made. Float: an error estimate needs no more.
+/// Only links between two surface elements have them (the aggregate judges
+/// nothing else), and they are stored for those alone, in link order
+/// (Hierarchy::carriesKernelSamples): most links of a clustered scene touch
+/// a cluster, and a full-length array cost 36 bytes on every one of them.
 using KernelSamples = std::array<float, 9>;
 
 class Hierarchy {
@@ -232,6 +236,10 @@ class Hierarchy {
     /// Creates the four children of a leaf (no-op when already subdivided).
     /// Children inherit the parent's B. Not thread-safe.
     void subdivide(uint32_t e);
+    /// Makes room for `more` elements beyond the current ones, exactly (a
+    /// refinement round knows how many it makes: growing by doubling left
+    /// up to half of every element array unused).
+    void reserveElements(size_t more);
     /// Number of surface elements that are leaves (clusters excluded).
     uint32_t numLeaves() const;
 
@@ -239,8 +247,8 @@ class Hierarchy {
     /// Replaces all links. `receivers[i]` is the receiver of links[i]; the
     /// arrays are sorted stably by receiver into CSR form.
     void setLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links);
-    /// The same with each link's kernel samples (kept in link order; empty
-    /// `samples` drops them).
+    /// The same with the links' kernel samples: one per link that
+    /// carriesKernelSamples(), in the order of those links in `links`.
     void setLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links,
                   std::vector<KernelSamples>&& samples);
     /// Stores the samples of a stand-in from a sending cluster and returns
@@ -280,12 +288,22 @@ class Hierarchy {
     uint64_t standInSampleCount() const {
         return standInSamples_.size() - (standInBegin_.size() - 1);  // without the block headers
     }
-    /// Kernel samples of every link (empty when no oracle asked for them).
+    /// Whether link l into receiver r has kernel samples: both ends are
+    /// surface elements. Depends on the pair only, never on the link's flags.
+    bool carriesKernelSamples(uint32_t r, const Link& l) const {
+        return l.sender != kNone && !isCluster(r) && !isCluster(l.sender);
+    }
+    /// Whether the links carry their kernel samples (set by the last
+    /// setLinks() with samples).
+    bool hasKernelSamples() const { return hasSamples_; }
+    /// The kernel samples of the links that carriesKernelSamples(), in link
+    /// order (empty unless hasKernelSamples()).
     const std::vector<KernelSamples>& kernelSamples() const { return samples_; }
     /// Moves the cached samples out (refinement hands them back with setLinks).
     std::vector<KernelSamples> takeKernelSamples() {
         std::vector<KernelSamples> out = std::move(samples_);
         samples_.clear();
+        hasSamples_ = false;
         return out;
     }
     uint64_t numLinks() const { return links_.size(); }
@@ -296,6 +314,11 @@ class Hierarchy {
     uint64_t linkEnd(uint32_t e) const {
         return e < linkOffsets_.size() - 1 ? linkOffsets_[e + 1] : links_.size();
     }
+    /// Moves the links out and leaves the hierarchy with none (every row
+    /// empty; the cluster link directions and coupling matrices, which
+    /// belong to them, dropped too): refinement holds one copy of the links,
+    /// not two, and hands them back with setLinks().
+    std::vector<Link> takeLinks();
     const Link& link(uint64_t i) const { return links_[i]; }
     const std::vector<Link>& links() const { return links_; }
     /// Receiver of every link (expanded from CSR).
@@ -507,6 +530,9 @@ class Hierarchy {
     std::vector<uint64_t> linkOffsets_;
     std::vector<Link> links_;
     std::vector<KernelSamples> samples_;
+    bool hasSamples_ = false;
+    void placeLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links,
+                    std::vector<KernelSamples>* samples);
     /// Stand-in samples (addStandIn): block b is
     /// standInSamples_[standInBegin_[b] .. standInBegin_[b + 1]).
     std::vector<uint64_t> standInBegin_{0};

@@ -61,25 +61,30 @@ void senderTotals(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
     };
     std::vector<double> total(n, 0.0);
     std::vector<uint32_t> count(n, 0);
-    std::vector<float> own(pending.size(), -1.f);
-    auto add = [&](const std::vector<uint32_t>& recv, const std::vector<Link>& links,
-                   float* ownTerm) {
+    // Per pending link that carriesKernelSamples() (the only ones term()
+    // can evaluate), its term and its sender.
+    std::vector<float> own;
+    std::vector<uint32_t> ownSender;
+    auto add = [&](const std::vector<uint32_t>& recv, const std::vector<Link>& links, bool keep) {
         for (size_t i = 0; i < links.size(); ++i) {
             double t = term(recv[i], links[i]);
-            if (ownTerm) ownTerm[i] = float(t);
+            if (keep && h.carriesKernelSamples(recv[i], links[i])) {
+                own.push_back(float(t));
+                ownSender.push_back(links[i].sender);
+            }
             if (t > 0.0) {
                 total[links[i].sender] += t;
                 ++count[links[i].sender];
             }
         }
     };
-    add(acceptedRecv, accepted, nullptr);
-    add(pendingRecv, pending, own.data());
-    out.assign(pending.size(), SenderTotal{});
-    for (size_t i = 0; i < pending.size(); ++i) {
-        if (own[i] < 0.f) continue;
-        const uint32_t s = pending[i].sender;
-        out[i] = SenderTotal{float(total[s]), own[i], count[s]};
+    add(acceptedRecv, accepted, false);
+    add(pendingRecv, pending, true);
+    out.assign(own.size(), SenderTotal{});
+    for (size_t k = 0; k < own.size(); ++k) {
+        if (own[k] < 0.f) continue;
+        const uint32_t s = ownSender[k];
+        out[k] = SenderTotal{float(total[s]), own[k], count[s]};
     }
 }
 
@@ -104,7 +109,7 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
                     const std::vector<KernelSamples>& acceptedSamples,
                     std::vector<ReceiverError>& out, bool residualSamples) {
     const size_t np = pending.size();
-    out.assign(np, ReceiverError{});
+    out.assign(pendingSamples.size(), ReceiverError{});
     const uint32_t n = h.numElements();
     auto surfaceLink = [&](uint32_t r, const Link& l) {
         return !h.isCluster(r) && l.sender != kNone && !h.isCluster(l.sender) &&
@@ -124,15 +129,27 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
     count(acceptedRecv, accepted);
     count(pendingRecv, pending);
     for (uint32_t e = 0; e < n; ++e) offset[e + 1] += offset[e];
-    std::vector<uint64_t> items(offset[n]);
+    // With each item, the index of its link's samples (stored only for the
+    // links that carriesKernelSamples(), in link order).
+    std::vector<uint64_t> items(offset[n]), itemSamples(offset[n]);
     {
         std::vector<uint64_t> fill(offset.begin(), offset.end() - 1);
-        for (size_t i = 0; i < accepted.size(); ++i)
-            if (wanted[acceptedRecv[i]] && surfaceLink(acceptedRecv[i], accepted[i]))
-                items[fill[acceptedRecv[i]]++] = 2 * uint64_t(i);
-        for (size_t i = 0; i < np; ++i)
-            if (wanted[pendingRecv[i]] && surfaceLink(pendingRecv[i], pending[i]))
-                items[fill[pendingRecv[i]]++] = 2 * uint64_t(i) + 1;
+        auto place = [&](const std::vector<uint32_t>& recv, const std::vector<Link>& links,
+                         const std::vector<KernelSamples>& samples, uint64_t tag) {
+            uint64_t k = 0;
+            for (size_t i = 0; i < links.size(); ++i) {
+                if (!h.carriesKernelSamples(recv[i], links[i])) continue;
+                if (wanted[recv[i]] && surfaceLink(recv[i], links[i])) {
+                    const uint64_t j = fill[recv[i]]++;
+                    items[j] = 2 * uint64_t(i) + tag;
+                    itemSamples[j] = k;
+                }
+                ++k;
+            }
+            HRAD_CHECK(k == samples.size());
+        };
+        place(acceptedRecv, accepted, acceptedSamples, 0);
+        place(pendingRecv, pending, pendingSamples, 1);
     }
     std::vector<RGB> lo, hi;
     leafRanges(h, lo, hi);
@@ -154,7 +171,7 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
                 uint64_t code = items[j];
                 const Link& l = (code & 1) ? pending[code >> 1] : accepted[code >> 1];
                 const KernelSamples& vals =
-                    (code & 1) ? pendingSamples[code >> 1] : acceptedSamples[code >> 1];
+                    (code & 1) ? pendingSamples[itemSamples[j]] : acceptedSamples[itemSamples[j]];
                 const uint32_t s = l.sender;
                 // The judged visibility (hr.judge_visibility) and the
                 // unoccluded form factor.
@@ -205,7 +222,7 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
             for (uint64_t j = b; j < e; ++j) {
                 uint64_t code = items[j];
                 if (!(code & 1)) continue;
-                ReceiverError& o = out[code >> 1];
+                ReceiverError& o = out[itemSamples[j]];
                 o.range = float(rangeMax);
                 o.deviation = float(devMax);
                 o.linkDeviation = linkDev[j - b];

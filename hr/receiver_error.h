@@ -88,8 +88,9 @@ struct SenderTotal {
     uint32_t links = 0;  ///< surface links from s with a positive term
 };
 
-/// P_s for the sender of every link of `pending` (links in `pending` and
-/// `accepted` both count), and the link's own term.
+/// P_s for the sender of every link of `pending` that carriesKernelSamples()
+/// (links in `pending` and `accepted` both count), and the link's own term:
+/// one entry per such link, in their order (no other link has a term).
 void senderTotals(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
                   const std::vector<Link>& pending, const std::vector<uint32_t>& acceptedRecv,
                   const std::vector<Link>& accepted, std::vector<SenderTotal>& out);
@@ -97,8 +98,10 @@ void senderTotals(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
 /// For every link of `pending` whose receiver and sender are surface
 /// elements: the aggregate over all surface links of its receiver, in
 /// `pending` and in `accepted` together (the links refinement has already
-/// kept this round count too), and the link's own part. Parallel over
-/// receivers; deterministic.
+/// kept this round count too), and the link's own part. Each samples array
+/// holds one entry per link of its array that carriesKernelSamples(), in
+/// link order, and so does `out` for `pending` (no other link is
+/// evaluated). Parallel over receivers; deterministic.
 void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
                     const std::vector<Link>& pending,
                     const std::vector<KernelSamples>& pendingSamples,

@@ -25,6 +25,12 @@ using oracles::Decision;
 
 namespace {
 /// A link between two surface elements (no cluster on either side).
+/// Frees v's storage (clear() keeps it).
+template <class T>
+void releaseVector(std::vector<T>& v) {
+    std::vector<T>().swap(v);
+}
+
 bool surfacePair(const Hierarchy& h, uint32_t r, uint32_t s) {
     return s != kNone && !h.isCluster(r) && !h.isCluster(s);
 }
@@ -682,11 +688,14 @@ KernelSamples HrSolver::linkSamples(const Hierarchy& h, uint32_t r, uint32_t s) 
 std::vector<KernelSamples> HrSolver::computeKernelSamples(const Hierarchy& h,
                                                           const std::vector<uint32_t>& recv,
                                                           const std::vector<Link>& links) const {
-    std::vector<KernelSamples> out(links.size(), KernelSamples{});
+    // Compact: one entry per link that carries samples, in link order.
+    std::vector<uint64_t> at(links.size() + 1, 0);
+    for (size_t i = 0; i < links.size(); ++i)
+        at[i + 1] = at[i] + (h.carriesKernelSamples(recv[i], links[i]) ? 1 : 0);
+    std::vector<KernelSamples> out(at.back(), KernelSamples{});
     tbb::parallel_for(tbb::blocked_range<size_t>(0, links.size(), 256), [&](const auto& range) {
         for (size_t i = range.begin(); i != range.end(); ++i)
-            if (surfacePair(h, recv[i], links[i].sender))
-                out[i] = linkSamples(h, recv[i], links[i].sender);
+            if (at[i + 1] > at[i]) out[at[i]] = linkSamples(h, recv[i], links[i].sender);
     });
     return out;
 }
@@ -697,17 +706,21 @@ double HrSolver::estimateError(const Hierarchy& h) const {
     // The cached samples when h holds them for these links (made with the
     // links), else computed now (an oracle that did not ask for them).
     std::vector<KernelSamples> computed;
-    if (h.kernelSamples().size() != links.size()) computed = computeKernelSamples(h, recv, links);
-    const std::vector<KernelSamples>& samples = computed.empty() ? h.kernelSamples() : computed;
+    if (!h.hasKernelSamples()) computed = computeKernelSamples(h, recv, links);
+    const std::vector<KernelSamples>& samples = h.hasKernelSamples() ? h.kernelSamples() : computed;
     std::vector<ReceiverError> err;
     receiverErrors(h, recv, links, samples, {}, {}, {}, err, coupling_ != nullptr);
     double sum = 0.0;
     uint32_t last = kNone;
+    // err holds the links that carry samples, in link order.
+    size_t k = 0;
     for (size_t i = 0; i < links.size(); ++i) {
         uint32_t r = recv[i];
+        const bool carries = h.carriesKernelSamples(r, links[i]);
+        const size_t si = carries ? k++ : 0;
         if (h.isCluster(r)) continue;
-        if (err[i].range >= 0.0f && r != last) {
-            sum += h.area(r) * double(err[i].range) / 4.0;
+        if (carries && err[si].range >= 0.0f && r != last) {
+            sum += h.area(r) * double(err[si].range) / 4.0;
             last = r;
         }
         sum += h.area(r) * double(links[i].K) * senderSpread(h, r, links[i].sender) / 2.0;
@@ -719,7 +732,11 @@ double HrSolver::estimateError(const Hierarchy& h) const {
 uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double eps, HrResult& res,
                           IterationRecord& rec) {
     std::vector<uint32_t> recv = h.linkReceivers();
-    std::vector<Link> pending = h.links();
+    // The coupling matrices of the links as they are, for the links kept.
+    PreviousCoupling previous;
+    if (coupling_) previous = snapshotCoupling(h);
+    // Moved out, not copied: h has no links until setLinks below.
+    std::vector<Link> pending = h.takeLinks();
     // Sending clusters' ray end points are drawn by this iteration's B.
     if (linker_) linker_->prepareSenders(h.allB());
     std::vector<uint32_t> finalRecv;
@@ -746,16 +763,29 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
     const bool aggregate = oracle.needsReceiverError() || guardEps > 0.0;
     std::vector<ReceiverError> rerr;
     // Kernel samples travel with their links (geometry: computed once, when
-    // the link is made; the initial links get theirs here).
+    // the link is made; the initial links get theirs here). Each array holds
+    // those of the links that carry samples (Hierarchy::carriesKernelSamples),
+    // in the order of its link array.
     std::vector<KernelSamples> pendingS, finalS;
     if (aggregate) {
         // Moved out of the hierarchy, not copied: refinement hands them
         // back with the final links (setLinks below).
-        pendingS = h.kernelSamples().size() == pending.size()
-                       ? h.takeKernelSamples()
-                       : computeKernelSamples(h, recv, pending);
+        pendingS =
+            h.hasKernelSamples() ? h.takeKernelSamples() : computeKernelSamples(h, recv, pending);
         finalS.reserve(pendingS.size());
     }
+    // Moves pending link i (visited in increasing order from i = 0, with
+    // cursor k over pendingS) to the final links.
+    auto keepPending = [&](size_t i, size_t& k) {
+        finalRecv.push_back(recv[i]);
+        finalLinks.push_back(pending[i]);
+        if (aggregate && h.carriesKernelSamples(recv[i], pending[i]))
+            finalS.push_back(pendingS[k++]);
+    };
+    // Advances cursor k past pending link i's samples without keeping them.
+    auto skipPending = [&](size_t i, size_t& k) {
+        if (aggregate && h.carriesKernelSamples(recv[i], pending[i])) ++k;
+    };
 
     while (!pending.empty()) {
         size_t n = pending.size();
@@ -790,11 +820,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                     "solution so far is the result",
                     s_.maxSeconds);
             res.timeLimitHit = true;
-            for (size_t i = 0; i < n; ++i) {
-                finalRecv.push_back(recv[i]);
-                finalLinks.push_back(pending[i]);
-                if (aggregate) finalS.push_back(pendingS[i]);
-            }
+            for (size_t i = 0, k = 0; i < n; ++i) keepPending(i, k);
             break;
         }
         // cluster.near = stand_in: pairs too close for the point
@@ -854,109 +880,133 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                 }
         }
         if (!capHit) {
-            tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const auto& range) {
-                for (size_t i = range.begin(); i != range.end(); ++i) {
-                    const Link& l = pending[i];
-                    uint32_t r = recv[i], s = l.sender;
-                    if (l.flags & Link::kOpen) {
-                        decision[i] = uint8_t(forcedDecision(h, r, s));
-                        continue;
-                    }
-                    // Surface links judged by the receiver aggregate need no
-                    // per-link form-factor range (17 contour integrals each).
-                    const bool wantBounds = bounds && !(aggregate && surfacePair(h, r, s));
-                    oracles::LinkEstimate e =
-                        linkEstimate(h, r, l, wantBounds, oracle.needsUpperBound());
-                    if (coupling_ && oracle.needsBasisResidual() && surfacePair(h, r, s) &&
-                        !(l.flags & Link::kPartial)) {
-                        // The part of the transfer the receiver's basis truncates
-                        // (oracles/oracle.h LinkEstimate::basisResidualF). Not for
-                        // partially visible links: the residual is of the unoccluded
-                        // kernel and does not see a shadow edge across the receiver
-                        // (judging them by it left cornell's shadows under-refined:
-                        // cubic, 2,090 links, L2 0.0060 against 0.0032 with 2,460
-                        // links judged by the constant rule), so they keep the
-                        // constant rule.
-                        transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
-                        transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
-                        e.basisResidualF = coupling_->projectionResidual(er, es) * l.vis();
-                    }
-                    if (aggregate) {
-                        e.receiverRange = rerr[i].range;
-                        e.receiverDeviation = rerr[i].deviation;
-                        e.linkDeviation = rerr[i].linkDeviation;
-                        e.receiverLinks = rerr[i].links;
-                        if (rerr[i].range >= 0.f) {
-                            e.senderAggregate = rerr[i].senderSum;
-                            e.linkSenderPart = rerr[i].linkSender;
+            // rerr and stot hold the links that carry kernel samples only:
+            // each block of links starts at its first such link.
+            constexpr size_t kBlock = 1024;
+            const size_t blocks = (n + kBlock - 1) / kBlock;
+            std::vector<size_t> blockFirst(blocks + 1, 0);
+            if (aggregate) {
+                for (size_t i = 0; i < n; ++i)
+                    if (h.carriesKernelSamples(recv[i], pending[i])) ++blockFirst[i / kBlock + 1];
+                for (size_t b = 0; b < blocks; ++b) blockFirst[b + 1] += blockFirst[b];
+            }
+            const ReceiverError kNotEvaluated{};
+            tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks, 1), [&](const auto& range) {
+                for (size_t blk = range.begin(); blk != range.end(); ++blk) {
+                    size_t k = blockFirst[blk];
+                    for (size_t i = blk * kBlock, iEnd = std::min(n, i + kBlock); i < iEnd; ++i) {
+                        const bool carries =
+                            aggregate && h.carriesKernelSamples(recv[i], pending[i]);
+                        const size_t si = carries ? k++ : 0;
+                        const Link& l = pending[i];
+                        uint32_t r = recv[i], s = l.sender;
+                        if (l.flags & Link::kOpen) {
+                            decision[i] = uint8_t(forcedDecision(h, r, s));
+                            continue;
                         }
-                    }
-                    if (!stot.empty() && stot[i].total >= 0.f) {
-                        e.senderTotal = stot[i].total;
-                        e.linkSenderTotal = stot[i].link;
-                        e.senderLinks = stot[i].links;
-                    }
-                    Decision d = oracles::constrain(oracle.decide(e), e);
-                    if (d == Decision::Accept && guardEps > 0.0 && e.receiverRange >= 0.0 &&
-                        e.receiverRange * e.receiverArea > guardEps * e.emittedPower &&
-                        oracles::carriesReceiverShare(e))
-                        d = oracles::constrain(Decision::RefineReceiver, e);
-                    // The sender side of the same check (hr.sender_total): a
-                    // subdivided sender's average, gathered by all its
-                    // receivers, within the check's eps share of the power.
-                    if (d == Decision::Accept && guardEps > 0.0 &&
-                        oracles::senderTotalRefines(e, guardEps))
-                        d = oracles::constrain(Decision::RefineSender, e);
-                    // A sampled near cluster link the oracle accepts must also
-                    // be known well enough: the power it may carry wrongly
-                    // (its error bound) within the oracle's eps share.
-                    if (d == Decision::Accept && (l.flags & Link::kSampled) && checkEps > 0 &&
-                        maxComponent(e.receiverRho * e.senderB) * e.F * (l.uncertainty / 100.0) *
-                                e.receiverArea >
-                            checkEps * e.emittedPower)
-                        d = forcedDecision(h, r, s);
-                    // A partially visible (or all-blocked) link into a
-                    // cluster hands its light to every surface of the
-                    // cluster that faces the sender, seen or not: up to the
-                    // unseen fraction of its power lands on the wrong
-                    // surfaces (closed cavities, the far side of a table).
-                    // That power must be within eps too, else the receiving
-                    // cluster is opened (cluster.partial_receivers = open).
-                    // The links into one cluster misplace light together (as
-                    // a receiver's averaged senders do, hr/receiver_error.h):
-                    // their sum is held to eps too, refining the links with at
-                    // least an even share of it.
-                    if (d == Decision::Accept && partialCheck && misplaced[i] > 0) {
-                        const uint32_t c = h.clusterIndex(r);
-                        const double limit = checkEps * e.emittedPower;
-                        if (misplaced[i] > limit ||
-                            (clusterMisplaced[c] > limit &&
-                             misplaced[i] * clusterPartial[c] >= clusterMisplaced[c]))
+                        // Surface links judged by the receiver aggregate need no
+                        // per-link form-factor range (17 contour integrals each).
+                        const bool wantBounds = bounds && !(aggregate && surfacePair(h, r, s));
+                        oracles::LinkEstimate e =
+                            linkEstimate(h, r, l, wantBounds, oracle.needsUpperBound());
+                        if (coupling_ && oracle.needsBasisResidual() && surfacePair(h, r, s) &&
+                            !(l.flags & Link::kPartial)) {
+                            // The part of the transfer the receiver's basis truncates
+                            // (oracles/oracle.h LinkEstimate::basisResidualF). Not for
+                            // partially visible links: the residual is of the unoccluded
+                            // kernel and does not see a shadow edge across the receiver
+                            // (judging them by it left cornell's shadows under-refined:
+                            // cubic, 2,090 links, L2 0.0060 against 0.0032 with 2,460
+                            // links judged by the constant rule), so they keep the
+                            // constant rule.
+                            transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
+                            transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
+                            e.basisResidualF = coupling_->projectionResidual(er, es) * l.vis();
+                        }
+                        if (aggregate) {
+                            const ReceiverError& re = carries ? rerr[si] : kNotEvaluated;
+                            e.receiverRange = re.range;
+                            e.receiverDeviation = re.deviation;
+                            e.linkDeviation = re.linkDeviation;
+                            e.receiverLinks = re.links;
+                            if (re.range >= 0.f) {
+                                e.senderAggregate = re.senderSum;
+                                e.linkSenderPart = re.linkSender;
+                            }
+                        }
+                        if (carries && !stot.empty() && stot[si].total >= 0.f) {
+                            e.senderTotal = stot[si].total;
+                            e.linkSenderTotal = stot[si].link;
+                            e.senderLinks = stot[si].links;
+                        }
+                        Decision d = oracles::constrain(oracle.decide(e), e);
+                        if (d == Decision::Accept && guardEps > 0.0 && e.receiverRange >= 0.0 &&
+                            e.receiverRange * e.receiverArea > guardEps * e.emittedPower &&
+                            oracles::carriesReceiverShare(e))
                             d = oracles::constrain(Decision::RefineReceiver, e);
+                        // The sender side of the same check (hr.sender_total): a
+                        // subdivided sender's average, gathered by all its
+                        // receivers, within the check's eps share of the power.
+                        if (d == Decision::Accept && guardEps > 0.0 &&
+                            oracles::senderTotalRefines(e, guardEps))
+                            d = oracles::constrain(Decision::RefineSender, e);
+                        // A sampled near cluster link the oracle accepts must also
+                        // be known well enough: the power it may carry wrongly
+                        // (its error bound) within the oracle's eps share.
+                        if (d == Decision::Accept && (l.flags & Link::kSampled) && checkEps > 0 &&
+                            maxComponent(e.receiverRho * e.senderB) * e.F *
+                                    (l.uncertainty / 100.0) * e.receiverArea >
+                                checkEps * e.emittedPower)
+                            d = forcedDecision(h, r, s);
+                        // A partially visible (or all-blocked) link into a
+                        // cluster hands its light to every surface of the
+                        // cluster that faces the sender, seen or not: up to the
+                        // unseen fraction of its power lands on the wrong
+                        // surfaces (closed cavities, the far side of a table).
+                        // That power must be within eps too, else the receiving
+                        // cluster is opened (cluster.partial_receivers = open).
+                        // The links into one cluster misplace light together (as
+                        // a receiver's averaged senders do, hr/receiver_error.h):
+                        // their sum is held to eps too, refining the links with at
+                        // least an even share of it.
+                        if (d == Decision::Accept && partialCheck && misplaced[i] > 0) {
+                            const uint32_t c = h.clusterIndex(r);
+                            const double limit = checkEps * e.emittedPower;
+                            if (misplaced[i] > limit ||
+                                (clusterMisplaced[c] > limit &&
+                                 misplaced[i] * clusterPartial[c] >= clusterMisplaced[c]))
+                                d = oracles::constrain(Decision::RefineReceiver, e);
+                        }
+                        // A refused stand-in (or sampled link that found nothing)
+                        // of a pair too close for the point approximation is
+                        // opened on the side its geometry asks for.
+                        if (d != Decision::Accept && nearStandIns && (l.flags & Link::kSampled)) {
+                            const Decision f = forcedDecision(h, r, s);
+                            if (f != Decision::Accept) d = f;
+                        }
+                        decision[i] = uint8_t(d);
                     }
-                    // A refused stand-in (or sampled link that found nothing)
-                    // of a pair too close for the point approximation is
-                    // opened on the side its geometry asks for.
-                    if (d != Decision::Accept && nearStandIns && (l.flags & Link::kSampled)) {
-                        const Decision f = forcedDecision(h, r, s);
-                        if (f != Decision::Accept) d = f;
-                    }
-                    decision[i] = uint8_t(d);
                 }
             });
         }
+        // What the decisions needed is freed before the next round's links
+        // are made (the largest arrays of a round otherwise coexist).
+        releaseVector(rerr);
+        releaseVector(stot);
+        releaseVector(misplaced);
+        releaseVector(clusterMisplaced);
+        releaseVector(clusterPartial);
         // Collect the elements to subdivide and subdivide them in index order.
         mark.assign(h.numElements(), 0);
         size_t newCount = 0;
         std::vector<size_t> offset(n + 1, 0);
-        for (size_t i = 0; i < n; ++i) {
+        for (size_t i = 0, k = 0; i < n; ++i) {
             auto d = Decision(decision[i]);
             size_t c = 0;
             if (d == Decision::Accept) {
-                finalRecv.push_back(recv[i]);
-                finalLinks.push_back(pending[i]);
-                if (aggregate) finalS.push_back(pendingS[i]);
+                keepPending(i, k);
             } else {
+                skipPending(i, k);
                 bool rr = d == Decision::RefineReceiver || d == Decision::RefineBoth;
                 bool ss = d == Decision::RefineSender || d == Decision::RefineBoth;
                 uint32_t r = recv[i], s = pending[i].sender;
@@ -979,14 +1029,21 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
             uint64_t marked = 0;
             for (uint8_t m : mark) marked += m;
             uint64_t perLink =
-                sizeof(Link) + sizeof(uint32_t) + (aggregate ? sizeof(KernelSamples) : 0) +
+                sizeof(Link) + sizeof(uint32_t) +
                 (coupling_
                      ? sizeof(uint32_t) + sizeof(float) * uint64_t(h.basisSize() * h.basisSize())
                      : 0);
+            // Kernel samples for the new links in the share the links so far
+            // carry them.
+            const uint64_t samplesNow = finalS.size() + pendingS.size();
+            const uint64_t newSamples = samplesNow == 0
+                                            ? 0
+                                            : uint64_t(double(newCount) * double(samplesNow) /
+                                                       double(finalLinks.size() + n));
             uint64_t perElement = h.numElements() ? h.elementBytes() / h.numElements() : 64;
-            uint64_t estimate = h.elementBytes() + h.linkBytes() +
-                                (finalLinks.size() + n + newCount) * perLink +
-                                4 * marked * perElement;
+            uint64_t estimate =
+                h.elementBytes() + h.linkBytes() + (finalLinks.size() + n + newCount) * perLink +
+                (samplesNow + newSamples) * sizeof(KernelSamples) + 4 * marked * perElement;
             if (estimate > s_.memoryBudget) {
                 if (!res.memoryBudgetHit)
                     spdlog::warn(
@@ -994,14 +1051,20 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                         "refinement stops here; the solution is coarser than the oracle asks",
                         s_.memoryBudget >> 20, formatBytes(estimate));
                 res.memoryBudgetHit = true;
-                for (size_t i = 0; i < n; ++i) {
-                    if (Decision(decision[i]) == Decision::Accept) continue;
-                    finalRecv.push_back(recv[i]);
-                    finalLinks.push_back(pending[i]);
-                    if (aggregate) finalS.push_back(pendingS[i]);
+                for (size_t i = 0, k = 0; i < n; ++i) {
+                    if (Decision(decision[i]) == Decision::Accept)
+                        skipPending(i, k);
+                    else
+                        keepPending(i, k);
                 }
                 break;
             }
+        }
+        {
+            size_t marked = 0;
+            for (uint32_t e = 0; e < uint32_t(mark.size()); ++e)
+                marked += (mark[e] && h.firstChild(e) == kNone) ? 1 : 0;
+            h.reserveElements(4 * marked);
         }
         for (uint32_t e = 0; e < uint32_t(mark.size()); ++e)
             if (mark[e]) h.subdivide(e);
@@ -1010,7 +1073,31 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         // each slot is written by exactly one task).
         std::vector<uint32_t> nrecv(newCount);
         std::vector<Link> nlinks(newCount);
-        std::vector<KernelSamples> nS(aggregate ? newCount : 0);
+        // Where each pending link's children put their kernel samples: one
+        // per child pair of surface elements (a surface self-pair makes no
+        // link and no samples).
+        std::vector<size_t> sampleOffset(aggregate ? n + 1 : 0, 0);
+        if (aggregate) {
+            for (size_t i = 0; i < n; ++i) {
+                size_t c = 0;
+                if (offset[i + 1] > offset[i]) {
+                    auto d = Decision(decision[i]);
+                    uint32_t r = recv[i], s = pending[i].sender;
+                    bool rr = d == Decision::RefineReceiver || d == Decision::RefineBoth;
+                    bool ss = d == Decision::RefineSender || d == Decision::RefineBoth;
+                    uint32_t na = rr ? h.numChildren(r) : 1, nb = ss ? h.numChildren(s) : 1;
+                    for (uint32_t a = 0; a < na; ++a) {
+                        uint32_t rc = rr ? h.child(r, a) : r;
+                        for (uint32_t b = 0; b < nb; ++b) {
+                            uint32_t sc = ss ? h.child(s, b) : s;
+                            if (rc != sc && surfacePair(h, rc, sc)) ++c;
+                        }
+                    }
+                }
+                sampleOffset[i + 1] = sampleOffset[i] + c;
+            }
+        }
+        std::vector<KernelSamples> nS(aggregate ? sampleOffset[n] : 0);
         std::atomic<uint64_t> rays{0};
         // Each round of a large first refinement can take minutes: its own
         // progress bar (drawn only past a second) with the time left.
@@ -1026,6 +1113,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                 bool rr = d == Decision::RefineReceiver || d == Decision::RefineBoth;
                 bool ss = d == Decision::RefineSender || d == Decision::RefineBoth;
                 size_t o = offset[i];
+                size_t so = aggregate ? sampleOffset[i] : 0;
                 uint32_t na = rr ? h.numChildren(r) : 1, nb = ss ? h.numChildren(s) : 1;
                 for (uint32_t a = 0; a < na; ++a) {
                     uint32_t rc = rr ? h.child(r, a) : r;
@@ -1036,8 +1124,13 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                         // patches); between clusters it is kept, to be opened.
                         nlinks[o] = rc == sc && !h.isCluster(rc) ? Link{} : makeLink(h, rc, sc, nr);
                         nrecv[o] = rc;
-                        if (aggregate && nlinks[o].K > 0 && surfacePair(h, rc, sc))
-                            nS[o] = linkSamples(h, rc, sc);
+                        if (aggregate && h.carriesKernelSamples(rc, nlinks[o])) {
+                            // Samples only for links that carry light (the
+                            // others are dropped below, or kept for the
+                            // oracle with zero samples).
+                            if (nlinks[o].K > 0) nS[so] = linkSamples(h, rc, sc);
+                            ++so;
+                        }
                         localRays += nr;
                         ++o;
                     }
@@ -1050,7 +1143,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         rec.rays += rays;
         rec.formFactors += newCount;
         // Drop links that carry nothing (back-facing or fully occluded pairs).
-        size_t w = 0;
+        size_t w = 0, ws = 0, rs = 0;
         // Links to be opened (kOpen), cluster links whose judged rays were
         // all (kUncertain) or partly (kPartial) blocked, and deferred links
         // (kDeferred, computed later) are kept whatever their independent K
@@ -1061,15 +1154,18 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
             bool keep = clusterLink ? (nlinks[i].flags & (Link::kOpen | Link::kUncertain |
                                                           Link::kPartial | Link::kDeferred)) != 0
                                     : keepSurfaceLink(nlinks[i]);
+            const bool sampled = aggregate && h.carriesKernelSamples(nrecv[i], nlinks[i]);
+            const size_t si = sampled ? rs++ : 0;
             if (!(nlinks[i].K > 0) && !keep) continue;
             nlinks[w] = nlinks[i];
             nrecv[w] = nrecv[i];
-            if (aggregate) nS[w] = nS[i];
+            if (sampled) nS[ws++] = nS[si];
             ++w;
         }
+        HRAD_CHECK(rs == nS.size());
         nlinks.resize(w);
         nrecv.resize(w);
-        if (aggregate) nS.resize(w);
+        if (aggregate) nS.resize(ws);
         pending = std::move(nlinks);
         recv = std::move(nrecv);
         pendingS = std::move(nS);
@@ -1079,11 +1175,15 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
     if (res.linkCapHit || res.memoryBudgetHit || res.timeLimitHit)
         standInUnopened(h, finalRecv, finalLinks, res, rec);
     if (coupling_) {
-        PreviousCoupling previous = snapshotCoupling(h);
-        h.setLinks(finalRecv, std::move(finalLinks), std::move(finalS));
+        if (aggregate)
+            h.setLinks(finalRecv, std::move(finalLinks), std::move(finalS));
+        else
+            h.setLinks(finalRecv, std::move(finalLinks));
         rec.rays += updateCoupling(h, &previous);
-    } else {
+    } else if (aggregate) {
         h.setLinks(finalRecv, std::move(finalLinks), std::move(finalS));
+    } else {
+        h.setLinks(finalRecv, std::move(finalLinks));
     }
     return refined;
 }
@@ -1307,6 +1407,7 @@ HrResult HrSolver::solve(bool progress) {
             rec.leaves = h.numLeaves();
             rec.elementBytes = h.elementBytes();
             rec.linkBytes = h.linkBytes();
+            rec.peakRss = peakRssBytes();
             res.totalRays += rec.rays;
             res.totalFormFactors += rec.formFactors;
             res.refineSeconds += rec.refineSeconds;

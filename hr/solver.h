@@ -409,6 +409,9 @@ struct IterationRecord {
     RGB reflectedPower{0.0};
     double refineSeconds = 0.0, gatherSeconds = 0.0, pushPullSeconds = 0.0;
     uint64_t elementBytes = 0, linkBytes = 0;
+    /// The process's peak resident set size at the end of this iteration
+    /// (VmHWM): with the history, which phase of which iteration set it.
+    uint64_t peakRss = 0;
     /// Aitken factor applied after this iteration (0: none), max channel.
     double extrapolation = 0.0;
     /// Root patches relaxed alone after this iteration (hr.relax_share; 0:
@@ -543,8 +546,8 @@ class HrSolver {
 
   private:
     struct Pending;
-    /// Kernel samples of `links` (receivers `recv`), computed for the
-    /// surface links (zeros for links that touch a cluster).
+    /// Kernel samples of `links` (receivers `recv`): one entry per link that
+    /// carries them (Hierarchy::carriesKernelSamples), in link order.
     std::vector<KernelSamples> computeKernelSamples(const Hierarchy& h,
                                                     const std::vector<uint32_t>& recv,
                                                     const std::vector<Link>& links) const;

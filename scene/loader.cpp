@@ -181,6 +181,8 @@ Scene loadScene(const std::string& spec, const Params& params) {
         for (Patch& p : scene.patches) p.rho = RGB(uniformRho);
     }
     if (validate) scene.validate();
+    // The loaders grow the array by doubling; it lives as long as the solve.
+    scene.patches.shrink_to_fit();
     scene.stats.loadSeconds = timer.seconds();
     return scene;
 }

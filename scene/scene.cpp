@@ -97,6 +97,12 @@ void Scene::applyMaterials() {
 
 size_t Scene::addBackSides(bool all) {
     const size_t n = patches.size();
+    auto wantsTwin = [&](const Patch& p) {
+        return p.twin == UINT32_MAX && (all || materials[p.material].twoSided);
+    };
+    // One allocation of the exact size (push_back's doubling would leave up
+    // to half of the largest array of a big scene unused).
+    patches.reserve(n + size_t(std::count_if(patches.begin(), patches.end(), wantsTwin)));
     size_t added = 0;
     for (size_t i = 0; i < n; ++i) {
         if (patches[i].twin != UINT32_MAX) continue;  // already a pair

@@ -8,6 +8,7 @@
 
 #include "cluster/openness.h"
 #include "core/rng.h"
+#include "hr/receiver_error.h"
 #include "hr/solver.h"
 #include "scene/loader.h"
 #include "tests/hr/settings.h"
@@ -542,4 +543,43 @@ TEST(LinkCost, AccountsForEveryEvaluationByKind) {
             for (int k = 0; k < 4; ++k) EXPECT_GT(c.evaluations[k], 0u) << "kind " << k;
         }
     }
+}
+
+// The receiver aggregate's kernel samples are kept only for links between two
+// surface elements, in link order (Hierarchy::carriesKernelSamples): after a
+// clustered solve, one entry per such link, each equal to the samples of its
+// own pair computed afresh (a misaligned entry belongs to another pair).
+TEST(KernelSampleCache, HeldForSurfaceLinksOnlyAndInTheirOrder) {
+    scene::Scene s = scene::loadScene("office:1");
+    transport::Visibility vis(s);
+    HrSettings settings = clustered("oriented", "bfa", 1e-3);
+    HrSolver solver(s, vis, settings);
+    HrResult res = solver.solve();
+    const Hierarchy& h = *res.hierarchy;
+    ASSERT_TRUE(h.hasKernelSamples());
+    transport::FormFactorEngine engine(s, &vis, settings.ff);
+    const std::vector<KernelSamples>& samples = h.kernelSamples();
+    uint64_t carrying = 0, other = 0, compared = 0;
+    for (uint32_t r = 0; r < h.numElements(); ++r)
+        for (uint64_t i = h.linkBegin(r); i < h.linkEnd(r); ++i) {
+            const Link& l = h.link(i);
+            if (!h.carriesKernelSamples(r, l)) {
+                ++other;
+                continue;
+            }
+            ASSERT_LT(carrying, samples.size());
+            const KernelSamples& got = samples[carrying++];
+            // Links kept without light (K = 0) were given no samples.
+            if (!(l.K > 0)) continue;
+            const KernelSamples want = linkKernelSamples(h, engine, r, l.sender);
+            for (size_t k = 0; k < want.size(); ++k)
+                ASSERT_EQ(got[k], want[k]) << "receiver " << r << " link " << i << " sample " << k;
+            ++compared;
+        }
+    EXPECT_EQ(carrying, samples.size());
+    // Both kinds occur, so the layout is exercised.
+    EXPECT_GT(other, 1000u);
+    EXPECT_GT(compared, 1000u);
+    std::cout << "[ stats    ] " << carrying << " links with samples (" << compared
+              << " compared), " << other << " without\n";
 }
