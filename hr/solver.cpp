@@ -1073,27 +1073,31 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         // each slot is written by exactly one task).
         std::vector<uint32_t> nrecv(newCount);
         std::vector<Link> nlinks(newCount);
-        // Where each pending link's children put their kernel samples: one
-        // per child pair of surface elements (a surface self-pair makes no
-        // link and no samples).
+        // fn(rc, sc) for each child pair that replaces refined link i, in
+        // the order of its slots offset[i] .. offset[i + 1].
+        auto forEachChildPair = [&](size_t i, auto&& fn) {
+            auto d = Decision(decision[i]);
+            uint32_t r = recv[i], s = pending[i].sender;
+            bool rr = d == Decision::RefineReceiver || d == Decision::RefineBoth;
+            bool ss = d == Decision::RefineSender || d == Decision::RefineBoth;
+            uint32_t na = rr ? h.numChildren(r) : 1, nb = ss ? h.numChildren(s) : 1;
+            for (uint32_t a = 0; a < na; ++a)
+                for (uint32_t b = 0; b < nb; ++b)
+                    fn(rr ? h.child(r, a) : r, ss ? h.child(s, b) : s);
+        };
+        // A child pair of two surface elements gets kernel samples; a surface
+        // self-pair makes no link (below) and none.
+        auto childSampled = [&](uint32_t rc, uint32_t sc) {
+            return rc != sc && surfacePair(h, rc, sc);
+        };
+        // Where each refined link's children put their samples.
         std::vector<size_t> sampleOffset(aggregate ? n + 1 : 0, 0);
         if (aggregate) {
             for (size_t i = 0; i < n; ++i) {
                 size_t c = 0;
-                if (offset[i + 1] > offset[i]) {
-                    auto d = Decision(decision[i]);
-                    uint32_t r = recv[i], s = pending[i].sender;
-                    bool rr = d == Decision::RefineReceiver || d == Decision::RefineBoth;
-                    bool ss = d == Decision::RefineSender || d == Decision::RefineBoth;
-                    uint32_t na = rr ? h.numChildren(r) : 1, nb = ss ? h.numChildren(s) : 1;
-                    for (uint32_t a = 0; a < na; ++a) {
-                        uint32_t rc = rr ? h.child(r, a) : r;
-                        for (uint32_t b = 0; b < nb; ++b) {
-                            uint32_t sc = ss ? h.child(s, b) : s;
-                            if (rc != sc && surfacePair(h, rc, sc)) ++c;
-                        }
-                    }
-                }
+                if (offset[i + 1] > offset[i])
+                    forEachChildPair(i,
+                                     [&](uint32_t rc, uint32_t sc) { c += childSampled(rc, sc); });
                 sampleOffset[i + 1] = sampleOffset[i] + c;
             }
         }
@@ -1108,33 +1112,24 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
             uint64_t localRays = 0;
             for (size_t i = range.begin(); i != range.end(); ++i) {
                 if (offset[i + 1] == offset[i]) continue;
-                auto d = Decision(decision[i]);
-                uint32_t r = recv[i], s = pending[i].sender;
-                bool rr = d == Decision::RefineReceiver || d == Decision::RefineBoth;
-                bool ss = d == Decision::RefineSender || d == Decision::RefineBoth;
                 size_t o = offset[i];
                 size_t so = aggregate ? sampleOffset[i] : 0;
-                uint32_t na = rr ? h.numChildren(r) : 1, nb = ss ? h.numChildren(s) : 1;
-                for (uint32_t a = 0; a < na; ++a) {
-                    uint32_t rc = rr ? h.child(r, a) : r;
-                    for (uint32_t b = 0; b < nb; ++b) {
-                        uint32_t sc = ss ? h.child(s, b) : s;
-                        uint32_t nr = 0;
-                        // A self-link between surfaces carries nothing (planar
-                        // patches); between clusters it is kept, to be opened.
-                        nlinks[o] = rc == sc && !h.isCluster(rc) ? Link{} : makeLink(h, rc, sc, nr);
-                        nrecv[o] = rc;
-                        if (aggregate && h.carriesKernelSamples(rc, nlinks[o])) {
-                            // Samples only for links that carry light (the
-                            // others are dropped below, or kept for the
-                            // oracle with zero samples).
-                            if (nlinks[o].K > 0) nS[so] = linkSamples(h, rc, sc);
-                            ++so;
-                        }
-                        localRays += nr;
-                        ++o;
+                forEachChildPair(i, [&](uint32_t rc, uint32_t sc) {
+                    uint32_t nr = 0;
+                    // A self-link between surfaces carries nothing (planar
+                    // patches); between clusters it is kept, to be opened.
+                    nlinks[o] = rc == sc && !h.isCluster(rc) ? Link{} : makeLink(h, rc, sc, nr);
+                    nrecv[o] = rc;
+                    if (aggregate && childSampled(rc, sc)) {
+                        // Samples only for links that carry light (the others
+                        // are dropped below, or kept for the oracle with zero
+                        // samples).
+                        if (nlinks[o].K > 0) nS[so] = linkSamples(h, rc, sc);
+                        ++so;
                     }
-                }
+                    localRays += nr;
+                    ++o;
+                });
             }
             rays += localRays;
             bar.add(range.size());

@@ -105,9 +105,8 @@ size_t Scene::addBackSides(bool all) {
     patches.reserve(n + size_t(std::count_if(patches.begin(), patches.end(), wantsTwin)));
     size_t added = 0;
     for (size_t i = 0; i < n; ++i) {
-        if (patches[i].twin != UINT32_MAX) continue;  // already a pair
+        if (!wantsTwin(patches[i])) continue;  // already a pair, or one-sided
         const Material& m = materials[patches[i].material];
-        if (!all && !m.twoSided) continue;
         Patch back = patches[i];
         // Reverse the winding so that the normal is negated and the
         // parametrisation stays counter-clockwise seen from the back:
