@@ -262,7 +262,15 @@
 //                                     cosine alone
 //   cluster.stand_in    bool    true  links left unopened when refinement stops early
 //                                     get a stand-in transfer (above); false: they carry nothing
-//   cluster.stand_in_rays  int  32   point pairs (rays) per stand-in
+//   cluster.stand_in_rays  int  128  point pairs (rays) per stand-in (judged and carried
+//                                     estimates each). Each kept stand-in's error is held
+//                                     within eps alone, so the errors of thousands add up:
+//                                     at 32, Lost Empire's reflected power varied by 2.0 %
+//                                     (one standard deviation) between ray seeds (hr.seed),
+//                                     0.3 % at 128 and at 256; classroom's non-emitter L2
+//                                     against Monte Carlo 6.5 +- 0.4 % at 32, 6.0 +- 0.15 %
+//                                     at 128, 5.9 % at 256 and 512 (bench/results/
+//                                     large_scenes.md, "The solver's own noise, over seeds")
 //   cluster.stand_in_handover  string  "area"  area | seen: a stand-in that no
 //                                     direction hands over (overlapping spheres, or
 //                                     too much light on surfaces facing away) lights
@@ -359,7 +367,7 @@ struct ClusterLinkSettings {
     /// cluster.stand_in: links left to be opened when refinement stops early
     /// get a sampled stand-in transfer (ClusterLinker::standIn) instead of none.
     bool standIn = true;
-    int standInRays = 32;
+    int standInRays = 128;
     /// cluster.stand_in_handover: stand-ins no direction hands over give
     /// each surface a share by what it sees of the sender (true, `seen`) or
     /// by area (false, the default).

@@ -34,7 +34,7 @@ uint8_t SurfaceOpenness::quantise(bool hit, double t) const {
 }
 
 SurfaceOpenness::SurfaceOpenness(const scene::Scene& scene, const ClusterTree& tree,
-                                 const transport::Visibility& visibility)
+                                 const transport::Visibility& visibility, uint64_t seed)
     : scene_(&scene), tree_(&tree) {
     Timer timer;
     scene::Bounds3 box = scene.bounds();
@@ -52,7 +52,7 @@ SurfaceOpenness::SurfaceOpenness(const scene::Scene& scene, const ClusterTree& t
             const uint32_t patch = tree.patchAt(i);
             const View v = view(patch);
             uint8_t* row = dist_.data() + size_t(patch) * stride;
-            Pcg32 rng(hashIds(patch, 0x6f70656eULL));
+            Pcg32 rng(reseed(hashIds(patch, 0x6f70656eULL), seed));
             for (int k = 0; k < kBins; ++k) {
                 const int band = k / kSectors, sector = k % kSectors;
                 for (int j = 0; j < kPoints; ++j) {

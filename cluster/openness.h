@@ -66,8 +66,9 @@ class SurfaceOpenness {
     static constexpr int kBins = kBands * kSectors;
 
     /// Traces the table for every patch the tree holds (in parallel).
+    /// `seed` (hr.seed; 0: the fixed seeding) draws the directions.
     SurfaceOpenness(const scene::Scene& scene, const ClusterTree& tree,
-                    const transport::Visibility& visibility);
+                    const transport::Visibility& visibility, uint64_t seed = 0);
 
     /// A patch as queries see it: its frame, its fixed points (stratified
     /// on the unit square, mapped by ClusterTree::pointOnPatch) and its row

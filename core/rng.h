@@ -21,6 +21,12 @@ constexpr uint64_t mix64(uint64_t z) {
 
 constexpr uint64_t hashIds(uint64_t a, uint64_t b) { return mix64(a * 0x100000001b3ULL ^ mix64(b)); }
 constexpr uint64_t hashIds(uint64_t a, uint64_t b, uint64_t c) { return hashIds(hashIds(a, b), c); }
+/// `base` drawn under a run's seed (hr.seed): `base` itself for seed 0, the
+/// house's fixed seeding, else an independent hash of both, so that repeated
+/// runs with different seeds draw independent samples.
+constexpr uint64_t reseed(uint64_t base, uint64_t seed) {
+    return seed ? hashIds(base, seed) : base;
+}
 
 class Pcg32 {
   public:

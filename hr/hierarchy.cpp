@@ -174,8 +174,8 @@ scene::Domain Hierarchy::domain(uint32_t e) const {
 }
 
 uint64_t Hierarchy::stableId(uint32_t e) const {
-    if (isCluster(e)) return hashIds(0xC105E6ULL, clusterIndex(e));
-    return hashIds(patch_[e], key_[e]);
+    if (isCluster(e)) return reseed(hashIds(0xC105E6ULL, clusterIndex(e)), seed_);
+    return reseed(hashIds(patch_[e], key_[e]), seed_);
 }
 
 void Hierarchy::subdivide(uint32_t e) {
@@ -553,7 +553,7 @@ void Hierarchy::handOverStandIns() {
                         double run = 0.0;
                         for (size_t k = 0; k < lit.size(); ++k)
                             cdf[k] = run += lit[k].weight * scene_->patches[lit[k].patch].area;
-                        Pcg32 rng(hashIds(r, l.sender));
+                        Pcg32 rng(reseed(hashIds(r, l.sender), seed_));
                         for (uint32_t m = 0; m < kSeenMaxSources; ++m) {
                             const double u = rng.nextDouble() * run;
                             const size_t k = std::min<size_t>(
@@ -601,7 +601,7 @@ void Hierarchy::handOverStandIns() {
                         const uint32_t sp = sources[k].patch;
                         const scene::Patch& S = scene_->patches[sp];
                         if (sp == p || sp == P.twin) continue;
-                        Pcg32 rng(hashIds(p, sp));
+                        Pcg32 rng(reseed(hashIds(p, sp), seed_));
                         const double su = rng.nextDouble(), sv = rng.nextDouble();
                         for (int j = 0; j < cluster::SurfaceOpenness::kPoints; ++j) {
                             const Vec3& x = view.x[j];

@@ -230,8 +230,14 @@ class Hierarchy {
     RGB& B(uint32_t e) { return B_[e]; }
     const RGB& gathered(uint32_t e) const { return gathered_[e]; }
     RGB& gathered(uint32_t e) { return gathered_[e]; }
-    /// Stable id of an element, independent of allocation order (seeds rays).
+    /// Stable id of an element, independent of allocation order (seeds rays),
+    /// drawn under the solve's seed (setSeed).
     uint64_t stableId(uint32_t e) const;
+    /// The solve's seed (hr.seed): 0 keeps the fixed seeding; any other value
+    /// draws every ray the hierarchy's links and hand-overs cast from other
+    /// streams. Set before the first link is made.
+    void setSeed(uint64_t seed) { seed_ = seed; }
+    uint64_t seed() const { return seed_; }
 
     /// Creates the four children of a leaf (no-op when already subdivided).
     /// Children inherit the parent's B. Not thread-safe.
@@ -539,6 +545,7 @@ class Hierarchy {
     std::vector<cluster::StandInSample> standInSamples_;
     bool hasStandIns_ = false;  ///< some link is a stand-in (Link::kStandIn)
     bool judgedSurfaceVis_ = false;  ///< setJudgedSurfaceVisibility
+    uint64_t seed_ = 0;              ///< setSeed
     std::vector<uint32_t> couplingIndex_;
     std::vector<float> couplingData_;
 };

@@ -171,6 +171,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
                                {"emitted", "reflected"}) == "reflected";
     s.reachRays = int(p.getInt("hr.reach_rays", s.reachRays, 0, 1 << 20));
     s.reachRetryRays = int(p.getInt("hr.reach_retry_rays", s.reachRetryRays, 0, 1 << 20));
+    s.seed = uint64_t(p.getInt("hr.seed", int64_t(s.seed), 0, int64_t(1) << 62));
     s.gaussSeidel = p.getEnum("hr.iteration", s.gaussSeidel ? "gauss-seidel" : "jacobi",
                               {"jacobi", "gauss-seidel"}) == "gauss-seidel";
     s.gsBlocks = int(p.getInt("hr.gs_blocks", s.gsBlocks, 0, 1 << 30));
@@ -1202,8 +1203,8 @@ HrResult HrSolver::solve(bool progress) {
     res.clusterModel = cluster::clusterModelName(s_.clusterModel);
     included_.clear();
     if (s_.reachRays > 0) {
-        transport::Reachability reach =
-            transport::reachablePatches(*scene_, *vis_, s_.reachRays, 1, s_.reachRetryRays);
+        transport::Reachability reach = transport::reachablePatches(
+            *scene_, *vis_, s_.reachRays, reseed(1, s_.seed), s_.reachRetryRays);
         res.unreachablePatches = reach.unreachable;
         res.reachRays = reach.rays;
         res.reachSeconds = reach.seconds;
@@ -1229,11 +1230,13 @@ HrResult HrSolver::solve(bool progress) {
                                                 s_.basisDegree);
     Hierarchy& h = *res.hierarchy;
     h.setJudgedSurfaceVisibility(s_.judgeVisibility);
+    h.setSeed(s_.seed);
     linker_ = std::make_unique<cluster::ClusterLinker>(*scene_, res.clusterTree.get(),
                                                        s_.clusterModel, vis_, s_.clusterLink);
     if (res.clusterTree && h.clusterModel() == cluster::ClusterModel::Oriented &&
         s_.clusterLink.visibleHandover) {
-        res.openness = std::make_unique<cluster::SurfaceOpenness>(*scene_, *res.clusterTree, *vis_);
+        res.openness =
+            std::make_unique<cluster::SurfaceOpenness>(*scene_, *res.clusterTree, *vis_, s_.seed);
         res.opennessRays = res.openness->rays();
         res.opennessSeconds = res.openness->seconds();
         h.setOpenness(res.openness.get());

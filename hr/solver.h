@@ -105,6 +105,13 @@
 //                                       by default: on graz it lowers the non-emitter L2
 //                                       but raises the light on patches the Monte Carlo
 //                                       reference has dark (papers/README.md)
+//   hr.seed            int     0       the seed of every ray the solve casts (surface
+//                                       visibility, cluster links, stand-ins, the hand-over's
+//                                       openness table, reachability). 0: the fixed seeding
+//                                       (results repeat bit for bit); other values draw from
+//                                       independent streams, so solves repeated with seeds
+//                                       1..n measure the solver's own Monte Carlo noise
+//                                       (tests/hr/stand_in_audit_test.cpp)
 //   hr.eps_power       string  "emitted"  emitted | reflected: the power eps is a fraction
 //                                       of, for every oracle and every check the solver adds
 //                                       (LinkEstimate::emittedPower). emitted: the scene's
@@ -366,6 +373,8 @@ struct HrSettings {
     int reachRays = 64;
     /// hr.reach_retry_rays: more rays for each patch the first ones left unconnected.
     int reachRetryRays = 0;
+    /// hr.seed: 0 keeps the fixed seeding of every ray the solve casts.
+    uint64_t seed = 0;
     bool openPartialReceivers = true;  ///< cluster.partial_receivers
     bool gaussSeidel = false;          ///< hr.iteration
     int gsBlocks = 0;                  ///< hr.gs_blocks (0: one block per root patch)

@@ -7,6 +7,7 @@
 // fast test: office:4, and Lost Empire when ../shared/scenes is there.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 
@@ -151,9 +152,6 @@ TEST(StandInAudit, StandInsCarryTheirMonteCarloPowerOnLostEmpire) {
 // opened, so fewer stand-ins remain (Lost Empire 5,108 against 440,039),
 // spanning larger clusters, and their sum is judged against the audit's own
 // standard error (4,096 point pairs per stand-in): measured 1.028 +- 0.015.
-// On office:4 the default leaves 98 stand-ins carrying 0.1 % of the
-// reflected light, and these are not unbiased: 0.60 +- 0.02 of their Monte
-// Carlo power (bench/results/large_scenes.md, "Stand-ins of the default").
 TEST(StandInAudit, DefaultStandInsCarryTheirMonteCarloPowerOnLostEmpire) {
     auto dir = test::sharedScenesDir();
     if (!dir) GTEST_SKIP() << "../shared/scenes is absent";
@@ -165,4 +163,40 @@ TEST(StandInAudit, DefaultStandInsCarryTheirMonteCarloPowerOnLostEmpire) {
     const Group all = allStandIns(a);
     ASSERT_GT(all.mc, 0.0);
     EXPECT_LT(std::fabs(all.model - all.mc), 3.0 * all.se());
+}
+
+// On office:4 the default leaves about 100-130 stand-ins (cluster pairs of
+// about 110 x 110 surfaces, most overlapping or nearly so), each with a
+// relative standard error of 50-100 % at 32 rays (the oracle keeps it
+// because that error times its power is within eps of the emitted power).
+// One solve's sum is then one noisy draw: at 32 rays the fixed seeding gave
+// 0.60 of the Monte Carlo power, and the audit's standard error (0.02) does
+// not count the stand-ins' own noise. Over solves with independent seeds
+// (hr.seed) the spread of (model - Monte Carlo) between seeds counts both,
+// and the mean difference must lie within three of its standard errors:
+// measured -0.256 +- 0.263 at 32 rays, 0.001 +- 0.092 at 128 (the default);
+// with the judged estimate drawn from the carried one's stream (the
+// selection bias the independent estimate avoids) -0.945 +- 0.108, a
+// failure. The audit's own estimate is heavy-tailed where the two clusters'
+// surfaces touch (area sampling of 1 / d^2): over seeds 0-24 at 32 rays,
+// four seeds' audits had standard errors of 0.35-1.5 against 0.02-0.08 for
+// the others (bench/results/large_scenes.md, "The solver's own noise, over
+// seeds").
+TEST(StandInAudit, DefaultStandInsCarryTheirMonteCarloPowerOnOffice4OverSeeds) {
+    constexpr int kSeeds = 12;
+    double sum = 0, sum2 = 0, model = 0, mc = 0;
+    for (int seed = 1; seed <= kSeeds; ++seed) {
+        Params p;
+        p.set("hr.seed", int64_t(seed));
+        const Group all = allStandIns(audit("office:4", p, "stand_in", 1, Regime::kDefault));
+        ASSERT_GT(all.links, 50u);
+        const double d = all.model - all.mc;
+        sum += d, sum2 += d * d, model += all.model, mc += all.mc;
+    }
+    const double mean = sum / kSeeds;
+    const double se = std::sqrt(std::max(0.0, sum2 / kSeeds - mean * mean) / (kSeeds - 1));
+    std::cout << "office:4 default stand-ins over " << kSeeds << " seeds: model " << model
+              << ", Monte Carlo " << mc << ", mean difference " << mean << " +- " << se << "\n";
+    ASSERT_GT(se, 0.0);
+    EXPECT_LT(std::fabs(mean), 3.0 * se);
 }
