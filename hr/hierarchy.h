@@ -237,7 +237,6 @@ class Hierarchy {
     /// draws every ray the hierarchy's links and hand-overs cast from other
     /// streams. Set before the first link is made.
     void setSeed(uint64_t seed) { seed_ = seed; }
-    uint64_t seed() const { return seed_; }
 
     /// Creates the four children of a leaf (no-op when already subdivided).
     /// Children inherit the parent's B. Not thread-safe.

@@ -24,13 +24,13 @@ namespace hrad::hr {
 using oracles::Decision;
 
 namespace {
-/// A link between two surface elements (no cluster on either side).
 /// Frees v's storage (clear() keeps it).
 template <class T>
 void releaseVector(std::vector<T>& v) {
     std::vector<T>().swap(v);
 }
 
+/// A link between two surface elements (no cluster on either side).
 bool surfacePair(const Hierarchy& h, uint32_t r, uint32_t s) {
     return s != kNone && !h.isCluster(r) && !h.isCluster(s);
 }
@@ -1170,17 +1170,11 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
     // stand-in transfer instead of none (cluster/link.h "Stand-ins").
     if (res.linkCapHit || res.memoryBudgetHit || res.timeLimitHit)
         standInUnopened(h, finalRecv, finalLinks, res, rec);
-    if (coupling_) {
-        if (aggregate)
-            h.setLinks(finalRecv, std::move(finalLinks), std::move(finalS));
-        else
-            h.setLinks(finalRecv, std::move(finalLinks));
-        rec.rays += updateCoupling(h, &previous);
-    } else if (aggregate) {
+    if (aggregate)
         h.setLinks(finalRecv, std::move(finalLinks), std::move(finalS));
-    } else {
+    else
         h.setLinks(finalRecv, std::move(finalLinks));
-    }
+    if (coupling_) rec.rays += updateCoupling(h, &previous);
     return refined;
 }
 

@@ -23,6 +23,22 @@ namespace {
 HrSettings clustered(const std::string& model, const std::string& oracle, double eps) {
     return test::hrSettings(oracle, eps, model);
 }
+
+// Two solves gave the same hierarchy and radiosities, bit for bit (the first
+// difference in the message).
+::testing::AssertionResult sameSolution(const HrResult& a, const HrResult& b) {
+    const Hierarchy &ha = *a.hierarchy, &hb = *b.hierarchy;
+    if (ha.numElements() != hb.numElements())
+        return ::testing::AssertionFailure()
+               << "elements " << ha.numElements() << " vs " << hb.numElements();
+    if (ha.numLinks() != hb.numLinks())
+        return ::testing::AssertionFailure()
+               << "links " << ha.numLinks() << " vs " << hb.numLinks();
+    for (uint32_t e = 0; e < ha.numElements(); ++e)
+        if (std::memcmp(&ha.B(e), &hb.B(e), sizeof(RGB)) != 0)
+            return ::testing::AssertionFailure() << "B differs at element " << e;
+    return ::testing::AssertionSuccess();
+}
 }  // namespace
 
 class ClusterModels : public ::testing::TestWithParam<std::string> {};
@@ -504,13 +520,7 @@ TEST(ClusterTransfer, BitwiseIdenticalForOneAndTwoThreads) {
         return solver.solve();
     };
     HrResult a = run(1), b = run(2), c = run(2);
-    for (const HrResult* other : {&b, &c}) {
-        const Hierarchy &ha = *a.hierarchy, &hb = *other->hierarchy;
-        ASSERT_EQ(ha.numElements(), hb.numElements());
-        ASSERT_EQ(ha.numLinks(), hb.numLinks());
-        for (uint32_t e = 0; e < ha.numElements(); ++e)
-            ASSERT_EQ(std::memcmp(&ha.B(e), &hb.B(e), sizeof(RGB)), 0) << "element " << e;
-    }
+    for (const HrResult* other : {&b, &c}) ASSERT_TRUE(sameSolution(a, *other));
 }
 
 // hr.seed: 0 is the fixed seeding (bit for bit what a solve without the
@@ -531,18 +541,11 @@ TEST(ClusterTransfer, SeedZeroIsTheFixedSeedingOtherSeedsDrawAnew) {
         HrSolver solver(s, vis, hs);
         return solver.solve();
     };
-    auto same = [](const HrResult& a, const HrResult& b) {
-        const Hierarchy &ha = *a.hierarchy, &hb = *b.hierarchy;
-        if (ha.numElements() != hb.numElements() || ha.numLinks() != hb.numLinks()) return false;
-        for (uint32_t e = 0; e < ha.numElements(); ++e)
-            if (std::memcmp(&ha.B(e), &hb.B(e), sizeof(RGB)) != 0) return false;
-        return true;
-    };
     HrResult unset = run(-1), zero = run(0), one = run(1), oneAgain = run(1), two = run(2);
-    EXPECT_TRUE(same(unset, zero));
-    EXPECT_TRUE(same(one, oneAgain));
-    EXPECT_FALSE(same(zero, one));
-    EXPECT_FALSE(same(one, two));
+    EXPECT_TRUE(sameSolution(unset, zero));
+    EXPECT_TRUE(sameSolution(one, oneAgain));
+    EXPECT_FALSE(sameSolution(zero, one));
+    EXPECT_FALSE(sameSolution(one, two));
     const double e = s.emittedPower().g;
     const double r0 = zero.hierarchy->radiosityPower().g - e;
     for (const HrResult* other : {&one, &two}) {
