@@ -20,7 +20,10 @@
 //   hrad_version, build_type, host, date, scene, scene_label, settings,
 //   reference_settings, scene_info{...}, solver, solver_settings, oracle,
 //   converged, link_cap_hit, memory_budget_hit, time_limit_hit, min_area,
-//   error_estimate, stand_in_power_share,
+//   error_estimate, stand_in_power_share, noise_estimate (hr/noise.h: the
+//   relative standard deviation of the reflected power that the solve's own
+//   rays leave, max channel), noise{reflected_power_sd[3], direct_sd[3],
+//   amplification[3], relative, l2_nonemitter_direct, noisy_links},
 //   counts{elements, leaves, links, initial_links, initial_pairs, links_ss, links_sc,
 //          links_cs, links_cc (surface/cluster receiver-sender), rays, form_factors,
 //          deferred_links_computed, deferred_links_left, unopened_links, stand_in_links,
@@ -28,7 +31,8 @@
 //          handover_rays,
 //          handover_by_openness, handover_by_cosine, iterations},
 //   timings{load, visibility_build, [cluster_build], [handover_openness], linking,
-//           refine, [stand_in], [near_stand_in], gather, push_pull, solve_total, reference, error,
+//           refine, [stand_in], [near_stand_in], gather, push_pull, error_estimate,
+//           noise_estimate, solve_total, reference, error,
 //           render}   (seconds)
 //   history[{iteration, stage, eps, links, elements, leaves, refined_links,
 //            rays, form_factors, residual, reflected_power, refine_s, gather_s,

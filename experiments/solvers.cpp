@@ -54,6 +54,17 @@ class HrEntry final : public Solver {
         sm["min_area"] = res->minArea;
         sm["error_estimate"] = res->errorEstimate;
         sm["stand_in_power_share"] = res->standInPowerShare;
+        {
+            const hr::SolverNoise& n = res->noise;
+            auto rgb = [](const RGB& v) { return json::array({v.r, v.g, v.b}); };
+            sm["noise_estimate"] = n.relative;
+            sm["noise"] = json{{"reflected_power_sd", rgb(n.powerSd)},
+                               {"direct_sd", rgb(n.direct)},
+                               {"amplification", rgb(n.amplification)},
+                               {"relative", n.relative},
+                               {"l2_nonemitter_direct", n.l2NonEmitter},
+                               {"noisy_links", n.links}};
+        }
         sm["counts"] = json{{"elements", h.numElements()},
                             {"leaves", h.numLeaves()},
                             {"links", h.numLinks()},
@@ -99,6 +110,7 @@ class HrEntry final : public Solver {
         t["gather"] = res->gatherSeconds;
         t["push_pull"] = res->pushPullSeconds;
         t["error_estimate"] = res->errorEstimateSeconds;
+        t["noise_estimate"] = res->noiseSeconds;
         if (res->standInLinks > 0) t["stand_in"] = res->standInSeconds;
         if (res->nearStandInsMade > 0) t["near_stand_in"] = res->nearStandInSeconds;
         for (const auto& [k, v] : res->memory.all()) out.memory.set(k, v);

@@ -38,7 +38,8 @@ CREATE TABLE IF NOT EXISTS runs (
   bytes TEXT, summary TEXT,
   l1_reflected_lum REAL, l2_reflected_lum REAL, l1_nonemitter_lum REAL,
   l2_nonemitter_lum REAL, mean_ratio_nonemitter REAL, error_estimate REAL, residual REAL,
-  slurm_job_id TEXT, slurm_array_task_id INTEGER);
+  slurm_job_id TEXT, slurm_array_task_id INTEGER, noise_estimate REAL,
+  noise_l2_nonemitter REAL);
 CREATE TABLE IF NOT EXISTS iterations (
   run_key TEXT, iteration INTEGER, stage INTEGER, eps REAL, links INTEGER,
   elements INTEGER, leaves INTEGER, refined_links INTEGER, rays INTEGER,
@@ -59,23 +60,26 @@ CREATE TABLE IF NOT EXISTS failures (
 ///      (still user_version 0; told apart from 1 by its columns)
 ///   3  application id and user_version set; runs and failures gain
 ///      slurm_job_id and slurm_array_task_id (provenance)
+///   4  runs gain noise_estimate and noise_l2_nonemitter (the solve's own
+///      ray noise, hr/noise.h)
 /// Older versions are migrated when opened for writing (missing columns are
 /// added, NULL in old rows) and read as they are when opened read-only.
 constexpr int32_t kApplicationId = 0x48524144;
-constexpr int kSchemaVersion = 3;
+constexpr int kSchemaVersion = 4;
 
 const char* kTables[] = {"studies", "runs", "iterations", "failures"};
 
 /// Columns added to `runs` after the first stores were written (the error
 /// of the reflected part and of non-emitting surfaces, reference/metrics.h;
-/// the solver's error estimate and final residual). Stores without them get
+/// the solver's error and noise estimates and final residual). Stores without them get
 /// them on opening for writing (NULL in the old rows; the values are in each
 /// row's `summary` too).
 const std::pair<const char*, const char*> kAddedRunColumns[] = {
     {"l1_reflected_lum", "REAL"},  {"l2_reflected_lum", "REAL"},
     {"l1_nonemitter_lum", "REAL"}, {"l2_nonemitter_lum", "REAL"},
     {"mean_ratio_nonemitter", "REAL"}, {"error_estimate", "REAL"},
-    {"residual", "REAL"}, {"slurm_job_id", "TEXT"}, {"slurm_array_task_id", "INTEGER"}};
+    {"residual", "REAL"}, {"slurm_job_id", "TEXT"}, {"slurm_array_task_id", "INTEGER"},
+    {"noise_estimate", "REAL"}, {"noise_l2_nonemitter", "REAL"}};
 const std::pair<const char*, const char*> kAddedFailureColumns[] = {
     {"slurm_job_id", "TEXT"}, {"slurm_array_task_id", "INTEGER"}};
 
@@ -398,7 +402,8 @@ void ResultStore::addRun(const std::string& key, const std::string& study, int64
         "linf_lum", "l1_rgb", "l2_rgb", "linf_rgb", "mc_stderr_l2_lum", "mc_stderr_l2_rgb",
         "regions", "reference_desc", "bytes", "summary", "l1_reflected_lum",
         "l2_reflected_lum", "l1_nonemitter_lum", "l2_nonemitter_lum", "mean_ratio_nonemitter",
-        "error_estimate", "residual", "slurm_job_id", "slurm_array_task_id"};
+        "error_estimate", "residual", "slurm_job_id", "slurm_array_task_id", "noise_estimate",
+        "noise_l2_nonemitter"};
     auto [slurmJob, slurmTask] = slurmProvenance();
     json settings = at(s, "settings");
     json oracle = nullptr;
@@ -462,7 +467,9 @@ void ResultStore::addRun(const std::string& key, const std::string& study, int64
                               at(s, "error_estimate"),
                               at(s, "residual"),
                               slurmJob,
-                              slurmTask};
+                              slurmTask,
+                              at(s, "noise_estimate"),
+                              at(s, "noise", "l2_nonemitter_direct")};
     exec("BEGIN IMMEDIATE");
     try {
         Stmt st(db_, insertSql("runs", cols, "INSERT OR REPLACE"));

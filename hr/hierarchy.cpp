@@ -744,19 +744,13 @@ void Hierarchy::gatherRow(uint32_t r) {
                 else
                     sumHi[a] += v;
             }
-        } else if (oriented && isCluster(s) && !(links_[i].flags & Link::kStandIn)) {
-            // An oriented cluster sends what its surfaces facing the
-            // receiver carry, not its mean radiosity.
-            if (!haveCenter) {
-                cr = center(r);
-                haveCenter = true;
-            }
-            Vec3 d = cr - tree_->node(clusterIndex(s)).centroid;
-            double len = glm::length(d);
-            sum += double(links_[i].K) * (len > 0 ? directionalB(s, d / len) : B_[s]);
-        } else {
-            sum += double(links_[i].K) * B_[s];
+            continue;
         }
+        if (oriented && isCluster(s) && !haveCenter) {
+            cr = center(r);
+            haveCenter = true;
+        }
+        sum += rowSent(i, oriented ? &cr : nullptr);
     }
     if (patch_[r] == kNone) {
         // A cluster gathers irradiance (reflected per surface when pushed);
@@ -768,6 +762,26 @@ void Hierarchy::gatherRow(uint32_t r) {
     gathered_[r] = rho * sum;
     for (int a = 1; a < nb_; ++a)
         gatheredHi_[size_t(r) * size_t(nb_ - 1) + size_t(a - 1)] = rho * sumHi[a];
+}
+
+RGB Hierarchy::rowSent(uint64_t i, const Vec3* receiverCenter) const {
+    const Link& l = links_[i];
+    const uint32_t s = l.sender;
+    if (l.flags & Link::kStandIn) return standInSent(l);
+    if (const float* K = nb_ > 1 ? coupling(i) : nullptr) {
+        // The constant term: sum_b K^{0b} c^s_b (transport/coupling.h).
+        RGB v = double(K[0]) * B_[s];
+        for (int b = 1; b < nb_; ++b) v += double(K[b]) * hi(s)[b - 1];
+        return v;
+    }
+    if (receiverCenter && isCluster(s)) {
+        // An oriented cluster sends what its surfaces facing the receiver
+        // carry, not its mean radiosity.
+        Vec3 d = *receiverCenter - tree_->node(clusterIndex(s)).centroid;
+        double len = glm::length(d);
+        return double(l.K) * (len > 0 ? directionalB(s, d / len) : B_[s]);
+    }
+    return double(l.K) * B_[s];
 }
 
 void Hierarchy::gather() {
@@ -789,6 +803,50 @@ std::vector<RGB> Hierarchy::clusterDown() const {
     return down;
 }
 
+struct Hierarchy::LazyView {
+    bool made = false;
+    cluster::SurfaceOpenness::View view;
+};
+
+template <class F>
+void Hierarchy::forEachShare(uint32_t c, uint32_t root, LazyView& lv, F&& f) const {
+    // With the openness table each surface takes its share by cosine and by
+    // how open it is towards the sender within the receiving cluster
+    // (cluster/openness.h).
+    const glm::vec3 n(scene_->patches[root].normal);
+    bool haveInside = false;
+    cluster::SurfaceOpenness::Inside inside;
+    for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i) {
+        const glm::vec3& dir = clusterLinkDir_[i - clusterLinkBase_];
+        double cosine = glm::dot(n, dir);
+        if (!(cosine > 0)) continue;
+        if (openness_ && (links_[i].flags & Link::kOpenHandOver)) {
+            if (!lv.made) {
+                lv.view = openness_->view(root);
+                lv.made = true;
+            }
+            if (!haveInside) {
+                const cluster::ClusterNode& node = tree_->node(clusterIndex(c));
+                inside = openness_->inside(lv.view, node.centroid, node.radius);
+                haveInside = true;
+            }
+            cosine *= openness_->openness(lv.view, inside, Vec3(dir), cosine);
+            if (!(cosine > 0)) continue;
+        }
+        f(i, cosine);
+    }
+    // Stand-ins handed over by what each surface sees of the sender.
+    if (!seenOffsets_.empty()) {
+        const uint32_t ci = clusterIndex(c);
+        const cluster::ClusterNode& node = tree_->node(ci);
+        for (uint64_t e = seenOffsets_[ci]; e < seenOffsets_[ci + 1]; ++e) {
+            const SeenEntry& s = seen_[e];
+            const uint8_t b = seenWeights_[s.weights + (orderPos_[root] - node.patchBegin)];
+            if (b) f(s.link, double(b) * double(s.scale));
+        }
+    }
+}
+
 RGB Hierarchy::clusterIrradianceAt(uint32_t root, const std::vector<RGB>& down,
                                    const glm::vec3* sent) const {
     const uint32_t np = numPatches();
@@ -801,50 +859,112 @@ RGB Hierarchy::clusterIrradianceAt(uint32_t root, const std::vector<RGB>& down,
         // cosine (Smits et al. 1994); what the link sends is K times the
         // sender's radiosity towards the receiving cluster (`sent`, or
         // evaluated here when it is null).
-        // With the openness table each surface takes its share by cosine
-        // and by how open it is towards the sender within the receiving
-        // cluster (cluster/openness.h).
-        glm::vec3 n(P.normal);
-        bool haveView = false;  // made when the first link handed by openness needs it
-        cluster::SurfaceOpenness::View view;
-        for (uint32_t c = parent_[root]; c != kNone; c = parent_[c]) {
-            bool haveInside = false;
-            cluster::SurfaceOpenness::Inside inside;
-            for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i) {
-                const glm::vec3& dir = clusterLinkDir_[i - clusterLinkBase_];
-                double cosine = glm::dot(n, dir);
-                if (!(cosine > 0)) continue;
-                if (openness_ && (links_[i].flags & Link::kOpenHandOver)) {
-                    if (!haveView) {
-                        view = openness_->view(root);
-                        haveView = true;
-                    }
-                    if (!haveInside) {
-                        const cluster::ClusterNode& node = tree_->node(clusterIndex(c));
-                        inside = openness_->inside(view, node.centroid, node.radius);
-                        haveInside = true;
-                    }
-                    cosine *= openness_->openness(view, inside, Vec3(dir), cosine);
-                    if (!(cosine > 0)) continue;
-                }
-                h += cosine * (sent ? RGB(sent[i - clusterLinkBase_]) : linkSent(i, dir));
-            }
-            // Stand-ins handed over by what each surface sees of the sender.
-            if (!seenOffsets_.empty()) {
-                const uint32_t ci = clusterIndex(c);
-                const cluster::ClusterNode& node = tree_->node(ci);
-                for (uint64_t e = seenOffsets_[ci]; e < seenOffsets_[ci + 1]; ++e) {
-                    const SeenEntry& s = seen_[e];
-                    const uint8_t b = seenWeights_[s.weights + (orderPos_[root] - node.patchBegin)];
-                    if (!b) continue;
-                    const RGB sentHere =
-                        sent ? RGB(sent[s.link - clusterLinkBase_]) : standInSent(links_[s.link]);
-                    h += (double(b) * double(s.scale)) * sentHere;
-                }
-            }
-        }
+        LazyView view;
+        for (uint32_t c = parent_[root]; c != kNone; c = parent_[c])
+            forEachShare(c, root, view, [&](uint64_t i, double w) {
+                h += w * (sent ? RGB(sent[i - clusterLinkBase_])
+                               : linkSent(i, clusterLinkDir_[i - clusterLinkBase_]));
+            });
     }
     return P.rho * h;
+}
+
+void Hierarchy::linkLight(std::vector<RGB>& reflected, const std::vector<float>* relError,
+                          std::vector<RGB>* patchVariance) const {
+    const uint32_t np = numPatches(), nc = numClusters_;
+    reflected.assign(links_.size(), RGB(0.0));
+    if (patchVariance) patchVariance->assign(np, RGB(0.0));
+    auto rel = [&](uint64_t i) { return relError ? double((*relError)[i]) : 0.0; };
+    const bool oriented = model_ == cluster::ClusterModel::Oriented && nc > 0;
+    // Surface receivers: A_r rho_r times what the link sends (gatherRow).
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, numElements(), 256), [&](const auto& range) {
+        for (uint32_t r = range.begin(); r != range.end(); ++r) {
+            if (patch_[r] == kNone || linkBegin(r) == linkEnd(r)) continue;
+            const RGB ar = area_[r] * scene_->patches[patch_[r]].rho;
+            const Vec3 cr = oriented ? center(r) : Vec3(0.0);
+            for (uint64_t i = linkBegin(r); i < linkEnd(r); ++i)
+                reflected[i] = ar * rowSent(i, oriented ? &cr : nullptr);
+        }
+    });
+    if (patchVariance)
+        for (uint32_t r = 0; r < numElements(); ++r) {
+            if (patch_[r] == kNone) continue;
+            const double ap = scene_->patches[patch_[r]].area;
+            for (uint64_t i = linkBegin(r); i < linkEnd(r); ++i) {
+                const RGB d = reflected[i] * (rel(i) / ap);
+                (*patchVariance)[patch_[r]] += d * d;
+            }
+        }
+    if (nc == 0) return;
+    // Per cluster: sum of A_k rho_k over the surfaces below (children follow
+    // their parent in the tree's pre-order, so a reverse sweep sums them).
+    std::vector<RGB> arho(nc, RGB(0.0));
+    for (uint32_t c = nc; c-- > 0;) {
+        const cluster::ClusterNode& node = tree_->node(c);
+        for (uint32_t q = node.ownBegin; q < node.ownEnd; ++q) {
+            const scene::Patch& P = scene_->patches[tree_->patchAt(q)];
+            arho[c] += P.area * P.rho;
+        }
+        for (uint32_t k = 0; k < node.childCount; ++k) arho[c] += arho[tree_->child(c, k)];
+    }
+    // Links gathered as irradiance and handed down by area (gathered_,
+    // clusterDown): every link of an isotropic cluster, stand-ins by area
+    // of an oriented one. Per cluster, the variance of what they send.
+    auto byArea = [&](const Link& l) { return !oriented || (l.byArea() && !l.bySeen()); };
+    std::vector<RGB> isoVar(nc, RGB(0.0));
+    std::vector<RGB> sent(oriented ? linkOffsets_[np + nc] - clusterLinkBase_ : 0);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nc, 16), [&](const auto& range) {
+        for (uint32_t c = range.begin(); c != range.end(); ++c)
+            for (uint64_t i = linkBegin(np + c); i < linkEnd(np + c); ++i) {
+                if (byArea(links_[i])) {
+                    const RGB s = rowSent(i, nullptr);
+                    reflected[i] = s * arho[c];
+                    isoVar[c] += (s * rel(i)) * (s * rel(i));
+                } else {
+                    sent[i - clusterLinkBase_] = linkSent(i, clusterLinkDir_[i - clusterLinkBase_]);
+                }
+            }
+    });
+    if (oriented) {
+        // The others: sum over the surfaces below of A_k rho_k w_k, per link
+        // (each cluster's row summed by one thread, in a fixed order).
+        tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nc, 1), [&](const auto& range) {
+            for (uint32_t c = range.begin(); c != range.end(); ++c) {
+                if (linkBegin(np + c) == linkEnd(np + c)) continue;
+                const cluster::ClusterNode& node = tree_->node(c);
+                for (uint32_t q = node.patchBegin; q < node.patchEnd; ++q) {
+                    const uint32_t root = tree_->patchAt(q);
+                    const scene::Patch& P = scene_->patches[root];
+                    LazyView view;
+                    forEachShare(np + c, root, view, [&](uint64_t i, double w) {
+                        reflected[i] += (P.area * w) * (P.rho * sent[i - clusterLinkBase_]);
+                    });
+                }
+            }
+        });
+    }
+    if (!patchVariance) return;
+    // Down the tree: the by-area variance of a cluster and its ancestors.
+    for (uint32_t c = 0; c < nc; ++c) {
+        const uint32_t parent = parent_[np + c];
+        if (parent != kNone) isoVar[c] += isoVar[parent - np];
+    }
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, np, 64), [&](const auto& range) {
+        for (uint32_t root = range.begin(); root != range.end(); ++root) {
+            if (parent_[root] == kNone) continue;
+            RGB v = isoVar[parent_[root] - np];
+            if (oriented) {
+                LazyView view;
+                for (uint32_t c = parent_[root]; c != kNone; c = parent_[c])
+                    forEachShare(c, root, view, [&](uint64_t i, double w) {
+                        const RGB d = sent[i - clusterLinkBase_] * (w * rel(i));
+                        v += d * d;
+                    });
+            }
+            const RGB& rho = scene_->patches[root].rho;
+            (*patchVariance)[root] += rho * rho * v;
+        }
+    });
 }
 
 std::vector<RGB> Hierarchy::clusterIrradianceToRoots() const {

@@ -79,7 +79,10 @@ struct Link {
     /// carries nothing (K = 0) but the true visibility may be small and
     /// non-zero (a doorway), so it is kept for the oracle, which judges it
     /// with the unoccluded transfer times a bound on the visibility
-    /// (HrSolver::linkEstimate), instead of being dropped.
+    /// (HrSolver::linkEstimate), instead of being dropped. A surface-to-
+    /// surface link whose judged rays were all blocked while its carried
+    /// ones found the sender is judged with the same kind of bound
+    /// (hr/solver.h, "Judged visibility").
     static constexpr uint8_t kUncertain = 4;
     /// A near cluster pair whose transfer is a Monte Carlo estimate
     /// (cluster/link.h): Fupper holds the judged estimate of F (receiver
@@ -386,6 +389,20 @@ class Hierarchy {
                            const RGB& factor);
     /// Sum over leaves of A (B - E): the reflected power (RGB).
     RGB reflectedPower() const;
+    /// The light each link brings, as gather() and pushPull() deliver it:
+    /// `reflected[i]` is the power link i's receiver reflects of what the
+    /// link sends (a surface element: A_r rho_r times it; a cluster: summed
+    /// over the surfaces below with the share each takes: cosine, openness,
+    /// seen weights, or by area). Over all links it sums to
+    /// reflectedPower() up to the iteration's residual (the senders' B is
+    /// today's, the leaves' was gathered from the iteration before).
+    /// With `relError` (per link, the relative standard error of its
+    /// transfer, 0 for exact links), also `patchVariance`: per root patch,
+    /// the variance of its mean reflected radiosity that independent errors
+    /// of that size cause directly, before the light they move is reflected
+    /// on (hr/noise.h). Constant term only for a polynomial basis.
+    void linkLight(std::vector<RGB>& reflected, const std::vector<float>* relError = nullptr,
+                   std::vector<RGB>* patchVariance = nullptr) const;
     /// Sum over leaves of A * B (RGB).
     RGB radiosityPower() const;
 
@@ -418,6 +435,22 @@ class Hierarchy {
     std::vector<RGB> clusterIrradianceToRoots() const;
     /// Per cluster, the isotropic irradiance it and its ancestors gathered.
     std::vector<RGB> clusterDown() const;
+    /// A root patch's openness view, made when first needed (hierarchy.cpp).
+    struct LazyView;
+    /// Oriented model: calls f(i, w) for every link i in cluster element c's
+    /// row that the push hands root patch `root` (below c), w the share of
+    /// what the link sends per unit area that the patch takes before its
+    /// reflectance: its cosine towards the sender, times its openness for
+    /// links handed over by openness; w_k / W for stand-ins handed over by
+    /// what each surface sees. Links by area (gathered_) are not visited.
+    template <class F>
+    void forEachShare(uint32_t c, uint32_t root, LazyView& view, F&& f) const;
+    /// What link i of receiver r's row sends per unit area, before r's
+    /// reflectance (gatherRow): a stand-in's standInSent, K times the
+    /// sender's B, or, from an oriented cluster, K times its radiosity
+    /// towards `receiverCenter` (r's centre; null for the mean B). The
+    /// constant term for a polynomial basis.
+    RGB rowSent(uint64_t i, const Vec3* receiverCenter) const;
     /// The irradiance clusters hand root patch `root` (reflectance applied):
     /// `down` from clusterDown(); `sent` what every link into a cluster sends
     /// (oriented), or null to evaluate it here.

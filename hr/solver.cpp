@@ -531,6 +531,9 @@ Link HrSolver::evaluateLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t
         rays += cast;
         l.setVis(judged);
         if (partial) l.flags |= Link::kPartial;
+        // Every judged ray blocked while the carried ones found the sender:
+        // judged with a bound, not with 0 (header, "Judged visibility").
+        if (f.rays > 0 && judged == 0.0 && f.F > 0.0) l.flags |= Link::kUncertain;
         return l;
     }
     l.Fupper = float(std::max(engine_.upperBound(er, es), f.unoccludedF));
@@ -608,7 +611,11 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
         // link keeps the unoccluded F in Fupper, the bound is made here when
         // the oracle reads it.
         e.unoccludedF = l.Fupper;
-        e.F = e.unoccludedF * v;
+        if (l.flags & Link::kUncertain) {
+            // The 95 % upper bound of a fraction none of n rays found.
+            e.visibility = 1.0 - std::pow(0.05, 1.0 / std::max(1, s_.ff.visRays));
+        }
+        e.F = e.unoccludedF * e.visibility;
         e.Fupper = e.unoccludedF;
         if (upper) {
             transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
@@ -616,7 +623,7 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
             e.Fupper = std::max(engine_.upperBound(er, es), e.unoccludedF);
         }
     }
-    e.partialVisibility = (l.flags & Link::kPartial) != 0;
+    e.partialVisibility = (l.flags & (Link::kPartial | Link::kUncertain)) != 0;
     if (l.flags & Link::kSampled) {
         // A near cluster pair estimated by sampling (cluster/link.h): the
         // judged estimate, receiver factor included, and its error bound (a
@@ -1444,6 +1451,19 @@ HrResult HrSolver::solve(bool progress) {
             coupling_->fallbacks(), s_.basisCheck);
     res.errorEstimate = estimateError(h);
     res.errorEstimateSeconds = te.seconds();
+    {
+        Timer tn;
+        NoiseRays rays;
+        rays.surface = s_.ff.visRays;
+        rays.cluster = linker_ ? linker_->settings().visRays : 0;
+        res.noise = estimateNoise(h, rays);
+        res.noiseSeconds = tn.seconds();
+        spdlog::info(
+            "the solve's own ray noise: reflected power +-{:.2f} % (1 sd, {} noisy links, "
+            "amplification {:.2f}), per patch (direct, non-emitters) {:.2f} %",
+            100.0 * res.noise.relative, res.noise.links, maxComponent(res.noise.amplification),
+            100.0 * res.noise.l2NonEmitter);
+    }
     h.reportMemory(res.memory);
     if (res.openness) res.memory.set("handover_openness", res.openness->memoryBytes());
     res.handOverByOpenness = h.handOverByOpenness();

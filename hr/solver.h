@@ -213,6 +213,17 @@
 // visibility holds the judged fraction and Fupper the unoccluded form factor
 // (Hierarchy::unoccludedF, carriedVisibility). It costs the second set of
 // rays. `carried` is the previous behaviour.
+// A judged estimate whose rays were all blocked says little: the link is
+// kept when its carried estimate found the sender (K > 0), and judged by 0
+// it would never be refined, whatever light it carries. On Cornell a floor
+// element a quarter of the floor in size kept a link from the lamp that way
+// (judged 0, carried 0.12 of its unoccluded transfer, 0.55 % of the
+// reflected power on one 16-ray draw). Such a link (Link::kUncertain) is
+// judged like a cluster link whose rays were all blocked: with its
+// unoccluded transfer times 1 - 0.05^(1/n), the 95 % upper bound of a
+// fraction that none of n rays found. Cornell's reflected power then moves
+// by 0.26-0.30 % between ray seeds instead of 0.45-0.51 %
+// (bench/results/solver_noise.md).
 //
 // What eps is a fraction of (hr.eps_power). The oracles compare a power (bfa:
 // rho_r B_s F A_r; error, kv: A_r dB) with eps times a power of the scene,
@@ -324,6 +335,7 @@
 #include "core/params.h"
 #include "core/timer.h"
 #include "hr/hierarchy.h"
+#include "hr/noise.h"
 #include "oracles/oracle.h"
 #include "scene/scene.h"
 #include "transport/coupling.h"
@@ -508,6 +520,10 @@ struct HrResult {
     /// reflected radiosity (HrSolver::estimateError); NaN when not computed.
     double errorEstimate = std::numeric_limits<double>::quiet_NaN();
     double errorEstimateSeconds = 0.0;
+    /// The solve's own Monte Carlo noise, estimated from its links
+    /// (hr/noise.h), and the time it took.
+    SolverNoise noise;
+    double noiseSeconds = 0.0;
     MemoryCounters memory;
 };
 

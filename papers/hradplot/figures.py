@@ -16,6 +16,8 @@ LABELS = {
     "l2_reflected_lum": "relative $L_2$ error of the reflected radiosity $B-E$",
     "l2_nonemitter_lum": "relative $L_2$ error over non-emitting surfaces",
     "error_estimate": "a posteriori error estimate",
+    "noise_estimate": "the solve's own ray noise (relative sd of the reflected power)",
+    "noise_l2_nonemitter": "the solve's own ray noise per patch (direct, non-emitters)",
     "l1_lum": "relative $L_1$ error (luminance)",
     "linf_lum": r"relative $L_\infty$ error (luminance)",
     "l2_rgb": "relative $L_2$ error (RGB)",

@@ -150,6 +150,9 @@ def _derive(runs):
                           ("l2_nonemitter_lum", ("error", "l2_nonemitter_lum")),
                           ("mean_ratio_nonemitter", ("error", "mean_ratio_nonemitter")),
                           ("error_estimate", ("error_estimate",)),
+                          # The solve's own ray noise (hr/noise.h).
+                          ("noise_estimate", ("noise_estimate",)),
+                          ("noise_l2_nonemitter", ("noise", "l2_nonemitter_direct")),
                           # The point's CPU seconds (user + system) from the
                           # sweep's wait4 (experiments/sweep.cpp), and the
                           # solver's bytes per link (all its data / links).

@@ -72,7 +72,10 @@ SweepOptions options(const fs::path& dir, const std::string& store) {
 
 TEST(Store, NewStoresCarryTheSchemaVersion) {
     auto dir = test::tempDir("store_version");
-    { ResultStore s(dir / "a.sqlite"); EXPECT_EQ(s.schemaVersion(), 3); }
+    {
+        ResultStore s(dir / "a.sqlite");
+        EXPECT_EQ(s.schemaVersion(), 4);
+    }
     EXPECT_EQ(query(dir / "a.sqlite", "PRAGMA application_id"), "1213350212;");
     EXPECT_EQ(refusal(dir / "a.sqlite", true), "");
     EXPECT_EQ(refusal(dir / "a.sqlite", false), "");
@@ -158,16 +161,17 @@ TEST(Store, MigratesVersionOneStores) {
     runSweep(study, options(dir, "v1.sqlite"));
     // Back to version 1: no version pragmas, none of the later columns.
     std::string drop = "PRAGMA application_id = 0; PRAGMA user_version = 0;";
-    for (const char* c : {"l1_reflected_lum", "l2_reflected_lum", "l1_nonemitter_lum",
-                          "l2_nonemitter_lum", "mean_ratio_nonemitter", "error_estimate",
-                          "residual", "slurm_job_id", "slurm_array_task_id"})
+    for (const char* c :
+         {"l1_reflected_lum", "l2_reflected_lum", "l1_nonemitter_lum", "l2_nonemitter_lum",
+          "mean_ratio_nonemitter", "error_estimate", "residual", "slurm_job_id",
+          "slurm_array_task_id", "noise_estimate", "noise_l2_nonemitter"})
         drop += fmt::format("ALTER TABLE runs DROP COLUMN {};", c);
     drop += "ALTER TABLE failures DROP COLUMN slurm_job_id; ALTER TABLE failures DROP COLUMN slurm_array_task_id;";
     sql(dir / "v1.sqlite", drop);
     EXPECT_EQ(refusal(dir / "v1.sqlite", true), "");  // readable as it is
     {
         ResultStore s(dir / "v1.sqlite");
-        EXPECT_EQ(s.schemaVersion(), 3);
+        EXPECT_EQ(s.schemaVersion(), 4);
         EXPECT_EQ(s.count("runs"), 2);
     }
     EXPECT_EQ(query(dir / "v1.sqlite", "SELECT slurm_job_id FROM runs"), "NULL;NULL;");
