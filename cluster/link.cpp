@@ -171,10 +171,9 @@ Opening ClusterLinker::opening(const LinkEnd& r, const LinkEnd& s) const {
     return rc ? Opening::Receiver : Opening::Sender;
 }
 
-double ClusterLinker::blockedVisibilityBound() const {
+double ClusterLinker::blockedVisibilityBound(int rays) {
     // (1 - v)^n = 0.05: 0.31 for 8 rays, 0.046 for 64.
-    int n = std::max(1, s_.visRays);
-    return 1.0 - std::pow(0.05, 1.0 / n);
+    return 1.0 - std::pow(0.05, 1.0 / std::max(1, rays));
 }
 
 bool ClusterLinker::straddles(const LinkEnd& r, const LinkEnd& s) const {

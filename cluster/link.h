@@ -428,7 +428,10 @@ class ClusterLinker {
 
     /// 95 % upper bound on the visibility of a link whose vis_rays judged
     /// rays were all blocked: 1 - 0.05^(1/n) (Clopper-Pearson, zero successes).
-    double blockedVisibilityBound() const;
+    double blockedVisibilityBound() const { return blockedVisibilityBound(s_.visRays); }
+    /// The same for `rays` rays: 1 - 0.05^(1/rays) (surface links judge
+    /// theirs with ff.vis_rays, hr/solver.h "Judged visibility").
+    static double blockedVisibilityBound(int rays);
 
     /// The link from s to r (at least one a cluster). `rootB` holds the
     /// current radiosity of every root patch (indexed by patch): the sender's

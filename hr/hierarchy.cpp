@@ -896,17 +896,6 @@ void Hierarchy::linkLight(std::vector<RGB>& reflected, const std::vector<float>*
             }
         }
     if (nc == 0) return;
-    // Per cluster: sum of A_k rho_k over the surfaces below (children follow
-    // their parent in the tree's pre-order, so a reverse sweep sums them).
-    std::vector<RGB> arho(nc, RGB(0.0));
-    for (uint32_t c = nc; c-- > 0;) {
-        const cluster::ClusterNode& node = tree_->node(c);
-        for (uint32_t q = node.ownBegin; q < node.ownEnd; ++q) {
-            const scene::Patch& P = scene_->patches[tree_->patchAt(q)];
-            arho[c] += P.area * P.rho;
-        }
-        for (uint32_t k = 0; k < node.childCount; ++k) arho[c] += arho[tree_->child(c, k)];
-    }
     // Links gathered as irradiance and handed down by area (gathered_,
     // clusterDown): every link of an isotropic cluster, stand-ins by area
     // of an oriented one. Per cluster, the variance of what they send.
@@ -918,7 +907,8 @@ void Hierarchy::linkLight(std::vector<RGB>& reflected, const std::vector<float>*
             for (uint64_t i = linkBegin(np + c); i < linkEnd(np + c); ++i) {
                 if (byArea(links_[i])) {
                     const RGB s = rowSent(i, nullptr);
-                    reflected[i] = s * arho[c];
+                    // sum_k A_k rho_k over the surfaces below.
+                    reflected[i] = s * (tree_->node(c).area * tree_->node(c).rho);
                     isoVar[c] += (s * rel(i)) * (s * rel(i));
                 } else {
                     sent[i - clusterLinkBase_] = linkSent(i, clusterLinkDir_[i - clusterLinkBase_]);

@@ -41,17 +41,16 @@ SolverNoise estimateNoise(const Hierarchy& h, const NoiseRays& rays) {
 
     // The share of emitted light in what each sender sends: E / B for a
     // surface element, sum A E / sum A B over the root patches below a
-    // cluster (prefix sums over the tree's patch order).
+    // cluster (sum A E by prefix sums over the tree's patch order; a
+    // cluster's B is the area average of the patches below).
     const scene::Scene& sc = h.scene();
     const cluster::ClusterTree* tree = h.clusterTree();
-    std::vector<RGB> prefixE, prefixB;
+    std::vector<RGB> prefixE;
     if (tree) {
         prefixE.assign(size_t(tree->orderSize()) + 1, RGB(0.0));
-        prefixB.assign(size_t(tree->orderSize()) + 1, RGB(0.0));
         for (uint32_t q = 0; q < tree->orderSize(); ++q) {
-            const uint32_t p = tree->patchAt(q);
-            prefixE[q + 1] = prefixE[q] + sc.patches[p].area * sc.patches[p].emission;
-            prefixB[q + 1] = prefixB[q] + sc.patches[p].area * h.B(p);
+            const scene::Patch& P = sc.patches[tree->patchAt(q)];
+            prefixE[q + 1] = prefixE[q] + P.area * P.emission;
         }
     }
     auto emittedShare = [&](uint32_t s) {
@@ -59,7 +58,7 @@ SolverNoise estimateNoise(const Hierarchy& h, const NoiseRays& rays) {
         if (h.isCluster(s)) {
             const cluster::ClusterNode& node = tree->node(h.clusterIndex(s));
             e = prefixE[node.patchEnd] - prefixE[node.patchBegin];
-            b = prefixB[node.patchEnd] - prefixB[node.patchBegin];
+            b = h.area(s) * h.B(s);
         } else {
             e = sc.patches[h.patch(s)].emission;
             b = h.B(s);

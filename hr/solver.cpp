@@ -611,10 +611,8 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
         // link keeps the unoccluded F in Fupper, the bound is made here when
         // the oracle reads it.
         e.unoccludedF = l.Fupper;
-        if (l.flags & Link::kUncertain) {
-            // The 95 % upper bound of a fraction none of n rays found.
-            e.visibility = 1.0 - std::pow(0.05, 1.0 / std::max(1, s_.ff.visRays));
-        }
+        if (l.flags & Link::kUncertain)
+            e.visibility = cluster::ClusterLinker::blockedVisibilityBound(s_.ff.visRays);
         e.F = e.unoccludedF * e.visibility;
         e.Fupper = e.unoccludedF;
         if (upper) {
