@@ -181,8 +181,9 @@ bool ClusterLinker::straddles(const LinkEnd& r, const LinkEnd& s) const {
     // through its centroid (its surfaces lie within planarity * radius of it).
     auto front = [&](const LinkEnd& e, const LinkEnd& other) {
         if (e.isCluster && !tree_->planarFace(e.cluster)) return true;  // a volume: no plane
-        Vec3 n = e.isCluster ? tree_->node(e.cluster).coneAxis : scene_->patches[e.patch].normal;
-        double slack = e.isCluster ? tree_->node(e.cluster).planarity * e.radius : 0.0;
+        Vec3 n =
+            e.isCluster ? tree_->faceShape(e.cluster).coneAxis : scene_->patches[e.patch].normal;
+        double slack = e.isCluster ? tree_->faceShape(e.cluster).planarity * e.radius : 0.0;
         return glm::dot(n, other.center - e.center) > -(other.radius + slack);
     };
     return front(r, s) && front(s, r);
@@ -202,7 +203,7 @@ bool ClusterLinker::coplanar(const LinkEnd& r, const LinkEnd& s) const {
             return true;
         }
         if (!tree_ || !tree_->flatFace(e.cluster)) return false;
-        n = tree_->node(e.cluster).coneAxis;
+        n = tree_->faceShape(e.cluster).coneAxis;
         x = tree_->node(e.cluster).centroid;
         return true;
     };

@@ -252,7 +252,8 @@ struct TreeBuilder {
         uint32_t c = openNode(depth);
         t.nodes_[c].face = true;
         bool patch = ff->isPatch(id);
-        t.nodes_[c].coneAxis = patch ? s.patches[id].normal : ff->node(id).coneAxis;
+        if (t.faces_.size() <= c) t.faces_.resize(c + 1);
+        t.faces_[c].coneAxis = patch ? s.patches[id].normal : ff->node(id).coneAxis;
         uint32_t count = patch ? 1 : ff->node(id).patches;
         if (count <= uint32_t(cfg.leafSize)) {
             appendPatches(id);
@@ -397,19 +398,15 @@ void ClusterTree::finalize() {
     // The builders grow these by doubling; the tree lives as long as the solve.
     nodes_.shrink_to_fit();
     children_.shrink_to_fit();
+    if (settings_.faces) {
+        faces_.resize(nodes_.size());  // volume nodes above the face clusters: the default
+        faces_.shrink_to_fit();
+    }
     const auto& P = scene_->patches;
     areaPrefix_.resize(order_.size() + 1);
     areaPrefix_[0] = 0;
     for (size_t i = 0; i < order_.size(); ++i)
         areaPrefix_[i + 1] = areaPrefix_[i] + P[order_[i]].area;
-    halves_.resize(P.size());
-    for (size_t i = 0; i < P.size(); ++i) {
-        const auto& v = P[i].v;
-        halves_[i] = {glm::length(glm::cross(v[1] - v[0], v[2] - v[0])),
-                      P[i].kind == scene::PatchKind::Triangle
-                          ? 0.0
-                          : glm::length(glm::cross(v[2] - v[0], v[3] - v[0]))};
-    }
     parent_.assign(nodes_.size(), UINT32_MAX);
     patchCluster_.assign(P.size(), UINT32_MAX);
     // Children have larger indices than parents: accumulate bottom-up.
@@ -453,35 +450,38 @@ void ClusterTree::finalize() {
             // Normal cone around the builder's axis, and planarity: the
             // largest vertex distance from the least-squares plane over the
             // radius.
+            FaceShape& fs = faces_[ci];
             AreaMoments m;
             double minCos = 1.0;
             for (uint32_t i = c.patchBegin; i < c.patchEnd; ++i) {
                 const auto& p = P[order_[i]];
                 m.addPatch(p);
-                minCos = std::min(minCos, glm::dot(p.normal, c.coneAxis));
+                minCos = std::min(minCos, glm::dot(p.normal, fs.coneAxis));
             }
-            c.coneCos = minCos;
-            PlaneFit f = fitPlane(m, c.coneAxis);
-            c.planeNormal = f.normal;
+            fs.coneCos = minCos;
+            PlaneFit f = fitPlane(m, fs.coneAxis);
+            fs.planeNormal = f.normal;
             double dmax = 0.0;
             for (uint32_t i = c.patchBegin; i < c.patchEnd; ++i) {
                 const auto& p = P[order_[i]];
                 for (int v = 0; v < p.numVertices(); ++v)
                     dmax = std::max(dmax, std::abs(glm::dot(p.v[v] - f.centroid, f.normal)));
             }
-            c.planarity = c.radius > 0 ? std::min(1.0, dmax / c.radius) : 0.0;
+            fs.planarity = c.radius > 0 ? std::min(1.0, dmax / c.radius) : 0.0;
         }
     }
 }
 
 bool ClusterTree::planarFace(uint32_t ci) const {
-    const ClusterNode& c = nodes_[ci];
-    return c.face && c.coneCos >= faceConeCos_ && c.planarity <= settings_.facePlanarity;
+    if (!nodes_[ci].face) return false;
+    const FaceShape& f = faces_[ci];
+    return f.coneCos >= faceConeCos_ && f.planarity <= settings_.facePlanarity;
 }
 
 bool ClusterTree::flatFace(uint32_t ci) const {
-    const ClusterNode& c = nodes_[ci];
-    return c.face && c.coneCos >= 1.0 - 1e-12 && c.planarity <= 1e-9;
+    if (!nodes_[ci].face) return false;
+    const FaceShape& f = faces_[ci];
+    return f.coneCos >= 1.0 - 1e-12 && f.planarity <= 1e-9;
 }
 
 uint32_t ClusterTree::numFaceNodes() const {
@@ -497,9 +497,9 @@ uint32_t ClusterTree::numPlanarFaceNodes() const {
 }
 
 uint64_t ClusterTree::memoryBytes() const {
-    return nodes_.capacity() * sizeof(ClusterNode) + children_.capacity() * sizeof(uint32_t) +
-           order_.capacity() * sizeof(uint32_t) + areaPrefix_.capacity() * sizeof(double) +
-           halves_.capacity() * sizeof(halves_[0]) + parent_.capacity() * sizeof(uint32_t) +
+    return nodes_.capacity() * sizeof(ClusterNode) + faces_.capacity() * sizeof(FaceShape) +
+           children_.capacity() * sizeof(uint32_t) + order_.capacity() * sizeof(uint32_t) +
+           areaPrefix_.capacity() * sizeof(double) + parent_.capacity() * sizeof(uint32_t) +
            patchCluster_.capacity() * sizeof(uint32_t);
 }
 
@@ -534,7 +534,10 @@ Vec3 ClusterTree::pointOnPatch(uint32_t patch, double u1, double u2) const {
         return (1 - su) * a + su * (1 - u2) * b + su * u2 * cc;
     };
     if (p.kind == scene::PatchKind::Triangle) return tri(p.v[0], p.v[1], p.v[2]);
-    const double a1 = halves_[patch][0], a2 = halves_[patch][1];
+    // Twice the areas of its triangles (v0 v1 v2) and (v0 v2 v3), made here
+    // rather than stored: 16 bytes per patch for two cross products.
+    const double a1 = glm::length(glm::cross(p.v[1] - p.v[0], p.v[2] - p.v[0]));
+    const double a2 = glm::length(glm::cross(p.v[2] - p.v[0], p.v[3] - p.v[0]));
     double pick = u2 * (a1 + a2);
     if (pick < a1) {
         u2 = a1 > 0 ? pick / a1 : 0.5;

@@ -29,7 +29,7 @@
 // array in pre-order with contiguous patch ranges.
 // Every face-cluster node records its normal cone (the face builder's axis,
 // and the cosine of the half-angle around it that holds every normal below)
-// and its planarity (largest distance of a vertex below from the
+// and its planarity, in a FaceShape beside the node (largest distance of a vertex below from the
 // least-squares plane, over the node's radius); the linker treats a face
 // cluster within face_cone and face_planarity as one surface
 // (cluster/link.h). Volume nodes keep coneCos -1 and planarity 1.
@@ -71,7 +71,13 @@ struct ClusterNode {
     uint32_t patchBegin = 0, patchEnd = 0;    ///< all patches below: order[patchBegin..patchEnd)
     uint32_t ownBegin = 0, ownEnd = 0;        ///< patches held directly (leaf clusters)
     uint16_t depth = 0;
-    bool face = false;       ///< a face cluster (cluster.faces)
+    bool face = false;  ///< a face cluster (cluster.faces; its shape: ClusterTree::faceShape)
+};
+
+/// The shape of a face-cluster node (ClusterTree::faceShape). Kept beside the
+/// nodes, and only when face clusters are built: volume nodes, the default,
+/// do not pay its 64 bytes (a third of a node).
+struct FaceShape {
     Vec3 coneAxis{0.0};      ///< unit axis of a cone holding every normal below
     double coneCos = -1.0;   ///< min_k n_k . coneAxis (cosine of the cone's half-angle)
     double planarity = 1.0;  ///< max vertex distance from the least-squares plane / radius
@@ -106,6 +112,12 @@ class ClusterTree {
     const ClusterNode& node(uint32_t c) const { return nodes_[c]; }
     uint32_t size() const { return uint32_t(nodes_.size()); }
     uint32_t child(uint32_t c, uint32_t i) const { return children_[nodes_[c].childBegin + i]; }
+    /// Normal cone and planarity of node c: a volume node's (coneCos -1,
+    /// planarity 1) unless c is a face-cluster node.
+    const FaceShape& faceShape(uint32_t c) const {
+        static const FaceShape kVolume{};
+        return c < faces_.size() ? faces_[c] : kVolume;
+    }
     uint32_t patchAt(uint32_t i) const { return order_[i]; }
     /// Number of patches in the tree's order (patchAt(0 .. orderSize() - 1)).
     uint32_t orderSize() const { return uint32_t(order_.size()); }
@@ -146,12 +158,10 @@ class ClusterTree {
     ClusterSettings settings_;
     double faceConeCos_ = 1.0;
     std::vector<ClusterNode> nodes_;
+    std::vector<FaceShape> faces_;  ///< per node when settings_.faces, else empty
     std::vector<uint32_t> children_;
     std::vector<uint32_t> order_;
     std::vector<double> areaPrefix_;  ///< prefix sums of patch areas in `order_`
-    /// Per patch, twice the areas of its two triangles (v0 v1 v2, v0 v2 v3;
-    /// the second 0 for a triangle): pointOnPatch picks one by area.
-    std::vector<std::array<double, 2>> halves_;
     std::vector<uint32_t> parent_;
     std::vector<uint32_t> patchCluster_;
     int depth_ = 0;

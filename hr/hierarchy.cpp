@@ -70,7 +70,10 @@ void Hierarchy::pullCluster(uint32_t c) {
     const bool oriented = model_ == cluster::ClusterModel::Oriented;
     const uint32_t e = np + c;
     RGB sum(0.0), mx(0.0);
-    RadiantMoments mom;
+    // The moments are summed in double and stored in float (RadiantMoments).
+    RGB ab(0.0);
+    std::array<Vec3, 3> ms{};
+    std::array<std::array<double, 6>, 3> mm{};
     for (uint32_t i = 0; i < numChildren(e); ++i) {
         uint32_t ch = child(e, i);
         sum += area_[ch] * B_[ch];
@@ -78,25 +81,31 @@ void Hierarchy::pullCluster(uint32_t c) {
         if (!oriented) continue;
         if (isCluster(ch)) {
             const RadiantMoments& cm = moments_[ch - np];
-            mom.ab += cm.ab;
+            ab += RGB(cm.ab);
             for (int k = 0; k < 3; ++k) {
-                mom.s[k] += cm.s[k];
-                for (int j = 0; j < 6; ++j) mom.m[k][j] += cm.m[k][j];
+                ms[k] += Vec3(cm.s[k]);
+                for (int j = 0; j < 6; ++j) mm[k][j] += cm.m[k][j];
             }
         } else {
             const Vec3& n = scene_->patches[patch_[ch]].normal;
             RGB w = area_[ch] * B_[ch];
-            mom.ab += w;
+            ab += w;
             double nn[6] = {n.x * n.x, n.x * n.y, n.x * n.z, n.y * n.y, n.y * n.z, n.z * n.z};
             for (int k = 0; k < 3; ++k) {
-                mom.s[k] += w[k] * n;
-                for (int j = 0; j < 6; ++j) mom.m[k][j] += w[k] * nn[j];
+                ms[k] += w[k] * n;
+                for (int j = 0; j < 6; ++j) mm[k][j] += w[k] * nn[j];
             }
         }
     }
     B_[e] = area_[e] > 0 ? sum / area_[e] : RGB(0.0);
     maxB_[c] = mx;
-    if (oriented) moments_[c] = mom;
+    if (!oriented) return;
+    RadiantMoments& mom = moments_[c];
+    mom.ab = glm::vec3(ab);
+    for (int k = 0; k < 3; ++k) {
+        mom.s[k] = glm::vec3(ms[k]);
+        for (int j = 0; j < 6; ++j) mom.m[k][j] = float(mm[k][j]);
+    }
 }
 
 void Hierarchy::pullClusters() {
@@ -122,8 +131,9 @@ RGB Hierarchy::directionalB(uint32_t e, const Vec3& d) const {
         // sum A B max(0, n.d) = (sum A B |n.d| + sum A B n.d) / 2, the first
         // sum estimated as sqrt(sum A B * sum A B (n.d)^2) (Cauchy-Schwarz;
         // exact when |n.d| is the same for all surfaces that carry light).
-        double p = 0.5 * (std::sqrt(std::max(0.0, m.ab[k] * q)) + glm::dot(m.s[k], d));
-        out[k] = std::clamp(p, 0.0, m.ab[k]) / proj;
+        const double ab = m.ab[k];
+        double p = 0.5 * (std::sqrt(std::max(0.0, ab * q)) + glm::dot(Vec3(m.s[k]), d));
+        out[k] = std::clamp(p, 0.0, ab) / proj;
     }
     return out;
 }

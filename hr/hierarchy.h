@@ -542,11 +542,13 @@ class Hierarchy {
     /// Position of each patch in the tree's order (made when first needed).
     std::vector<uint32_t> orderPos_;
     /// Oriented model, per cluster and RGB channel: sum A_k B_k, sum A_k B_k n_k,
-    /// sum A_k B_k n_k n_k^T (xx, xy, xz, yy, yz, zz).
+    /// sum A_k B_k n_k n_k^T (xx, xy, xz, yy, yz, zz). Summed in double
+    /// (pullCluster), stored in float: 120 bytes per cluster instead of 240,
+    /// a relative rounding of 6e-8 on a radiance whose model error is percents.
     struct RadiantMoments {
-        RGB ab{0.0};
-        std::array<Vec3, 3> s{};
-        std::array<std::array<double, 6>, 3> m{};
+        glm::vec3 ab{0.f};
+        std::array<glm::vec3, 3> s{};
+        std::array<std::array<float, 6>, 3> m{};
     };
     std::vector<RadiantMoments> moments_;
     /// Per cluster: largest radiosity of the root patches below (maxB()).

@@ -76,10 +76,9 @@ TEST(FaceClusters, TessellatedPlaneIsOneFlatFaceCluster) {
     EXPECT_LE(f.rounds, 16);
     ClusterTree t(s, faceSettings());
     test::expectTreeInvariants(s, t);
-    const auto& root = t.node(0);
-    EXPECT_TRUE(root.face);
-    EXPECT_NEAR(root.coneCos, 1.0, 1e-12);
-    EXPECT_LE(root.planarity, 1e-12);
+    EXPECT_TRUE(t.node(0).face);
+    EXPECT_NEAR(t.faceShape(0).coneCos, 1.0, 1e-12);
+    EXPECT_LE(t.faceShape(0).planarity, 1e-12);
     EXPECT_TRUE(t.flatFace(0));
     EXPECT_TRUE(t.planarFace(0));
     EXPECT_EQ(t.numFaceNodes(), t.size());
@@ -103,7 +102,8 @@ TEST(FaceClusters, CubeFacesNeverMergeAcrossRightAngles) {
             const auto& n = t.node(c);
             if (!n.face) continue;
             for (uint32_t i = n.patchBegin; i < n.patchEnd; ++i)
-                EXPECT_NEAR(glm::dot(s.patches[t.patchAt(i)].normal, n.coneAxis), 1.0, 1e-12);
+                EXPECT_NEAR(glm::dot(s.patches[t.patchAt(i)].normal, t.faceShape(c).coneAxis), 1.0,
+                            1e-12);
         }
         // Six flat roots of 16 patches each.
         int roots16 = 0;

@@ -52,7 +52,8 @@ inline void expectTreeInvariants(const scene::Scene& s, const cluster::ClusterTr
                 EXPECT_LE(glm::length(p.v[v] - n.centroid), n.radius * (1 + 1e-12));
             }
             if (n.face) {
-                EXPECT_GE(glm::dot(p.normal, n.coneAxis), n.coneCos - 1e-12);
+                EXPECT_GE(glm::dot(p.normal, t.faceShape(c).coneAxis),
+                          t.faceShape(c).coneCos - 1e-12);
             }
         }
     }
