@@ -27,12 +27,12 @@
 // one has its two sub-clusters as children (a patch child becomes a leaf of
 // one patch). Face-cluster nodes have `face` set. The tree stays one node
 // array in pre-order with contiguous patch ranges.
-// Every face-cluster node records its normal cone (the face builder's axis,
-// and the cosine of the half-angle around it that holds every normal below)
-// and its planarity, in a FaceShape beside the node (largest distance of a vertex below from the
-// least-squares plane, over the node's radius); the linker treats a face
-// cluster within face_cone and face_planarity as one surface
-// (cluster/link.h). Volume nodes keep coneCos -1 and planarity 1.
+// Every face-cluster node records, in a FaceShape beside the node, its normal
+// cone (the face builder's axis, and the cosine of the half-angle around it
+// that holds every normal below) and its planarity (largest distance of a
+// vertex below from the least-squares plane, over the node's radius); the
+// linker treats a face cluster within face_cone and face_planarity as one
+// surface (cluster/link.h). Volume nodes have coneCos -1 and planarity 1.
 // Settings:
 //   cluster.builder    string  "bvh"
 //   cluster.leaf_size  int     4     patches per leaf cluster (1..64)

@@ -543,8 +543,8 @@ class Hierarchy {
     std::vector<uint32_t> orderPos_;
     /// Oriented model, per cluster and RGB channel: sum A_k B_k, sum A_k B_k n_k,
     /// sum A_k B_k n_k n_k^T (xx, xy, xz, yy, yz, zz). Summed in double
-    /// (pullCluster), stored in float: 120 bytes per cluster instead of 240,
-    /// a relative rounding of 6e-8 on a radiance whose model error is percents.
+    /// (pullCluster), stored in float (120 bytes per cluster): a relative
+    /// rounding of 6e-8 on a radiance whose model error is percents.
     struct RadiantMoments {
         glm::vec3 ab{0.f};
         std::array<glm::vec3, 3> s{};
