@@ -407,6 +407,14 @@ void ClusterTree::finalize() {
     areaPrefix_[0] = 0;
     for (size_t i = 0; i < order_.size(); ++i)
         areaPrefix_[i + 1] = areaPrefix_[i] + P[order_[i]].area;
+    halves_.resize(P.size());
+    for (size_t i = 0; i < P.size(); ++i) {
+        const auto& v = P[i].v;
+        halves_[i] = {glm::length(glm::cross(v[1] - v[0], v[2] - v[0])),
+                      P[i].kind == scene::PatchKind::Triangle
+                          ? 0.0
+                          : glm::length(glm::cross(v[2] - v[0], v[3] - v[0]))};
+    }
     parent_.assign(nodes_.size(), UINT32_MAX);
     patchCluster_.assign(P.size(), UINT32_MAX);
     // Children have larger indices than parents: accumulate bottom-up.
@@ -499,8 +507,8 @@ uint32_t ClusterTree::numPlanarFaceNodes() const {
 uint64_t ClusterTree::memoryBytes() const {
     return nodes_.capacity() * sizeof(ClusterNode) + faces_.capacity() * sizeof(FaceShape) +
            children_.capacity() * sizeof(uint32_t) + order_.capacity() * sizeof(uint32_t) +
-           areaPrefix_.capacity() * sizeof(double) + parent_.capacity() * sizeof(uint32_t) +
-           patchCluster_.capacity() * sizeof(uint32_t);
+           areaPrefix_.capacity() * sizeof(double) + halves_.capacity() * sizeof(halves_[0]) +
+           parent_.capacity() * sizeof(uint32_t) + patchCluster_.capacity() * sizeof(uint32_t);
 }
 
 double ClusterTree::projectedArea(uint32_t ci, const Vec3& d) const {
@@ -534,10 +542,7 @@ Vec3 ClusterTree::pointOnPatch(uint32_t patch, double u1, double u2) const {
         return (1 - su) * a + su * (1 - u2) * b + su * u2 * cc;
     };
     if (p.kind == scene::PatchKind::Triangle) return tri(p.v[0], p.v[1], p.v[2]);
-    // Twice the areas of its triangles (v0 v1 v2) and (v0 v2 v3), made here
-    // rather than stored: 16 bytes per patch for two cross products.
-    const double a1 = glm::length(glm::cross(p.v[1] - p.v[0], p.v[2] - p.v[0]));
-    const double a2 = glm::length(glm::cross(p.v[2] - p.v[0], p.v[3] - p.v[0]));
+    const double a1 = halves_[patch][0], a2 = halves_[patch][1];
     double pick = u2 * (a1 + a2);
     if (pick < a1) {
         u2 = a1 > 0 ? pick / a1 : 0.5;

@@ -162,6 +162,11 @@ class ClusterTree {
     std::vector<uint32_t> children_;
     std::vector<uint32_t> order_;
     std::vector<double> areaPrefix_;  ///< prefix sums of patch areas in `order_`
+    /// Per patch, twice the areas of its two triangles (v0 v1 v2, v0 v2 v3;
+    /// the second 0 for a triangle): pointOnPatch picks one by area. Stored,
+    /// not recomputed per point: every cluster link's visibility rays draw
+    /// their ends through it (tens of millions of points per large solve).
+    std::vector<std::array<double, 2>> halves_;
     std::vector<uint32_t> parent_;
     std::vector<uint32_t> patchCluster_;
     int depth_ = 0;
