@@ -106,9 +106,11 @@ SceneAudit audit(const std::string& spec, const Params& extra, const std::string
 // carry would be kept more often where it is low, and the sum would fall
 // short. The found-nothing group alone is biased low and the others high by
 // the same power (which of the two a link falls in is its own estimate).
-// The always-opened solve's cluster links are printed for comparison: the
-// point approximation carries 1.5 % (office:4) to 5 % (Lost Empire) more
-// than Monte Carlo.
+// On office:4 the always-opened solve's cluster links are printed for
+// comparison: the point approximation carries 1.5 % more than Monte Carlo
+// there, and 3.8 % more on Lost Empire (5.002 against 4.820 +- 0.018,
+// measured once; that second solve of Lost Empire is not part of the test,
+// where it took 55 of its 123 s).
 // The stand-in groups summed (by area, by cosine, found nothing), printed.
 Group allStandIns(const SceneAudit& a) {
     Group all;
@@ -145,7 +147,6 @@ TEST(StandInAudit, StandInsCarryTheirMonteCarloPowerOnLostEmpire) {
     p.set("obj.clamp_rho", 0.99);
     const std::string le = (*dir / "lost-empire/lost_empire.obj").string();
     expectStandInsUnbiased(audit(le, p, "stand_in", 8));
-    audit(le, p, "open", 8);
 }
 
 // The default regime: overlapping pairs are judged too, and small pairs are
