@@ -411,6 +411,15 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     for (const auto& [k, v] : solved.summary.items()) summary[k] = v;
     for (const auto& [k, v] : solved.timings.items()) timings[k] = v;
     for (const auto& [k, v] : solved.memory.all()) memory.set(k, v);
+    if (summary.contains("bytes_per_link") && summary.contains("counts") &&
+        summary["counts"].value("links", uint64_t(0)) > 0) {
+        // Every counted structure (links, elements, clusters, visibility,
+        // loader tables...) over the links: the "all told".
+        double total = 0;
+        for (const auto& [k, v] : memory.all()) total += double(v);
+        summary["bytes_per_link"]["all_told"] =
+            total / double(summary["counts"]["links"].get<uint64_t>());
+    }
     timings["solve_total"] = tSolve.seconds();
     summary["radiosity_power"] = rgbJson(field->totalPower());
     summary["timings"] = timings;

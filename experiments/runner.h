@@ -37,7 +37,9 @@
 //   history[{iteration, stage, eps, links, elements, leaves, refined_links,
 //            rays, form_factors, residual, reflected_power, refine_s, gather_s,
 //            push_pull_s, element_bytes, link_bytes, peak_rss}]
-//   memory{<category>: bytes, peak_rss}, bytes_per_link, radiosity_power,
+//   memory{<category>: bytes, peak_rss},
+//   bytes_per_link{link_storage, links_and_elements, all_told (every memory
+//                  counter over the links)}, radiosity_power,
 //   error{l1_lum, l2_lum, linf_lum, l1_rgb, l2_rgb, linf_rgb, l1_reflected_lum,
 //         l2_reflected_lum, l1_nonemitter_lum, l2_nonemitter_lum, mean_ratio_nonemitter,
 //         dark_reflected_fraction, dark_regions, regions, reference, reference_seconds,

@@ -145,7 +145,8 @@ class HrEntry final : public Solver {
         if (h.numLinks())
             sm["bytes_per_link"] =
                 json{{"link_storage", double(h.linkBytes()) / double(h.numLinks())},
-                     {"all", double(h.linkBytes() + h.elementBytes()) / double(h.numLinks())}};
+                     {"links_and_elements",
+                      double(h.linkBytes() + h.elementBytes()) / double(h.numLinks())}};
         out.owner = std::move(res);
         return out;
     }

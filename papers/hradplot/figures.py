@@ -24,7 +24,7 @@ LABELS = {
     "wall_s": "wall time per point (s)",
     "compute_s": "solve time (s)",
     "cpu_s": "CPU time per point (s)",
-    "bytes_per_link": "solver bytes per link",
+    "bytes_per_link": "bytes per link, all told",
     "basis": "basis",
     "linking_s": "initial linking time (s)",
     "refine_s": "refinement time (s)",

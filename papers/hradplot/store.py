@@ -155,9 +155,11 @@ def _derive(runs):
                           ("noise_l2_nonemitter", ("noise", "l2_nonemitter_direct")),
                           # The point's CPU seconds (user + system) from the
                           # sweep's wait4 (experiments/sweep.cpp), and the
-                          # solver's bytes per link (all its data / links).
+                          # bytes per link all told (every memory counter of
+                          # the run over its links; stores written before it
+                          # existed give NaN).
                           ("cpu_s", ("cpu_s",)),
-                          ("bytes_per_link", ("bytes_per_link", "all")),
+                          ("bytes_per_link", ("bytes_per_link", "all_told")),
                           ("error_map_l1", ("error_map", "l1"))):
             if col not in runs.columns:
                 runs[col] = runs["summary"].map(from_summary(path)).astype(float)
