@@ -84,6 +84,18 @@ TEST(Cli, SolveWritesArtefactsAndSummary) {
     EXPECT_GT(s["counts"]["links"].get<double>(), 0);
     EXPECT_GT(s["memory"]["peak_rss"].get<double>(), 0);
     EXPECT_EQ(s["settings"]["cluster.model"], "oriented");
+    // Bytes per link all told: every memory counter (not the peak RSS) over
+    // the links; at least the links and elements, and the clusters too.
+    double total = 0;
+    for (const auto& [k, v] : s["memory"].items())
+        if (k != "peak_rss") total += v.get<double>();
+    ASSERT_TRUE(s["memory"].contains("clusters")) << s["memory"].dump();
+    const double links = s["counts"]["links"].get<double>();
+    const auto& bpl = s["bytes_per_link"];
+    EXPECT_NEAR(bpl["all_told"].get<double>(), total / links, 1e-9 * total / links);
+    EXPECT_GE(bpl["all_told"].get<double>(),
+              bpl["links_and_elements"].get<double>() +
+                  s["memory"]["clusters"].get<double>() / links * (1 - 1e-12));
 }
 
 TEST(Cli, FacesFlagSetsClusterFacesAndOctreeRefusesIt) {
