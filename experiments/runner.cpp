@@ -413,8 +413,8 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     for (const auto& [k, v] : solved.memory.all()) memory.set(k, v);
     if (summary.contains("bytes_per_link") && summary.contains("counts") &&
         summary["counts"].value("links", uint64_t(0)) > 0) {
-        // Every counted structure (links, elements, clusters, visibility,
-        // loader tables...) over the links: the "all told".
+        // Every counted structure (the solver's links, elements, clusters,
+        // kernel samples..., and the visibility structure) over the links.
         double total = 0;
         for (const auto& [k, v] : memory.all()) total += double(v);
         summary["bytes_per_link"]["all_told"] =
