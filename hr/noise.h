@@ -21,7 +21,8 @@
 //     fraction of 1 says nothing of the link's variance). The segments are
 //     stratified (transport/formfactor.cpp), which makes the true variance
 //     smaller; the kernel weighting makes the effective n smaller. Neither is
-//     modelled: the measured seed spreads (below) say how the two net out.
+//     modelled: the seed spreads measured against this estimate
+//     (bench/results/solver_noise.md) say how the two net out.
 //   - every other link (no rays, or all of them unblocked): 0.
 // With P_i the power link i's receiver reflects of what it delivers
 // (Hierarchy::linkLight), the links' errors, independent, move the reflected

@@ -221,9 +221,9 @@
 // reflected power on one 16-ray draw). Such a link (Link::kUncertain) is
 // judged like a cluster link whose rays were all blocked: with its
 // unoccluded transfer times 1 - 0.05^(1/n), the 95 % upper bound of a
-// fraction that none of n rays found. Cornell's reflected power then moves
-// by 0.26-0.30 % between ray seeds instead of 0.45-0.51 %
-// (bench/results/solver_noise.md).
+// fraction that none of n rays found (measured over seeds:
+// bench/results/solver_noise.md, "Surface links whose judged rays were all
+// blocked").
 //
 // What eps is a fraction of (hr.eps_power). The oracles compare a power (bfa:
 // rho_r B_s F A_r; error, kv: A_r dB) with eps times a power of the scene,
