@@ -20,6 +20,28 @@ namespace hrad::hr {
 
 using scene::ElementKey;
 
+KernelSamples::KernelSamples(const double* v, int m) {
+    HRAD_CHECK(m >= 0 && m <= kCount);
+    if (m == 0) return;
+    double sum = 0.0;
+    for (int k = 0; k < m; ++k) sum += v[k];
+    mean_ = float(sum / double(m));
+    // Deviations from the mean as stored, so its rounding is not lost.
+    double largest = 0.0;
+    for (int k = 0; k < m; ++k) largest = std::max(largest, std::fabs(v[k] - double(mean_)));
+    if (!(largest > 0.0) || !std::isfinite(largest)) return;
+    // largest = f 2^e with f in [0.5, 1): one unit is 2^(e - 15), so the
+    // largest deviation is 16384..32768 units (32768 is clamped).
+    int e = 0;
+    std::frexp(largest, &e);
+    exp_ = int16_t(e - 15);
+    const double inv = std::ldexp(1.0, -int(exp_));
+    for (int k = 0; k < m; ++k) {
+        double u = std::nearbyint((v[k] - double(mean_)) * inv);
+        q_[size_t(k)] = int16_t(std::clamp(u, -32767.0, 32767.0));
+    }
+}
+
 Hierarchy::Hierarchy(const scene::Scene& scene, const cluster::ClusterTree* tree,
                      cluster::ClusterModel model, int basisDegree)
     : scene_(&scene), tree_(tree), model_(model) {

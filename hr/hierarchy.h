@@ -27,6 +27,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -126,14 +127,45 @@ struct Link {
 static_assert(sizeof(Link) == 16, "Link must stay 16 bytes");
 
 /// Unoccluded point form factors of a link at its receiver's kernel sample
-/// points (transport FormFactorEngine::kernelSamples), cached per link for
+/// points (transport FormFactorEngine::kernelSamples), or with a polynomial
+/// basis the kernel less the link's projection there, cached per link for
 /// the receiver-aggregate error (hr/receiver_error.h): geometry only, so
-/// computed once when the link is made. Float: an error estimate needs no more.
-/// Only links between two surface elements have them (the aggregate judges
-/// nothing else), and they are stored for those alone, in link order
-/// (Hierarchy::carriesKernelSamples): most links of a clustered scene touch
-/// a cluster, and a full-length array cost 36 bytes on every one of them.
-using KernelSamples = std::array<float, 9>;
+/// computed once when the link is made. Only links between two surface
+/// elements have them (the aggregate judges nothing else), and they are
+/// stored for those alone, in link order (Hierarchy::carriesKernelSamples).
+///
+/// Stored in 24 bytes, not nine floats' 36: their mean as a float, and each
+/// sample's deviation from it as a 16-bit integer times a power of two
+/// chosen per link, so that the largest deviation fills the integer range.
+/// The aggregate sums the samples less a constant over the links of a
+/// receiver and takes the range of the sum over the sample points: what it
+/// needs is the deviations, and they keep a rounding error of at most
+/// 1/32767 of the link's own largest deviation from the stored mean. Nine
+/// half-precision values would round each sample to 2^-11 of itself, which
+/// on a link whose kernel hardly varies is more than the variation (at eps
+/// 1e-4 the furnace's receiver check looks for variations of a few 1e-4 of
+/// F).
+class KernelSamples {
+  public:
+    static constexpr int kCount = 9;
+    KernelSamples() = default;
+    /// Packs the first m (<= kCount) of v; the others read as the mean.
+    KernelSamples(const double* v, int m);
+    /// Sample k (the packed value to within 1/32767 of the largest deviation).
+    double operator[](int k) const { return double(mean_) + double(q_[size_t(k)]) * step(); }
+    static constexpr int size() { return kCount; }
+    double mean() const { return double(mean_); }
+    /// Sample k less the mean, in units of step().
+    double deviation(int k) const { return double(q_[size_t(k)]); }
+    /// The value of one unit of the stored deviations.
+    double step() const { return std::ldexp(1.0, exp_); }
+
+  private:
+    float mean_ = 0.f;
+    std::array<int16_t, kCount> q_{};
+    int16_t exp_ = 0;
+};
+static_assert(sizeof(KernelSamples) == 24, "kernel samples must stay 24 bytes");
 
 class Hierarchy {
   public:

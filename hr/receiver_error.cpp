@@ -32,16 +32,15 @@ void leafRanges(const Hierarchy& h, std::vector<RGB>& lo, std::vector<RGB>& hi) 
     }
 }
 
-/// The float samples `eval(r, s, out)` writes for the link s -> r.
+/// The samples `eval(r, s, out)` writes for the link s -> r, packed.
 template <class Eval>
 KernelSamples linkSamplesBy(const Hierarchy& h, uint32_t r, uint32_t s, Eval eval) {
-    KernelSamples out{};
+    static_assert(transport::FormFactorEngine::kMaxKernelSamples <= KernelSamples::kCount);
     transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
     transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
     double vals[transport::FormFactorEngine::kMaxKernelSamples];
     int m = eval(er, es, vals);
-    for (int k = 0; k < m; ++k) out[k] = float(vals[k]);
-    return out;
+    return KernelSamples(vals, m);
 }
 }  // namespace
 
@@ -181,9 +180,10 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
                 double dev = 0.0, wmax = maxComponent(w);
                 // Kernel samples less the link's constant; residual samples
                 // are already less the link's polynomial.
-                const double base = residualSamples ? 0.0 : Fu;
+                const double base = (residualSamples ? 0.0 : Fu) - vals.mean();
+                const double step = vals.step();
                 for (int k = 0; k < m; ++k) {
-                    double d = vals[k] - base;
+                    double d = vals.deviation(k) * step - base;
                     D[k] += w * d;
                     dev = std::max(dev, wmax * std::fabs(d));
                 }

@@ -51,8 +51,9 @@
 // links whose kernels compensate (in a closed room sum_l F_l(x) = 1) are not
 // refined, and the furnace stays exact. Links touching a cluster have no
 // aggregate and keep the per-link estimate below. Cost: the kernel samples
-// are computed once per link when it is made and cached with it (36 bytes
-// per link, Hierarchy::kernelSamples); each refinement round sums them.
+// are computed once per link when it is made and cached with it (24 bytes
+// per surface-to-surface link, hr::KernelSamples); each refinement round
+// sums them.
 //
 // Polynomial bases (hr.basis linear, quadratic, cubic). The receiver's
 // irradiance is then the projection of each link's kernel onto its basis,

@@ -95,3 +95,51 @@ TEST(Hierarchy, SetLinksBuildsRowsByReceiver) {
     EXPECT_EQ(h.link(h.linkBegin(3) + 1).sender, 12u);
     EXPECT_EQ(sizeof(Link), 16u);
 }
+
+// Kernel samples are stored as a float mean and 16-bit deviations scaled per
+// link (hr/hierarchy.h): every sample comes back within 1/32767 of the link's
+// largest deviation from the mean, whatever the magnitude of the values,
+// including a link whose kernel hardly varies (deviations 1e-7 of the mean,
+// below a float's resolution of the values themselves) and zero deviation.
+TEST(KernelSamples, RoundTripWithinTheStatedPrecision) {
+    Pcg32 rng(3);
+    auto check = [](const double* v, int m) {
+        KernelSamples ks(v, m);
+        double mean = 0.0;
+        for (int k = 0; k < m; ++k) mean += v[k] / m;
+        double largest = 0.0;
+        for (int k = 0; k < m; ++k) largest = std::max(largest, std::fabs(v[k] - mean));
+        for (int k = 0; k < m; ++k) {
+            // The stated bound; the deviations are from the stored (float)
+            // mean, at most a float's rounding (6e-8) of the mean away.
+            double tol = (largest + 6e-8 * std::fabs(mean)) / 32767.0;
+            EXPECT_NEAR(ks[k], v[k], tol) << "sample " << k << " of " << m;
+            EXPECT_NEAR(ks.mean() + ks.deviation(k) * ks.step(), v[k], tol);
+        }
+        for (int k = m; k < KernelSamples::kCount; ++k) EXPECT_EQ(ks[k], ks.mean());
+    };
+    double v[KernelSamples::kCount];
+    for (int trial = 0; trial < 2000; ++trial) {
+        const int m = trial % 3 == 0 ? 7 : 9;
+        const double scale = std::ldexp(1.0, int(rng.nextU32() % 60) - 50);
+        const double spread = trial % 4 == 0 ? 1e-7 : (trial % 4 == 1 ? 10.0 : 0.5);
+        for (int k = 0; k < m; ++k) v[k] = scale * (1.0 + spread * (rng.nextDouble() - 0.3));
+        check(v, m);
+    }
+    // Constant samples, all zero, and none.
+    for (double& x : v) x = 0.25;
+    check(v, 9);
+    KernelSamples flat(v, 9);
+    for (int k = 0; k < 9; ++k) EXPECT_EQ(flat[k], 0.25);
+    for (double& x : v) x = 0.0;
+    KernelSamples zero(v, 9), none(v, 0), dflt;
+    for (int k = 0; k < 9; ++k) {
+        EXPECT_EQ(zero[k], 0.0);
+        EXPECT_EQ(none[k], 0.0);
+        EXPECT_EQ(dflt[k], 0.0);
+    }
+    // One sample far from the others: they keep 1/32767 of its deviation.
+    for (int k = 0; k < 9; ++k) v[k] = 1e-3 * (1.0 + 0.01 * k);
+    v[4] = 0.5;
+    check(v, 9);
+}
