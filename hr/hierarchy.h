@@ -142,9 +142,8 @@ static_assert(sizeof(Link) == 16, "Link must stay 16 bytes");
 /// needs is the deviations, and they keep a rounding error of at most
 /// 1/32767 of the link's own largest deviation from the stored mean. Nine
 /// half-precision values would round each sample to 2^-11 of itself, which
-/// on a link whose kernel hardly varies is more than the variation (at eps
-/// 1e-4 the furnace's receiver check looks for variations of a few 1e-4 of
-/// F).
+/// on a link whose kernel varies by less than that across its receiver is
+/// more than the variation the check is there to see.
 class KernelSamples {
   public:
     static constexpr int kCount = 9;
