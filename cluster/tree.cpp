@@ -407,14 +407,16 @@ void ClusterTree::finalize() {
     areaPrefix_[0] = 0;
     for (size_t i = 0; i < order_.size(); ++i)
         areaPrefix_[i + 1] = areaPrefix_[i] + P[order_[i]].area;
-    halves_.resize(P.size());
-    for (size_t i = 0; i < P.size(); ++i) {
-        const auto& v = P[i].v;
-        halves_[i] = {glm::length(glm::cross(v[1] - v[0], v[2] - v[0])),
-                      P[i].kind == scene::PatchKind::Triangle
-                          ? 0.0
-                          : glm::length(glm::cross(v[2] - v[0], v[3] - v[0]))};
-    }
+    // Only a quad reads its halves (pointOnPatch), so they are stored where
+    // quads are at least a quarter of the patches, and computed per point
+    // elsewhere (the same arithmetic, so the same points).
+    const size_t quads = size_t(std::count_if(P.begin(), P.end(), [](const scene::Patch& p) {
+        return p.kind != scene::PatchKind::Triangle;
+    }));
+    halves_.assign(4 * quads >= P.size() ? P.size() : 0, {0.0, 0.0});
+    halves_.shrink_to_fit();
+    for (size_t i = 0; i < halves_.size(); ++i)
+        if (P[i].kind != scene::PatchKind::Triangle) halves_[i] = quadHalves(P[i]);
     parent_.assign(nodes_.size(), UINT32_MAX);
     patchCluster_.assign(P.size(), UINT32_MAX);
     // Children have larger indices than parents: accumulate bottom-up.
@@ -534,6 +536,12 @@ Vec3 ClusterTree::samplePoint(uint32_t ci, double u0, double u1, double u2, uint
     return pointOnPatch(patch, u1, u2);
 }
 
+std::array<double, 2> ClusterTree::quadHalves(const scene::Patch& p) {
+    const auto& v = p.v;
+    return {glm::length(glm::cross(v[1] - v[0], v[2] - v[0])),
+            glm::length(glm::cross(v[2] - v[0], v[3] - v[0]))};
+}
+
 Vec3 ClusterTree::pointOnPatch(uint32_t patch, double u1, double u2) const {
     const auto& p = scene_->patches[patch];
     // Uniform point on a triangle (a, b, c) from (u1, u2).
@@ -542,7 +550,8 @@ Vec3 ClusterTree::pointOnPatch(uint32_t patch, double u1, double u2) const {
         return (1 - su) * a + su * (1 - u2) * b + su * u2 * cc;
     };
     if (p.kind == scene::PatchKind::Triangle) return tri(p.v[0], p.v[1], p.v[2]);
-    const double a1 = halves_[patch][0], a2 = halves_[patch][1];
+    const std::array<double, 2> h = halves_.empty() ? quadHalves(p) : halves_[patch];
+    const double a1 = h[0], a2 = h[1];
     double pick = u2 * (a1 + a2);
     if (pick < a1) {
         u2 = a1 > 0 ? pick / a1 : 0.5;

@@ -313,6 +313,9 @@ void Hierarchy::setLinks(const std::vector<uint32_t>& receivers, std::vector<Lin
 void Hierarchy::placeLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links,
                            std::vector<KernelSamples>* samples) {
     HRAD_CHECK(receivers.size() == links.size());
+    if (links.size() > kMaxLinks)
+        throw Error(fmt::format("{} links: a hierarchy holds at most {} (hr.max_links)",
+                                links.size(), kMaxLinks));
     uint32_t n = numElements();
     // Counting sort by receiver; stable, so each row keeps the given order.
     linkOffsets_.assign(size_t(n) + 1, 0);
@@ -331,12 +334,12 @@ void Hierarchy::placeLinks(const std::vector<uint32_t>& receivers, std::vector<L
     if (samples) {
         std::vector<uint64_t> sampleFill(size_t(n) + 1, 0);
         for (size_t i = 0; i < links.size(); ++i)
-            if (carriesKernelSamples(receivers[i], links[i])) ++sampleFill[receivers[i] + 1];
+            if (storesKernelSamples(receivers[i], links[i])) ++sampleFill[receivers[i] + 1];
         for (uint32_t i = 0; i < n; ++i) sampleFill[i + 1] += sampleFill[i];
         HRAD_CHECK(samples->size() == sampleFill[n]);
         samples_.resize(samples->size());
         for (size_t i = 0, k = 0; i < links.size(); ++i)
-            if (carriesKernelSamples(receivers[i], links[i]))
+            if (storesKernelSamples(receivers[i], links[i]))
                 samples_[sampleFill[receivers[i]]++] = (*samples)[k++];
         samples->clear();
         samples->shrink_to_fit();
@@ -1366,7 +1369,7 @@ uint64_t Hierarchy::elementBytes() const {
 }
 
 uint64_t Hierarchy::linkBytes() const {
-    return links_.capacity() * sizeof(Link) + linkOffsets_.capacity() * sizeof(uint64_t) +
+    return links_.capacity() * sizeof(Link) + linkOffsets_.capacity() * sizeof(uint32_t) +
            clusterLinkDir_.capacity() * sizeof(glm::vec3) +
            samples_.capacity() * sizeof(KernelSamples) +
            standInBegin_.capacity() * sizeof(uint64_t) +
@@ -1377,7 +1380,7 @@ uint64_t Hierarchy::linkBytes() const {
 void Hierarchy::reportMemory(MemoryCounters& m) const {
     m.set("elements", elementBytes());
     m.set("links", links_.capacity() * sizeof(Link));
-    m.set("link_offsets", linkOffsets_.capacity() * sizeof(uint64_t));
+    m.set("link_offsets", linkOffsets_.capacity() * sizeof(uint32_t));
     if (!couplingIndex_.empty())
         m.set("link_coupling", couplingIndex_.capacity() * sizeof(uint32_t) +
                                    couplingData_.capacity() * sizeof(float));

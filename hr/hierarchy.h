@@ -30,6 +30,7 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <span>
 #include <unordered_map>
@@ -132,7 +133,8 @@ static_assert(sizeof(Link) == 16, "Link must stay 16 bytes");
 /// the receiver-aggregate error (hr/receiver_error.h): geometry only, so
 /// computed once when the link is made. Only links between two surface
 /// elements have them (the aggregate judges nothing else), and they are
-/// stored for those alone, in link order (Hierarchy::carriesKernelSamples).
+/// stored for those alone whose receiver can still subdivide, in link order
+/// (Hierarchy::storesKernelSamples).
 ///
 /// Stored in 24 bytes, not nine floats' 36: their mean as a float, and each
 /// sample's deviation from it as a 16-bit integer times a power of two
@@ -287,7 +289,7 @@ class Hierarchy {
     /// arrays are sorted stably by receiver into CSR form.
     void setLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links);
     /// The same with the links' kernel samples: one per link that
-    /// carriesKernelSamples(), in the order of those links in `links`.
+    /// storesKernelSamples(), in the order of those links in `links`.
     void setLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links,
                   std::vector<KernelSamples>&& samples);
     /// Stores the samples of a stand-in from a sending cluster and returns
@@ -329,13 +331,37 @@ class Hierarchy {
     }
     /// Whether link l into receiver r has kernel samples: both ends are
     /// surface elements. Depends on the pair only, never on the link's flags.
+    /// These are the links the receiver aggregate sums (hr/receiver_error.h).
     bool carriesKernelSamples(uint32_t r, const Link& l) const {
         return l.sender != kNone && !isCluster(r) && !isCluster(l.sender);
+    }
+    /// Whether the samples of such a link are stored: only when its receiver
+    /// can subdivide. Only the receiver's subdivision lowers its aggregate
+    /// (oracles::receiverRefinement), so no decision reads the aggregate of a
+    /// receiver that cannot; the error estimate computes their samples when
+    /// it needs them (receiverErrors). Where most receivers are at the
+    /// smallest area (finely tessellated scenes) this keeps most links
+    /// without samples. Depends on the pair only.
+    bool storesKernelSamples(uint32_t r, const Link& l) const {
+        return carriesKernelSamples(r, l) && canSubdivide(r);
+    }
+    /// The subdivision limits (hr.min_area, hr.max_level), set by the solver
+    /// before any link is placed; without them every surface element may
+    /// subdivide.
+    void setSubdivisionLimits(double minArea, int maxLevel) {
+        minArea_ = minArea;
+        maxLevel_ = maxLevel;
+    }
+    /// Whether element e may subdivide: a cluster always (it is opened), a
+    /// surface element below the level limit whose children keep the
+    /// smallest area.
+    bool canSubdivide(uint32_t e) const {
+        return isCluster(e) || (level(e) < maxLevel_ && 0.25 * area(e) >= minArea_);
     }
     /// Whether the links carry their kernel samples (set by the last
     /// setLinks() with samples).
     bool hasKernelSamples() const { return hasSamples_; }
-    /// The kernel samples of the links that carriesKernelSamples(), in link
+    /// The kernel samples of the links that storesKernelSamples(), in link
     /// order (empty unless hasKernelSamples()).
     const std::vector<KernelSamples>& kernelSamples() const { return samples_; }
     /// Moves the cached samples out (refinement hands them back with setLinks).
@@ -345,6 +371,9 @@ class Hierarchy {
         hasSamples_ = false;
         return out;
     }
+    /// The most links a hierarchy holds: its row offsets are 32-bit (64 GiB
+    /// of 16-byte links, past the memory of the machines it runs on).
+    static constexpr uint64_t kMaxLinks = UINT32_MAX;
     uint64_t numLinks() const { return links_.size(); }
     /// Links of receiver e: [linkBegin(e), linkEnd(e)).
     uint64_t linkBegin(uint32_t e) const {
@@ -598,10 +627,14 @@ class Hierarchy {
     std::vector<RGB> hi_;
     std::vector<RGB> gatheredHi_;
     // Links (CSR by receiver).
-    std::vector<uint64_t> linkOffsets_;
+    /// Row starts of the links in CSR order, 32-bit: a hierarchy holds at
+    /// most kMaxLinks links (refinement stops before a round would pass it).
+    std::vector<uint32_t> linkOffsets_;
     std::vector<Link> links_;
     std::vector<KernelSamples> samples_;
     bool hasSamples_ = false;
+    double minArea_ = 0.0;  ///< setSubdivisionLimits
+    int maxLevel_ = std::numeric_limits<int>::max();
     void placeLinks(const std::vector<uint32_t>& receivers, std::vector<Link>&& links,
                     std::vector<KernelSamples>* samples);
     /// Stand-in samples (addStandIn): block b is

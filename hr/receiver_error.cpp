@@ -106,9 +106,12 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
                     const std::vector<KernelSamples>& pendingSamples,
                     const std::vector<uint32_t>& acceptedRecv, const std::vector<Link>& accepted,
                     const std::vector<KernelSamples>& acceptedSamples,
-                    std::vector<ReceiverError>& out, bool residualSamples) {
+                    std::vector<ReceiverError>& out, bool residualSamples,
+                    const SampleFn& compute) {
     const size_t np = pending.size();
-    out.assign(pendingSamples.size(), ReceiverError{});
+    size_t carriers = 0;
+    for (size_t i = 0; i < np; ++i) carriers += h.carriesKernelSamples(pendingRecv[i], pending[i]);
+    out.assign(carriers, ReceiverError{});
     const uint32_t n = h.numElements();
     auto surfaceLink = [&](uint32_t r, const Link& l) {
         return !h.isCluster(r) && l.sender != kNone && !h.isCluster(l.sender) &&
@@ -129,23 +132,30 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
     count(pendingRecv, pending);
     for (uint32_t e = 0; e < n; ++e) offset[e + 1] += offset[e];
     // With each item, the index of its link's samples (stored only for the
-    // links that carriesKernelSamples(), in link order).
-    std::vector<uint64_t> items(offset[n]), itemSamples(offset[n]);
+    // links that storesKernelSamples(), in link order; kNoSamples for the
+    // others) and, for a pending link, of its entry in `out` (one per link
+    // that carriesKernelSamples()).
+    constexpr uint64_t kNoSamples = ~uint64_t(0);
+    std::vector<uint64_t> items(offset[n]), itemSamples(offset[n]), itemOut(offset[n]);
     {
         std::vector<uint64_t> fill(offset.begin(), offset.end() - 1);
         auto place = [&](const std::vector<uint32_t>& recv, const std::vector<Link>& links,
                          const std::vector<KernelSamples>& samples, uint64_t tag) {
-            uint64_t k = 0;
+            const bool stored = !(samples.empty() && compute);
+            uint64_t k = 0, ks = 0;
             for (size_t i = 0; i < links.size(); ++i) {
                 if (!h.carriesKernelSamples(recv[i], links[i])) continue;
+                const bool has = stored && h.storesKernelSamples(recv[i], links[i]);
                 if (wanted[recv[i]] && surfaceLink(recv[i], links[i])) {
                     const uint64_t j = fill[recv[i]]++;
                     items[j] = 2 * uint64_t(i) + tag;
-                    itemSamples[j] = k;
+                    itemSamples[j] = has ? ks : kNoSamples;
+                    itemOut[j] = k;
                 }
                 ++k;
+                ks += has ? 1 : 0;
             }
-            HRAD_CHECK(k == samples.size());
+            HRAD_CHECK(ks == samples.size());
         };
         place(acceptedRecv, accepted, acceptedSamples, 0);
         place(pendingRecv, pending, pendingSamples, 1);
@@ -169,9 +179,20 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
             for (uint64_t j = b; j < e; ++j) {
                 uint64_t code = items[j];
                 const Link& l = (code & 1) ? pending[code >> 1] : accepted[code >> 1];
-                const KernelSamples& vals =
-                    (code & 1) ? pendingSamples[itemSamples[j]] : acceptedSamples[itemSamples[j]];
                 const uint32_t s = l.sender;
+                // The link's samples: stored, computed now, or none (a
+                // receiver that cannot subdivide, judged by nothing here).
+                // A link without light has zero samples, stored or not (the
+                // solver makes none for it).
+                KernelSamples computed;
+                const KernelSamples* vals = nullptr;
+                if (itemSamples[j] != kNoSamples)
+                    vals = (code & 1) ? &pendingSamples[itemSamples[j]]
+                                      : &acceptedSamples[itemSamples[j]];
+                else if (compute) {
+                    if (l.K > 0) computed = compute(r, s);
+                    vals = &computed;
+                }
                 // The judged visibility (hr.judge_visibility) and the
                 // unoccluded form factor.
                 double v = l.vis();
@@ -180,12 +201,14 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
                 double dev = 0.0, wmax = maxComponent(w);
                 // Kernel samples less the link's constant; residual samples
                 // are already less the link's polynomial.
-                const double base = (residualSamples ? 0.0 : Fu) - vals.mean();
-                const double step = vals.step();
-                for (int k = 0; k < m; ++k) {
-                    double d = vals.deviation(k) * step - base;
-                    D[k] += w * d;
-                    dev = std::max(dev, wmax * std::fabs(d));
+                if (vals) {
+                    const double base = (residualSamples ? 0.0 : Fu) - vals->mean();
+                    const double step = vals->step();
+                    for (int k = 0; k < m; ++k) {
+                        double d = vals->deviation(k) * step - base;
+                        D[k] += w * d;
+                        dev = std::max(dev, wmax * std::fabs(d));
+                    }
                 }
                 if (l.flags & Link::kPartial) {
                     // Where the shadow falls on the receiver is unknown: the
@@ -222,7 +245,7 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
             for (uint64_t j = b; j < e; ++j) {
                 uint64_t code = items[j];
                 if (!(code & 1)) continue;
-                ReceiverError& o = out[itemSamples[j]];
+                ReceiverError& o = out[itemOut[j]];
                 o.range = float(rangeMax);
                 o.deviation = float(devMax);
                 o.linkDeviation = linkDev[j - b];

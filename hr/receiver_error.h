@@ -52,6 +52,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "hr/hierarchy.h"
@@ -95,19 +96,29 @@ void senderTotals(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
                   const std::vector<Link>& pending, const std::vector<uint32_t>& acceptedRecv,
                   const std::vector<Link>& accepted, std::vector<SenderTotal>& out);
 
+/// The samples of the link from surface element s to surface element r
+/// (receiverErrors' `compute`).
+using SampleFn = std::function<KernelSamples(uint32_t r, uint32_t s)>;
+
 /// For every link of `pending` whose receiver and sender are surface
 /// elements: the aggregate over all surface links of its receiver, in
 /// `pending` and in `accepted` together (the links refinement has already
-/// kept this round count too), and the link's own part. Each samples array
-/// holds one entry per link of its array that carriesKernelSamples(), in
-/// link order, and so does `out` for `pending` (no other link is
-/// evaluated). Parallel over receivers; deterministic.
+/// kept this round count too), and the link's own part. `out` holds one
+/// entry per link of `pending` that carriesKernelSamples(), in link order
+/// (no other link is evaluated). Each samples array holds one entry per
+/// link of its array that storesKernelSamples(), in link order; with
+/// `compute` given, an array may also be empty, and the samples a link
+/// lacks are computed now (the error estimate). Without it a receiver that
+/// cannot subdivide gets no kernel term, only the unsigned part of its
+/// partially visible links: no decision reads its aggregate
+/// (oracles::receiverRefinement). Parallel over receivers; deterministic.
 void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
                     const std::vector<Link>& pending,
                     const std::vector<KernelSamples>& pendingSamples,
                     const std::vector<uint32_t>& acceptedRecv, const std::vector<Link>& accepted,
                     const std::vector<KernelSamples>& acceptedSamples,
-                    std::vector<ReceiverError>& out, bool residualSamples = false);
+                    std::vector<ReceiverError>& out, bool residualSamples = false,
+                    const SampleFn& compute = {});
 
 /// The kernel samples of the link from surface element s to surface element
 /// r (zeros past the receiver's sample count).

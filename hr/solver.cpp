@@ -296,8 +296,7 @@ uint64_t HrSolver::updateCoupling(Hierarchy& h, const PreviousCoupling* previous
 }
 
 bool HrSolver::canSubdivide(const Hierarchy& h, uint32_t e) const {
-    if (h.isCluster(e)) return true;  // a cluster can always be opened
-    return h.level(e) < s_.maxLevel && 0.25 * h.area(e) >= minArea_;
+    return h.canSubdivide(e);  // the limits of setSubdivisionLimits (solve)
 }
 
 cluster::LinkEnd HrSolver::endOf(const Hierarchy& h, uint32_t e) const {
@@ -697,7 +696,7 @@ std::vector<KernelSamples> HrSolver::computeKernelSamples(const Hierarchy& h,
     // Compact: one entry per link that carries samples, in link order.
     std::vector<uint64_t> at(links.size() + 1, 0);
     for (size_t i = 0; i < links.size(); ++i)
-        at[i + 1] = at[i] + (h.carriesKernelSamples(recv[i], links[i]) ? 1 : 0);
+        at[i + 1] = at[i] + (h.storesKernelSamples(recv[i], links[i]) ? 1 : 0);
     std::vector<KernelSamples> out(at.back(), KernelSamples{});
     tbb::parallel_for(tbb::blocked_range<size_t>(0, links.size(), 256), [&](const auto& range) {
         for (size_t i = range.begin(); i != range.end(); ++i)
@@ -709,13 +708,14 @@ std::vector<KernelSamples> HrSolver::computeKernelSamples(const Hierarchy& h,
 double HrSolver::estimateError(const Hierarchy& h) const {
     std::vector<uint32_t> recv = h.linkReceivers();
     const std::vector<Link>& links = h.links();
-    // The cached samples when h holds them for these links (made with the
-    // links), else computed now (an oracle that did not ask for them).
-    std::vector<KernelSamples> computed;
-    if (!h.hasKernelSamples()) computed = computeKernelSamples(h, recv, links);
-    const std::vector<KernelSamples>& samples = h.hasKernelSamples() ? h.kernelSamples() : computed;
+    // The cached samples where h holds them (made with the links), the
+    // others computed receiver by receiver (those of receivers that cannot
+    // subdivide, or all of them for an oracle that did not ask for them).
+    const std::vector<KernelSamples> none;
+    const std::vector<KernelSamples>& samples = h.hasKernelSamples() ? h.kernelSamples() : none;
     std::vector<ReceiverError> err;
-    receiverErrors(h, recv, links, samples, {}, {}, {}, err, coupling_ != nullptr);
+    receiverErrors(h, recv, links, samples, {}, {}, {}, err, coupling_ != nullptr,
+                   [&](uint32_t r, uint32_t s) { return linkSamples(h, r, s); });
     double sum = 0.0;
     uint32_t last = kNone;
     // err holds the links that carry samples, in link order.
@@ -770,7 +770,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
     std::vector<ReceiverError> rerr;
     // Kernel samples travel with their links (geometry: computed once, when
     // the link is made; the initial links get theirs here). Each array holds
-    // those of the links that carry samples (Hierarchy::carriesKernelSamples),
+    // those of the links that store samples (Hierarchy::storesKernelSamples),
     // in the order of its link array.
     std::vector<KernelSamples> pendingS, finalS;
     if (aggregate) {
@@ -785,12 +785,12 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
     auto keepPending = [&](size_t i, size_t& k) {
         finalRecv.push_back(recv[i]);
         finalLinks.push_back(pending[i]);
-        if (aggregate && h.carriesKernelSamples(recv[i], pending[i]))
+        if (aggregate && h.storesKernelSamples(recv[i], pending[i]))
             finalS.push_back(pendingS[k++]);
     };
     // Advances cursor k past pending link i's samples without keeping them.
     auto skipPending = [&](size_t i, size_t& k) {
-        if (aggregate && h.carriesKernelSamples(recv[i], pending[i])) ++k;
+        if (aggregate && h.storesKernelSamples(recv[i], pending[i])) ++k;
     };
 
     while (!pending.empty()) {
@@ -946,16 +946,19 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                             e.senderLinks = stot[si].links;
                         }
                         Decision d = oracles::constrain(oracle.decide(e), e);
+                        // Only the receiver's subdivision lowers its aggregate (the
+                        // children of a sender sum to its kernel): a receiver that
+                        // cannot subdivide keeps the link (oracles::receiverRefinement).
                         if (d == Decision::Accept && guardEps > 0.0 && e.receiverRange >= 0.0 &&
                             e.receiverRange * e.receiverArea > guardEps * e.emittedPower &&
                             oracles::carriesReceiverShare(e))
-                            d = oracles::constrain(Decision::RefineReceiver, e);
+                            d = oracles::receiverRefinement(e);
                         // The sender side of the same check (hr.sender_total): a
                         // subdivided sender's average, gathered by all its
                         // receivers, within the check's eps share of the power.
                         if (d == Decision::Accept && guardEps > 0.0 &&
                             oracles::senderTotalRefines(e, guardEps))
-                            d = oracles::constrain(Decision::RefineSender, e);
+                            d = oracles::senderRefinement(e);
                         // A sampled near cluster link the oracle accepts must also
                         // be known well enough: the power it may carry wrongly
                         // (its error bound) within the oracle's eps share.
@@ -1027,6 +1030,27 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         }
         newCount = offset[n];
         if (newCount == 0) break;
+        // A stop before the round is made: the links to be refined are kept
+        // as they are (the accepted ones are already kept).
+        auto keepRefined = [&] {
+            for (size_t i = 0, k = 0; i < n; ++i) {
+                if (Decision(decision[i]) == Decision::Accept)
+                    skipPending(i, k);
+                else
+                    keepPending(i, k);
+            }
+        };
+        // The hierarchy's own limit (32-bit row offsets), checked with the
+        // round's exact count before it is made: like hr.max_links.
+        if (finalLinks.size() + n + newCount > Hierarchy::kMaxLinks) {
+            if (!res.linkCapHit)
+                spdlog::warn("{} links would pass the hierarchy's limit of {}: refinement "
+                             "stops here",
+                             finalLinks.size() + n + newCount, Hierarchy::kMaxLinks);
+            res.linkCapHit = true;
+            keepRefined();
+            break;
+        }
         // Memory budget, checked before allocating the round: the hierarchy
         // as it is, the links of this round and of the next one, and the
         // elements the marked ones will add. Past it, the links still to be
@@ -1057,12 +1081,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                         "refinement stops here; the solution is coarser than the oracle asks",
                         s_.memoryBudget >> 20, formatBytes(estimate));
                 res.memoryBudgetHit = true;
-                for (size_t i = 0, k = 0; i < n; ++i) {
-                    if (Decision(decision[i]) == Decision::Accept)
-                        skipPending(i, k);
-                    else
-                        keepPending(i, k);
-                }
+                keepRefined();
                 break;
             }
         }
@@ -1091,10 +1110,11 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                 for (uint32_t b = 0; b < nb; ++b)
                     fn(rr ? h.child(r, a) : r, ss ? h.child(s, b) : s);
         };
-        // A child pair of two surface elements gets kernel samples; a surface
+        // A child pair of two surface elements gets kernel samples when the
+        // receiver can subdivide (Hierarchy::storesKernelSamples); a surface
         // self-pair makes no link (below) and none.
         auto childSampled = [&](uint32_t rc, uint32_t sc) {
-            return rc != sc && surfacePair(h, rc, sc);
+            return rc != sc && surfacePair(h, rc, sc) && h.canSubdivide(rc);
         };
         // Where each refined link's children put their samples.
         std::vector<size_t> sampleOffset(aggregate ? n + 1 : 0, 0);
@@ -1155,7 +1175,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
             bool keep = clusterLink ? (nlinks[i].flags & (Link::kOpen | Link::kUncertain |
                                                           Link::kPartial | Link::kDeferred)) != 0
                                     : keepSurfaceLink(nlinks[i]);
-            const bool sampled = aggregate && h.carriesKernelSamples(nrecv[i], nlinks[i]);
+            const bool sampled = aggregate && h.storesKernelSamples(nrecv[i], nlinks[i]);
             const size_t si = sampled ? rs++ : 0;
             if (!(nlinks[i].K > 0) && !keep) continue;
             nlinks[w] = nlinks[i];
@@ -1228,6 +1248,7 @@ HrResult HrSolver::solve(bool progress) {
     res.hierarchy = std::make_unique<Hierarchy>(*scene_, res.clusterTree.get(), s_.clusterModel,
                                                 s_.basisDegree);
     Hierarchy& h = *res.hierarchy;
+    h.setSubdivisionLimits(minArea_, s_.maxLevel);
     h.setJudgedSurfaceVisibility(s_.judgeVisibility);
     h.setSeed(s_.seed);
     linker_ = std::make_unique<cluster::ClusterLinker>(*scene_, res.clusterTree.get(),

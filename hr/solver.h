@@ -37,7 +37,9 @@
 //   hr.gs_blocks       int     0       gauss-seidel: root patches per sweep are split into
 //                                       this many blocks gathered one after the other
 //                                       (0: one block per root patch, full Gauss-Seidel)
-//   hr.max_links       int     2e8     refinement stops (with a warning) past this many links
+//   hr.max_links       int     2e8     refinement stops (with a warning) past this many links;
+//                                       never past 2^32 - 1, the hierarchy's own limit
+//                                       (Hierarchy::kMaxLinks: 32-bit row offsets)
 //   hr.max_seconds     double  0       wall-clock limit of the solve (0: none): refinement
 //                                       stops at the next round and iterating after the
 //                                       current iteration; the solution so far is the
@@ -572,7 +574,7 @@ class HrSolver {
   private:
     struct Pending;
     /// Kernel samples of `links` (receivers `recv`): one entry per link that
-    /// carries them (Hierarchy::carriesKernelSamples), in link order.
+    /// stores them (Hierarchy::storesKernelSamples), in link order.
     std::vector<KernelSamples> computeKernelSamples(const Hierarchy& h,
                                                     const std::vector<uint32_t>& recv,
                                                     const std::vector<Link>& links) const;

@@ -77,11 +77,13 @@ Decision VariationOracle::decide(const LinkEstimate& e) const {
         // again. Refining the sender would not change the receiver's
         // irradiance (the children's coefficients sum to the parent's), so
         // the sender is refined only for its own error: the spread of its
-        // children's radiosities.
+        // children's radiosities; and a receiver that cannot subdivide
+        // accepts what it has (receiverRefinement).
         double err = receiverError(e) * e.importance;
         // The share compares deviations with deviations (the range of one
         // link's error can exceed its largest deviation from the mean).
-        bool receiverBad = !errorWithinEps(err, s_.eps, s_.norm, e) && carriesReceiverShare(e);
+        bool receiverBad = !errorWithinEps(err, s_.eps, s_.norm, e) && carriesReceiverShare(e) &&
+                           c.receiverCanSubdivide;
         // The sender side is judged by its own aggregate when the solver
         // gives one: the receiver's averaged senders together within eps,
         // the links with at least an even share of it refined on the sender.
@@ -96,13 +98,13 @@ Decision VariationOracle::decide(const LinkEstimate& e) const {
         // the emitted power, the links with at least an even share refined.
         if (!senderBad && s_.norm == ErrorNorm::Power && senderTotalRefines(e, s_.eps))
             senderBad = true;
+        // Each side is refined for its own error only (receiverRefinement,
+        // senderRefinement): a side that cannot subdivide accepts it.
+        senderBad = senderBad && c.senderCanSubdivide;
         if (!receiverBad && !senderBad) return Decision::Accept;
-        Decision d = receiverBad && senderBad ? Decision::RefineBoth
-                     : receiverBad            ? Decision::RefineReceiver
-                                              : Decision::RefineSender;
-        if (d == Decision::RefineBoth && !c.senderCanSubdivide) d = Decision::RefineReceiver;
-        if (d == Decision::RefineBoth && !c.receiverCanSubdivide) d = Decision::RefineSender;
-        return constrain(d, c);
+        return receiverBad && senderBad ? Decision::RefineBoth
+               : receiverBad            ? Decision::RefineReceiver
+                                        : Decision::RefineSender;
     }
     if (errorWithinEps(linkError(e), s_.eps, s_.norm, e)) return Decision::Accept;
     if (s_.refineReceiver) return constrain(Decision::RefineReceiver, c);

@@ -188,6 +188,24 @@ inline bool carriesReceiverShare(const LinkEstimate& e) {
     return e.linkDeviation * std::max<uint32_t>(1, e.receiverLinks) >= e.receiverDeviation;
 }
 
+/// The refinement for a receiver aggregate over eps: RefineReceiver, or
+/// Accept when the receiver cannot subdivide. Not the sender instead (as
+/// constrain() would): the children of a sender sum to its kernel, so
+/// refining it leaves the receiver's aggregate where it was, and a receiver
+/// at the smallest area would have every sender it sees refined to the
+/// smallest area too, for nothing.
+inline Decision receiverRefinement(const LinkEstimate& e) {
+    return e.receiverCanSubdivide ? Decision::RefineReceiver : Decision::Accept;
+}
+
+/// The same for a sender-side aggregate over eps (the spread of an averaged
+/// sender's radiosity): RefineSender, or Accept when the sender cannot
+/// subdivide. Refining the receiver instead would split the same error
+/// among its children, each then under eps, without lowering it.
+inline Decision senderRefinement(const LinkEstimate& e) {
+    return e.senderCanSubdivide ? Decision::RefineSender : Decision::Accept;
+}
+
 /// Whether the sender-side error summed over all the sender's receivers
 /// (LinkEstimate::senderTotal, when given) exceeds eps of the emitted power
 /// and the link carries at least an even share of it: the link is then

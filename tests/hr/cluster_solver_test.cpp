@@ -589,20 +589,24 @@ TEST(LinkCost, AccountsForEveryEvaluationByKind) {
 }
 
 // The receiver aggregate's kernel samples are kept only for links between two
-// surface elements, in link order (Hierarchy::carriesKernelSamples): after a
-// clustered solve, one entry per such link, each equal to the samples of its
-// own pair computed afresh (a misaligned entry belongs to another pair).
-TEST(KernelSampleCache, HeldForSurfaceLinksOnlyAndInTheirOrder) {
+// surface elements whose receiver can subdivide, in link order
+// (Hierarchy::storesKernelSamples): after a clustered solve, one entry per
+// such link, each equal to the samples of its own pair computed afresh (a
+// misaligned entry belongs to another pair). The error estimate computes the
+// samples it lacks: it is the same with the stored samples as with none.
+TEST(KernelSampleCache, HeldForSubdividableSurfaceLinksOnlyAndInTheirOrder) {
     scene::Scene s = scene::loadScene("office:1");
     transport::Visibility vis(s);
     HrSettings settings = clustered("oriented", "bfa", 1e-3);
+    // A smallest area that stops some receivers (the furniture's faces).
+    settings.minAreaRel = 2e-4;
     HrSolver solver(s, vis, settings);
     HrResult res = solver.solve();
-    const Hierarchy& h = *res.hierarchy;
+    Hierarchy& h = *res.hierarchy;
     ASSERT_TRUE(h.hasKernelSamples());
     transport::FormFactorEngine engine(s, &vis, settings.ff);
     const std::vector<KernelSamples>& samples = h.kernelSamples();
-    uint64_t carrying = 0, other = 0, compared = 0;
+    uint64_t storing = 0, unstored = 0, other = 0, compared = 0;
     for (uint32_t r = 0; r < h.numElements(); ++r)
         for (uint64_t i = h.linkBegin(r); i < h.linkEnd(r); ++i) {
             const Link& l = h.link(i);
@@ -610,8 +614,13 @@ TEST(KernelSampleCache, HeldForSurfaceLinksOnlyAndInTheirOrder) {
                 ++other;
                 continue;
             }
-            ASSERT_LT(carrying, samples.size());
-            const KernelSamples& got = samples[carrying++];
+            EXPECT_EQ(h.storesKernelSamples(r, l), h.canSubdivide(r));
+            if (!h.storesKernelSamples(r, l)) {
+                ++unstored;
+                continue;
+            }
+            ASSERT_LT(storing, samples.size());
+            const KernelSamples& got = samples[storing++];
             // Links kept without light (K = 0) were given no samples.
             if (!(l.K > 0)) continue;
             const KernelSamples want = linkKernelSamples(h, engine, r, l.sender);
@@ -619,10 +628,16 @@ TEST(KernelSampleCache, HeldForSurfaceLinksOnlyAndInTheirOrder) {
                 ASSERT_EQ(got[k], want[k]) << "receiver " << r << " link " << i << " sample " << k;
             ++compared;
         }
-    EXPECT_EQ(carrying, samples.size());
-    // Both kinds occur, so the layout is exercised.
+    EXPECT_EQ(storing, samples.size());
+    // Every kind occurs, so the layout is exercised.
     EXPECT_GT(other, 1000u);
     EXPECT_GT(compared, 1000u);
-    std::cout << "[ stats    ] " << carrying << " links with samples (" << compared
-              << " compared), " << other << " without\n";
+    EXPECT_GT(unstored, 1000u);
+    std::cout << "[ stats    ] " << storing << " links with samples (" << compared << " compared), "
+              << unstored << " surface links without, " << other << " other links\n";
+    const double stored = solver.estimateError(h);
+    EXPECT_DOUBLE_EQ(stored, res.errorEstimate);
+    h.takeKernelSamples();
+    ASSERT_FALSE(h.hasKernelSamples());
+    EXPECT_DOUBLE_EQ(solver.estimateError(h), stored);
 }

@@ -294,3 +294,37 @@ TEST(ErrorOracles, SideReceiverRefinesTheReceiverFirst) {
         EXPECT_NE(o->describe().find("side=receiver"), std::string::npos) << o->describe();
     }
 }
+
+// A receiver aggregate over eps is lowered only by subdividing the receiver
+// (the children of a sender sum to its kernel), and a sender-side aggregate
+// only by subdividing the sender (the receiver's children would split the
+// same error): a side that cannot subdivide accepts, it does not refine the
+// other side. Falling back to the sender made the receiver check refine
+// every sender a smallest receiver sees (the classroom at bfa 1e-5).
+TEST(ErrorOracles, AggregateOverEpsRefinesOnlyItsOwnSide) {
+    for (std::string name : {"error", "kv"}) {
+        LinkEstimate e = boundedEstimate();
+        e.receiverRange = e.receiverDeviation = 1.0;  // A_r 1: 1e-2 of the emitted power
+        e.linkDeviation = 1.0;
+        e.receiverLinks = 1;
+        e.senderAggregate = e.linkSenderPart = 0.0;
+        auto o = makeOracle(name, 1e-3);
+        EXPECT_EQ(o->decide(e), Decision::RefineReceiver) << name;
+        e.receiverCanSubdivide = false;
+        EXPECT_EQ(o->decide(e), Decision::Accept) << name;
+        // The sender side, over eps while the receiver's is within it.
+        e = boundedEstimate();
+        e.receiverRange = e.receiverDeviation = 0.0;
+        e.receiverLinks = 1;
+        e.senderAggregate = e.linkSenderPart = 1.0;
+        EXPECT_EQ(o->decide(e), Decision::RefineSender) << name;
+        e.senderCanSubdivide = false;
+        EXPECT_EQ(o->decide(e), Decision::Accept) << name;
+    }
+    LinkEstimate e = baseEstimate();
+    EXPECT_EQ(receiverRefinement(e), Decision::RefineReceiver);
+    EXPECT_EQ(senderRefinement(e), Decision::RefineSender);
+    e.receiverCanSubdivide = e.senderCanSubdivide = false;
+    EXPECT_EQ(receiverRefinement(e), Decision::Accept);
+    EXPECT_EQ(senderRefinement(e), Decision::Accept);
+}
