@@ -73,3 +73,38 @@ TEST(ClusterTree, SamplePointLiesOnAPatchOfTheCluster) {
         }
     }
 }
+
+// A quad's two triangle areas are stored where quads are at least a quarter
+// of the patches and computed per point elsewhere (ClusterTree::halves_): the
+// same arithmetic, so a quad gives the same points either way, and they lie
+// on it with each triangle drawn by its area.
+TEST(ClusterTree, QuadPointsTheSameWithAndWithoutStoredHalves) {
+    auto make = [](int triangles) {
+        scene::Scene s;
+        uint32_t m = s.addMaterial({"m", RGB(0.5), RGB(0.0)});
+        // A trapezoid: its triangles v0 v1 v2 and v0 v2 v3 differ in area (3 : 1).
+        s.addQuad(Vec3(0, 0, 0), Vec3(3, 0, 0), Vec3(2, 1, 0), Vec3(1, 1, 0), m);
+        for (int i = 0; i < triangles; ++i)
+            s.addTriangle(Vec3(5 + i, 0, 0), Vec3(6 + i, 0, 0), Vec3(5 + i, 1, 0), m);
+        return s;
+    };
+    // One quad in 2 patches: stored; one in 8: computed.
+    scene::Scene dense = make(1), sparse = make(7);
+    ClusterTree td(dense, ClusterSettings{}), ts(sparse, ClusterSettings{});
+    Pcg32 rng(11);
+    int first = 0;
+    const int n = 4000;
+    for (int i = 0; i < n; ++i) {
+        double u1 = rng.nextDouble(), u2 = rng.nextDouble();
+        Vec3 a = td.pointOnPatch(0, u1, u2), b = ts.pointOnPatch(0, u1, u2);
+        ASSERT_EQ(a, b) << "u = (" << u1 << ", " << u2 << ")";
+        EXPECT_NEAR(a.z, 0.0, 1e-15);
+        EXPECT_GE(a.y, -1e-15);
+        EXPECT_LE(a.y, 1.0 + 1e-15);
+        // Below the diagonal v0 v2 (y < x / 2) lies the first triangle.
+        first += a.y < 0.5 * a.x ? 1 : 0;
+    }
+    // Three quarters of the area: a binomial proportion, 5 standard errors.
+    const double p = double(first) / n, se = std::sqrt(0.75 * 0.25 / n);
+    EXPECT_NEAR(p, 0.75, 5 * se);
+}
