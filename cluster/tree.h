@@ -166,10 +166,11 @@ class ClusterTree {
     /// v0 v2 v3; zeros for a triangle): pointOnPatch picks one by area.
     /// Stored, not recomputed per point, where quads are at least a quarter
     /// of the patches: every cluster link's visibility rays draw their ends
-    /// through it (tens of millions of points per large solve; recomputing
-    /// cost Lost Empire, all quads, about 10 % more CPU). Empty otherwise,
-    /// as triangles never read it (16 bytes per patch: 11 MiB on the
-    /// bathroom's 734 k patches, a few of them quads).
+    /// through it (tens of millions of points per large solve; the cost of
+    /// recomputing them on an all-quad scene is in bench/results/
+    /// large_scenes.md, "Cluster nodes slimmed"). Empty otherwise, as
+    /// triangles never read it: 16 bytes per patch saved where most
+    /// patches are triangles.
     std::vector<std::array<double, 2>> halves_;
     static std::array<double, 2> quadHalves(const scene::Patch& p);
     std::vector<uint32_t> parent_;
