@@ -295,10 +295,6 @@ uint64_t HrSolver::updateCoupling(Hierarchy& h, const PreviousCoupling* previous
     return rays;
 }
 
-bool HrSolver::canSubdivide(const Hierarchy& h, uint32_t e) const {
-    return h.canSubdivide(e);  // the limits of setSubdivisionLimits (solve)
-}
-
 cluster::LinkEnd HrSolver::endOf(const Hierarchy& h, uint32_t e) const {
     cluster::LinkEnd x;
     x.isCluster = h.isCluster(e);
@@ -678,8 +674,9 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
     e.emittedRadiosity = emittedRadiosity_;
     e.receiverLevel = h.level(r);
     e.senderLevel = h.level(s);
-    e.receiverCanSubdivide = canSubdivide(h, r);
-    e.senderCanSubdivide = canSubdivide(h, s);
+    // The limits of Hierarchy::setSubdivisionLimits (solve).
+    e.receiverCanSubdivide = h.canSubdivide(r);
+    e.senderCanSubdivide = h.canSubdivide(s);
     if (bounds) fillBounds(h, r, l, e);
     return e;
 }

@@ -631,7 +631,6 @@ class HrSolver {
     /// oracle; Accept means "valid". makeClusterLink() evaluates it once and
     /// marks invalid links Link::kOpen; refine() asks it only for those.
     oracles::Decision forcedDecision(const Hierarchy& h, uint32_t r, uint32_t s) const;
-    bool canSubdivide(const Hierarchy& h, uint32_t e) const;
     /// Fills e.Fmin / e.Fmax for link l of receiver r (only for oracles whose
     /// needsBounds() is true; the other fields of e must be set).
     void fillBounds(const Hierarchy& h, uint32_t r, const Link& l, oracles::LinkEstimate& e) const;
