@@ -271,51 +271,127 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
         // `towards`, drawn with the density the transfer gives the node's
         // surfaces: on a receiving cluster proportional to A_k cos_k, on a
         // sending cluster to A_k B_k cos_k (B_k its root patch's radiosity).
-        // Rejection sampling against cos <= 1, B_k <= maxB (a cluster whose
-        // surfaces carry nothing yet uses cos alone); after 32 rejections the
-        // best candidate is used. `cosine` is the sampled surface's cosine
-        // towards `towards` (1 for a surface element, sampled uniformly).
+        // Senders are drawn by A_k B_k (prepareSenders) and accepted by
+        // cos_k; otherwise drawn by area and accepted by cos_k B_k / max B
+        // (cos_k alone for a receiver, or a sender that carries nothing
+        // yet). After 32 rejections the best candidate is used. `cosine` is
+        // the sampled surface's cosine towards `towards` (1 for a surface
+        // element, sampled uniformly).
+        //
+        // A patch is planar, so n_k . (towards - x) is the same at every
+        // point x of it and the sign of cos_k is known before the point is
+        // drawn: a patch facing away (cos_k <= 0, never accepted) is not a
+        // candidate at all. A cluster of up to kFacingMax patches lists its
+        // facing patches once per link (`Facing`) and draws among them only;
+        // a larger one skips the ones it draws that face away. The margin
+        // covers the rounding of the two forms of the product.
+        constexpr uint32_t kFacingMax = 32;
+        struct Facing {
+            bool listed = false;  // false: a larger cluster, drawn by rejection
+            uint32_t count = 0;
+            uint32_t patch[kFacingMax];
+            double cum[kFacingMax];  // running sum of the draw weights
+            uint32_t leastAway = 0;  // the patch nearest to facing, where none faces
+        };
+        auto facesAway = [&](const LinkEnd& e, const scene::Patch& P, const Vec3& towards,
+                             double& side) {
+            const Vec3 t0 = towards - P.v[0];
+            side = glm::dot(P.normal, t0);
+            return side < -1e-9 * (e.radius + std::abs(t0.x) + std::abs(t0.y) + std::abs(t0.z));
+        };
+        auto isWeighted = [&](const ClusterNode& nd, bool sender) {
+            return sender && !senderPrefix_.empty() &&
+                   senderPrefix_[nd.patchEnd] > senderPrefix_[nd.patchBegin];
+        };
+        auto listFacing = [&](const LinkEnd& e, const Vec3& towards, bool sender, Facing& f) {
+            if (!e.isCluster) return;
+            const ClusterNode& nd = tree_->node(e.cluster);
+            if (nd.patchEnd - nd.patchBegin > kFacingMax) return;
+            f.listed = true;
+            const bool weighted = isWeighted(nd, sender);
+            double sum = 0.0, bestSide = -3.0e38;
+            for (uint32_t i = nd.patchBegin; i < nd.patchEnd; ++i) {
+                const uint32_t p = tree_->patchAt(i);
+                const scene::Patch& P = scene_->patches[p];
+                double side = 0.0;
+                const bool away = facesAway(e, P, towards, side);
+                if (side > bestSide) bestSide = side, f.leastAway = p;
+                const double w = weighted ? senderPrefix_[i + 1] - senderPrefix_[i] : P.area;
+                if (away || !(w > 0)) continue;
+                sum += w;
+                f.patch[f.count] = p;
+                f.cum[f.count++] = sum;
+            }
+        };
+        Facing facingR, facingS;
+        listFacing(r, cs, false, facingR);
+        listFacing(s, cr, true, facingS);
         auto samplePoint = [&](const LinkEnd& e, const Vec3& towards, uint32_t& patch, bool sender,
                                double& cosine) {
             double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
             cosine = 1.0;
-            if (e.isCluster) {
-                // Senders are drawn by A_k B_k (prepareSenders) and accepted
-                // by cos_k; otherwise drawn by area and accepted by cos_k
-                // B_k / max B (cos_k alone for a receiver, or a sender that
-                // carries nothing yet).
-                const ClusterNode& nd = tree_->node(e.cluster);
-                const bool weighted = sender && !senderPrefix_.empty() &&
-                                      senderPrefix_[nd.patchEnd] > senderPrefix_[nd.patchBegin];
-                const double bmax = sender && !weighted ? e.maxB : 0.0;
-                Vec3 x, best(0.0);
-                uint32_t bestPatch = 0;
-                double bestW = -2.0, bestCos = 0.0;
-                for (int t = 0; t < 32; ++t) {
-                    if (weighted) {
-                        patch = senderPatch(nd, a);
-                        x = tree_->pointOnPatch(patch, b, c);
-                    } else {
-                        x = tree_->samplePoint(e.cluster, a, b, c, patch);
-                    }
-                    Vec3 dd = towards - x;
-                    double len = glm::length(dd);
-                    double cosx = len > 0 ? glm::dot(scene_->patches[patch].normal, dd) / len : 0.0;
-                    double w = weighted ? cosx : std::max(0.0, cosx);
-                    if (bmax > 0) w *= maxComponent(rootB[patch]) / bmax;
-                    if (rng.nextDouble() < w) {
-                        cosine = cosx;
-                        return x;
-                    }
-                    if (w > bestW) bestW = w, best = x, bestPatch = patch, bestCos = cosx;
-                    a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
-                }
-                patch = bestPatch;
-                cosine = bestCos;
-                return best;
+            if (!e.isCluster) {
+                patch = e.patch;
+                return scene::elementSamplePoint(scene_->patches[patch], e.domain, a, b);
             }
-            patch = e.patch;
-            return scene::elementSamplePoint(scene_->patches[patch], e.domain, a, b);
+            const Facing& f = sender ? facingS : facingR;
+            if (f.listed && f.count == 0) {
+                // Nothing faces `towards`: a point on the patch nearest to
+                // facing, whose cosine (<= 0) gives the sample no weight.
+                patch = f.leastAway;
+                Vec3 x = tree_->pointOnPatch(patch, b, c);
+                Vec3 dd = towards - x;
+                double len = glm::length(dd);
+                cosine = len > 0 ? glm::dot(scene_->patches[patch].normal, dd) / len : 0.0;
+                return x;
+            }
+            const ClusterNode& nd = tree_->node(e.cluster);
+            const bool weighted = isWeighted(nd, sender);
+            const double bmax = sender && !weighted ? e.maxB : 0.0;
+            Vec3 x, best(0.0);
+            uint32_t bestPatch = 0, awayPatch = 0;
+            double bestW = -2.0, bestCos = 0.0, awayB = 0.0, awayC = 0.0;
+            bool anyAway = false;
+            for (int t = 0; t < 32; ++t) {
+                if (f.listed) {
+                    const double u = a * f.cum[f.count - 1];
+                    uint32_t k = 0;
+                    while (k + 1 < f.count && f.cum[k] <= u) ++k;
+                    patch = f.patch[k];
+                } else {
+                    patch = weighted ? senderPatch(nd, a) : tree_->samplePatch(e.cluster, a);
+                }
+                const scene::Patch& P = scene_->patches[patch];
+                double side = 0.0;
+                if (!f.listed && facesAway(e, P, towards, side)) {
+                    if (!anyAway) anyAway = true, awayPatch = patch, awayB = b, awayC = c;
+                    a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
+                    continue;
+                }
+                x = tree_->pointOnPatch(patch, b, c);
+                Vec3 dd = towards - x;
+                double len = glm::length(dd);
+                double cosx = len > 0 ? glm::dot(P.normal, dd) / len : 0.0;
+                double w = weighted ? cosx : std::max(0.0, cosx);
+                if (bmax > 0) w *= maxComponent(rootB[patch]) / bmax;
+                if (rng.nextDouble() < w) {
+                    cosine = cosx;
+                    return x;
+                }
+                if (w > bestW) bestW = w, best = x, bestPatch = patch, bestCos = cosx;
+                a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
+            }
+            if (bestW < -1.5 && anyAway) {
+                // Every candidate faced away: the first of them, with no weight.
+                bestPatch = awayPatch;
+                best = tree_->pointOnPatch(bestPatch, awayB, awayC);
+                Vec3 dd = towards - best;
+                double len = glm::length(dd);
+                bestCos = len > 0 ? glm::dot(scene_->patches[bestPatch].normal, dd) / len : 0.0;
+            }
+            patch = bestPatch;
+            cosine = bestCos;
+            return best;
         };
         // One estimate of the visibility fraction from n rays: the
         // kernel-weighted fraction of unblocked rays, sum w_i V_i / sum w_i

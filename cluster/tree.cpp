@@ -524,7 +524,7 @@ double ClusterTree::projectedArea(uint32_t ci, const Vec3& d) const {
     return std::clamp(v, 0.0, c.area);
 }
 
-Vec3 ClusterTree::samplePoint(uint32_t ci, double u0, double u1, double u2, uint32_t& patch) const {
+uint32_t ClusterTree::samplePatch(uint32_t ci, double u0) const {
     const ClusterNode& c = nodes_[ci];
     double lo = areaPrefix_[c.patchBegin], hi = areaPrefix_[c.patchEnd];
     double target = lo + u0 * (hi - lo);
@@ -532,7 +532,11 @@ Vec3 ClusterTree::samplePoint(uint32_t ci, double u0, double u1, double u2, uint
                                areaPrefix_.begin() + c.patchEnd + 1, target);
     size_t idx = size_t(it - areaPrefix_.begin()) - 1;
     idx = std::min<size_t>(std::max<size_t>(idx, c.patchBegin), c.patchEnd - 1);
-    patch = order_[idx];
+    return order_[idx];
+}
+
+Vec3 ClusterTree::samplePoint(uint32_t ci, double u0, double u1, double u2, uint32_t& patch) const {
+    patch = samplePatch(ci, u0);
     return pointOnPatch(patch, u1, u2);
 }
 

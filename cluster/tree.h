@@ -149,6 +149,8 @@ class ClusterTree {
     /// A point on the surfaces below c, chosen with probability proportional
     /// to area; `patch` receives the patch it lies on.
     Vec3 samplePoint(uint32_t c, double u0, double u1, double u2, uint32_t& patch) const;
+    /// The patch samplePoint(c, u0, ...) lies on, without drawing the point.
+    uint32_t samplePatch(uint32_t c, double u0) const;
     /// A point on patch `patch`, uniform by area, from (u1, u2) in [0,1)^2.
     Vec3 pointOnPatch(uint32_t patch, double u1, double u2) const;
 
