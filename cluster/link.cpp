@@ -326,6 +326,12 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
         Facing facingR, facingS;
         listFacing(r, cs, false, facingR);
         listFacing(s, cr, true, facingS);
+        // The cosine at x on `patch` towards `towards`.
+        auto cosineAt = [&](uint32_t patch, const Vec3& x, const Vec3& towards) {
+            const Vec3 dd = towards - x;
+            const double len = glm::length(dd);
+            return len > 0 ? glm::dot(scene_->patches[patch].normal, dd) / len : 0.0;
+        };
         auto samplePoint = [&](const LinkEnd& e, const Vec3& towards, uint32_t& patch, bool sender,
                                double& cosine) {
             double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
@@ -339,10 +345,8 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
                 // Nothing faces `towards`: a point on the patch nearest to
                 // facing, whose cosine (<= 0) gives the sample no weight.
                 patch = f.leastAway;
-                Vec3 x = tree_->pointOnPatch(patch, b, c);
-                Vec3 dd = towards - x;
-                double len = glm::length(dd);
-                cosine = len > 0 ? glm::dot(scene_->patches[patch].normal, dd) / len : 0.0;
+                const Vec3 x = tree_->pointOnPatch(patch, b, c);
+                cosine = cosineAt(patch, x, towards);
                 return x;
             }
             const ClusterNode& nd = tree_->node(e.cluster);
@@ -369,9 +373,7 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
                     continue;
                 }
                 x = tree_->pointOnPatch(patch, b, c);
-                Vec3 dd = towards - x;
-                double len = glm::length(dd);
-                double cosx = len > 0 ? glm::dot(P.normal, dd) / len : 0.0;
+                const double cosx = cosineAt(patch, x, towards);
                 double w = weighted ? cosx : std::max(0.0, cosx);
                 if (bmax > 0) w *= maxComponent(rootB[patch]) / bmax;
                 if (rng.nextDouble() < w) {
@@ -385,9 +387,7 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
                 // Every candidate faced away: the first of them, with no weight.
                 bestPatch = awayPatch;
                 best = tree_->pointOnPatch(bestPatch, awayB, awayC);
-                Vec3 dd = towards - best;
-                double len = glm::length(dd);
-                bestCos = len > 0 ? glm::dot(scene_->patches[bestPatch].normal, dd) / len : 0.0;
+                bestCos = cosineAt(bestPatch, best, towards);
             }
             patch = bestPatch;
             cosine = bestCos;
