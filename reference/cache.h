@@ -84,8 +84,11 @@ std::filesystem::path referenceCacheFile(const std::filesystem::path& dir,
                                          const std::string& prefix, const std::string& key);
 
 /// Kinds (with algorithm versions) used in the keys by the helpers below.
-inline constexpr const char* kFullMatrixKind = "fullmatrix/3";  // 2: adaptive receiver rule on near pairs; 3: kernel-weighted visibility
-inline constexpr const char* kMonteCarloKind = "montecarlo/1";
+// fullmatrix 2: adaptive receiver rule on near pairs; 3: kernel-weighted
+// visibility; 4 (with montecarlo 2): a face in the plane of a ray's end
+// point or origin never blocks it (transport/visibility.h).
+inline constexpr const char* kFullMatrixKind = "fullmatrix/4";
+inline constexpr const char* kMonteCarloKind = "montecarlo/2";
 
 /// Full-matrix reference through the cache in `cacheDir` (file
 /// "fullmatrix-<key>.bin"): loaded when present, else solved and stored

@@ -22,8 +22,36 @@
 // twin when the ray meets the front patch's back face).
 //
 // Segment rays: org = a, dir = b - a (unnormalised), tnear = 0,
-// tfar = 1 - 1e-5 (the relative epsilon keeps a blocker lying exactly in the
-// plane of b from counting; hits on b's own patch are filtered anyway).
+// tfar = 1 - 1e-5; hits on a's and b's own patches are filtered.
+//
+// Faces lying in an end point's plane: a segment leaves the plane of each of
+// its end points (it carries light only where the cosines at both ends are
+// positive), so a face that lies in the plane of A's or B's patch can meet
+// it only at that end point. The filter rejects such a hit, at both ends
+// alike: a face in the plane of an end point never blocks. This decides
+// three cases that float round-off used to decide, differently at the two
+// ends (a hit at t = 0 counted, one at t = 1 fell outside tfar):
+//  - a face of opposite normal on the same points (the two sides of a sheet:
+//    a label on a binder's spine whose other side is the spine's inner face,
+//    graz.mgf; the same polygon modelled twice, once per side) does not hide
+//    the end point's side of the sheet;
+//  - a tile next to the end point's patch (same plane, sharing an edge) does
+//    not block when round-off puts the end point just across the edge;
+//  - a face in front of the end point's own face in the same plane is
+//    handled before the ray is cast (scene/coplanar.h, `hidden`).
+// A face touching the end point from another plane (a wall meeting a floor)
+// still blocks: closed cavities stay closed. The plane test: the face's
+// geometric normal parallel to the end patch's normal (|cos| >= 1 - 1e-6)
+// and its first vertex within `planeTol_` of the end patch's plane, the
+// tolerance of scene/coplanar.h (1e-6 of the scene's diagonal) widened to
+// the float rounding of the coordinates Embree holds.
+//
+// Nearest hits (intersect) with an ignored patch apply the same rule to the
+// ray's origin patch, and break ties at the hit: when the nearest hit is the
+// back of a one-sided face and a face whose front meets the ray lies in the
+// same plane at the same point, the ray hits that front face (the sheet's
+// side the ray arrives at; the Monte Carlo reference reads the same side as
+// the segments above).
 //
 // Thread safety: after rtcCommitScene the scene is read-only; rtcOccluded*/
 // rtcIntersect1 are thread-safe, and each query has its own context on the stack.
@@ -56,14 +84,46 @@ struct CoplanarData {
     const double* offset = nullptr;
 };
 
+/// One Embree geometry's user data: its primID -> patch table and the float
+/// vertices Embree holds (nv per primitive), for the end-point plane test.
+struct GeometryData {
+    const uint32_t* primToPatch = nullptr;
+    const float* vertices = nullptr;
+    unsigned nv = 3;
+};
+
+/// The plane of an end point's patch: unit normal and offset (n . x = d). A
+/// zero normal means "no plane" (no end patch).
+struct EndPlane {
+    float n[3] = {0.0f, 0.0f, 0.0f};
+    float d = 0.0f;
+};
+
 /// An intersection context carrying one (patchA, patchB) pair per ray.
 struct QueryContext {
     RTCIntersectContext ctx;  // must be first: Embree hands us &ctx
     const uint32_t* pairs;    // 2 entries per ray (front patches), indexed by the ray's id
+    const EndPlane* planes = nullptr;  // 2 entries per ray: the planes of the end patches
+    const uint32_t* planePatches = nullptr;  // 2 entries per ray: those patches, as given
+    float planeTol = 0.0f;
     const uint32_t* endpoints = nullptr;  // the same, as given (occlusion with stacked faces)
     const CoplanarData* coplanar = nullptr;
     bool nearest = false;     // rtcIntersect1: the nearest hit must be a visible face
+    const scene::Patch* frontOnly = nullptr;  // non-null: reject hits on the back of a one-sided face
 };
+
+/// Whether the primitive `prim` lies in plane `e` (see the header comment):
+/// 0 no, +1 facing the same way, -1 facing the other way.
+inline int inPlane(const EndPlane& e, float tol, const GeometryData& g, unsigned prim, float ngx, float ngy,
+                   float ngz) {
+    if (e.n[0] == 0.0f && e.n[1] == 0.0f && e.n[2] == 0.0f) return 0;
+    const float dot = ngx * e.n[0] + ngy * e.n[1] + ngz * e.n[2];
+    const float len2 = ngx * ngx + ngy * ngy + ngz * ngz;
+    if (dot * dot < (1.0f - 2e-6f) * len2) return 0;
+    const float* v = g.vertices + 3 * size_t(g.nv) * prim;
+    if (std::fabs(v[0] * e.n[0] + v[1] * e.n[1] + v[2] * e.n[2] - e.d) > tol) return 0;
+    return dot > 0.0f ? 1 : -1;
+}
 
 /// Filter for both occlusion and intersection: reject hits on the ray's own
 /// patches. geometryUserPtr is the geometry's primID -> patch table. With
@@ -74,7 +134,8 @@ struct QueryContext {
 /// front of it, so the query returns that face.
 void ignoreEndpointsFilter(const RTCFilterFunctionNArguments* args) {
     const auto* qc = reinterpret_cast<const QueryContext*>(args->context);
-    const auto* primToPatch = static_cast<const uint32_t*>(args->geometryUserPtr);
+    const auto& geom = *static_cast<const GeometryData*>(args->geometryUserPtr);
+    const uint32_t* primToPatch = geom.primToPatch;
     const unsigned N = args->N;
     for (unsigned i = 0; i < N; ++i) {
         if (args->valid[i] != -1) continue;
@@ -84,6 +145,32 @@ void ignoreEndpointsFilter(const RTCFilterFunctionNArguments* args) {
         if (patch == qc->pairs[2 * id] || patch == qc->pairs[2 * id + 1]) {
             args->valid[i] = 0;
             continue;
+        }
+        if (qc->planes || qc->frontOnly) {
+            const float ngx = RTCHitN_Ng_x(args->hit, N, i), ngy = RTCHitN_Ng_y(args->hit, N, i),
+                        ngz = RTCHitN_Ng_z(args->hit, N, i);
+            bool skip = false;
+            for (int k = 0; k < 2 && qc->planes && !skip; ++k) {
+                const int side = inPlane(qc->planes[2 * id + k], qc->planeTol, geom, prim, ngx, ngy, ngz);
+                // A face stacked on the end patch, facing the same way, is
+                // left to the stacked-face rules below (it may hide the end).
+                const uint32_t e = qc->planePatches[2 * id + k];
+                skip = side < 0 || (side > 0 && !(qc->coplanar && qc->coplanar->overlaps->partners(e, patch)));
+            }
+            if (skip) {
+                args->valid[i] = 0;
+                continue;
+            }
+            if (qc->frontOnly) {
+                const scene::Patch& hp = qc->frontOnly[patch];
+                const double dn = hp.normal.x * RTCRayN_dir_x(args->ray, N, i) +
+                                  hp.normal.y * RTCRayN_dir_y(args->ray, N, i) +
+                                  hp.normal.z * RTCRayN_dir_z(args->ray, N, i);
+                if (dn > 0.0 && hp.twin == UINT32_MAX) {
+                    args->valid[i] = 0;
+                    continue;
+                }
+            }
         }
         const CoplanarData* cd = qc->coplanar;
         if (!cd) continue;
@@ -131,6 +218,11 @@ struct Visibility::Impl {
     RTCScene scene = nullptr;
     std::atomic<int64_t> bytes{0};
     std::vector<uint32_t> triToPatch, quadToPatch;
+    GeometryData triData, quadData;
+    // The scene's patches (the scene outlives its Visibility), for the planes
+    // of segment end points and the facing of nearest hits.
+    const scene::Patch* patches = nullptr;
+    float planeTol = 0.0f;
     // Two-sided pairs (empty when the scene has none): the front patch of
     // every patch, and the back twin of every front patch.
     std::vector<uint32_t> front, twin;
@@ -172,6 +264,17 @@ Visibility::Visibility(const scene::Scene& sc) : impl_(std::make_unique<Impl>())
     rtcSetSceneBuildQuality(m.scene, RTC_BUILD_QUALITY_HIGH);
 
     m.overlaps = scene::CoplanarOverlaps(sc);
+    m.patches = sc.patches.data();
+    {
+        // scene/coplanar.h's plane tolerance, widened to the float rounding of
+        // the coordinates Embree holds and of the plane offsets compared.
+        scene::Bounds3 b = sc.bounds();
+        const double diag = b.diagonal();
+        double coord = 0.0;
+        if (b.valid())
+            for (int k = 0; k < 3; ++k) coord = std::max({coord, std::fabs(b.lo[k]), std::fabs(b.hi[k])});
+        m.planeTol = float(std::max(1e-6 * diag, 8.0 * double(FLT_EPSILON) * coord));
+    }
     if (sc.numBackSides() > 0) {
         m.front.resize(sc.patches.size());
         m.twin.resize(sc.patches.size());
@@ -197,7 +300,8 @@ Visibility::Visibility(const scene::Scene& sc) : impl_(std::make_unique<Impl>())
         if (!sc.patches[i].backSide)
             (sc.patches[i].kind == scene::PatchKind::Quad ? m.quadToPatch : m.triToPatch).push_back(i);
 
-    auto addGeometry = [&](RTCGeometryType type, const std::vector<uint32_t>& prims, int nv) {
+    auto addGeometry = [&](RTCGeometryType type, const std::vector<uint32_t>& prims, int nv,
+                           GeometryData& data) {
         RTCGeometry g = rtcNewGeometry(m.device, type);
         auto* verts = static_cast<float*>(rtcSetNewGeometryBuffer(
             g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), prims.size() * nv));
@@ -214,7 +318,10 @@ Visibility::Visibility(const scene::Scene& sc) : impl_(std::make_unique<Impl>())
                 idx[nv * k + c] = unsigned(nv * k + c);
             }
         }
-        rtcSetGeometryUserData(g, const_cast<uint32_t*>(prims.data()));
+        data.primToPatch = prims.data();
+        data.vertices = verts;
+        data.nv = unsigned(nv);
+        rtcSetGeometryUserData(g, &data);
         rtcSetGeometryOccludedFilterFunction(g, ignoreEndpointsFilter);
         rtcSetGeometryIntersectFilterFunction(g, ignoreEndpointsFilter);
         rtcCommitGeometry(g);
@@ -223,8 +330,8 @@ Visibility::Visibility(const scene::Scene& sc) : impl_(std::make_unique<Impl>())
         m.check("geometry setup");
         return id;
     };
-    if (!m.triToPatch.empty()) m.triGeom = addGeometry(RTC_GEOMETRY_TYPE_TRIANGLE, m.triToPatch, 3);
-    if (!m.quadToPatch.empty()) m.quadGeom = addGeometry(RTC_GEOMETRY_TYPE_QUAD, m.quadToPatch, 4);
+    if (!m.triToPatch.empty()) m.triGeom = addGeometry(RTC_GEOMETRY_TYPE_TRIANGLE, m.triToPatch, 3, m.triData);
+    if (!m.quadToPatch.empty()) m.quadGeom = addGeometry(RTC_GEOMETRY_TYPE_QUAD, m.quadToPatch, 4, m.quadData);
     rtcCommitScene(m.scene);
     m.check("rtcCommitScene");
 }
@@ -236,6 +343,21 @@ Visibility::~Visibility() {
     }
 }
 
+namespace {
+
+EndPlane planeOf(const scene::Patch* patches, uint32_t p) {
+    EndPlane e;
+    if (p == UINT32_MAX) return e;
+    const scene::Patch& q = patches[p];
+    e.n[0] = float(q.normal.x);
+    e.n[1] = float(q.normal.y);
+    e.n[2] = float(q.normal.z);
+    e.d = float(glm::dot(q.normal, q.v[0]));
+    return e;
+}
+
+}  // namespace
+
 uint32_t Visibility::frontOf(uint32_t patch) const {
     return patch < impl_->front.size() ? impl_->front[patch] : patch;
 }
@@ -243,6 +365,7 @@ uint32_t Visibility::frontOf(uint32_t patch) const {
 void Visibility::occluded(const Segment* segments, size_t count, uint8_t* out) const {
     alignas(16) RTCRay rays[kBatch];
     uint32_t pairs[2 * kBatch], endpoints[2 * kBatch];
+    EndPlane planes[2 * kBatch];
     const CoplanarData* cd = impl_->coplanar.overlaps ? &impl_->coplanar : nullptr;
     bool hiddenEnd[kBatch];
     for (size_t base = 0; base < count; base += kBatch) {
@@ -266,6 +389,8 @@ void Visibility::occluded(const Segment* segments, size_t count, uint8_t* out) c
             pairs[2 * i + 1] = frontOf(s.patchB);
             endpoints[2 * i] = s.patchA;
             endpoints[2 * i + 1] = s.patchB;
+            planes[2 * i] = planeOf(impl_->patches, s.patchA);
+            planes[2 * i + 1] = planeOf(impl_->patches, s.patchB);
             // An end point inside a face stacked in front of its own face is
             // hidden: nothing reaches it (scene/coplanar.h).
             hiddenEnd[i] = cd && ((s.patchA != UINT32_MAX && cd->overlaps->hidden(s.patchA, s.a)) ||
@@ -276,6 +401,9 @@ void Visibility::occluded(const Segment* segments, size_t count, uint8_t* out) c
         rtcInitIntersectContext(&qc.ctx);
         qc.ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
         qc.pairs = pairs;
+        qc.planes = planes;
+        qc.planePatches = endpoints;
+        qc.planeTol = impl_->planeTol;
         qc.endpoints = cd ? endpoints : nullptr;
         qc.coplanar = cd;
         rtcOccluded1M(impl_->scene, &qc.ctx, rays, unsigned(n), sizeof(RTCRay));
@@ -310,16 +438,46 @@ RayHit Visibility::intersect(const Vec3& origin, const Vec3& dir, double tmin, d
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     const uint32_t ignore = frontOf(ignorePatch);
     uint32_t pairs[2] = {ignore, ignore};
+    EndPlane planes[2] = {planeOf(impl_->patches, ignorePatch), EndPlane{}};
+    uint32_t planePatches[2] = {ignorePatch, UINT32_MAX};
     QueryContext qc;
     rtcInitIntersectContext(&qc.ctx);
     qc.pairs = pairs;
+    qc.planes = planes;
+    qc.planePatches = planePatches;
+    qc.planeTol = impl_->planeTol;
     qc.coplanar = impl_->coplanar.overlaps ? &impl_->coplanar : nullptr;
     qc.nearest = true;
     rtcIntersect1(impl_->scene, &qc.ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return RayHit{};
+    uint32_t patch = impl_->patchOf(rh.hit.geomID, rh.hit.primID);
+    {
+        // The back of a one-sided face: a face whose front meets the ray in
+        // the same plane at the same point is hit instead (header comment).
+        const scene::Patch& hp = impl_->patches[patch];
+        const double dn = glm::dot(hp.normal, dir);
+        if (hp.twin == UINT32_MAX && dn > 0.0) {
+            const double t = double(rh.ray.tfar);
+            const double w = 2.0 * double(impl_->planeTol) / dn;
+            RTCRayHit again = rh;
+            again.ray.tnear = float(std::max({0.0, tmin, t - w}));
+            again.ray.tfar = float(t + w);
+            again.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            again.hit.primID = RTC_INVALID_GEOMETRY_ID;
+            again.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+            QueryContext front = qc;
+            rtcInitIntersectContext(&front.ctx);
+            front.frontOnly = impl_->patches;
+            rtcIntersect1(impl_->scene, &front.ctx, &again);
+            if (again.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
+                rh = again;
+                patch = impl_->patchOf(rh.hit.geomID, rh.hit.primID);
+            }
+        }
+    }
     RayHit out;
-    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return out;
     out.hit = true;
-    out.patch = impl_->patchOf(rh.hit.geomID, rh.hit.primID);
+    out.patch = patch;
     if (out.patch < impl_->twin.size() && impl_->twin[out.patch] != UINT32_MAX &&
         glm::dot(impl_->normal[out.patch], dir) > 0.0)
         out.patch = impl_->twin[out.patch];

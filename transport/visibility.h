@@ -6,6 +6,17 @@
 // A and a point on patch B ignores hits on A and B themselves (an occlusion
 // filter compares the primitive id with the segment's two patch ids), so
 // neither offsets nor epsilons decide whether touching patches see each other.
+//
+// A face lying in the plane of a segment's end patch (or of a nearest-hit
+// query's origin patch) never blocks it: the segment leaves that plane, so
+// such a face could only meet it at the end point itself. This is the same
+// at both ends, so visibility does not depend on which end a ray starts
+// from: the two sides of a sheet modelled as two faces of opposite normal see
+// their own sides, a tile next to the end point's patch does not block, and
+// a face resting on a floor (facing into it) sees nothing. Where a nearest
+// hit meets the back of a one-sided face and another face's front at the
+// same point, it reports the front. Faces stacked the same way in one plane
+// follow scene/coplanar.h. Details in visibility.cpp.
 #pragma once
 
 #include <cstdint>

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 
 #include "hr/solver.h"
 #include "reference/fullmatrix.h"
@@ -92,6 +93,44 @@ TEST(StackedFaces, BoxOnATableIsAFurnaceForEverySolver) {
             EXPECT_NEAR(patchAverage(*r.field, p).r, kExact, 4 * se) << "monte carlo wall " << p;
         }
         EXPECT_EQ(patchAverage(*r.field, 6).r, 0.0) << "monte carlo table";
+    }
+}
+
+// The two sides of a sheet in a lit room: a panel's -y side is one face, and
+// its +y side is only a label, a smaller face of opposite normal in the same
+// plane (graz.mgf's binder spines). Both sides see the lamp. The label's
+// light must not depend on which end a ray starts from or on which face
+// Embree meets first at equal depth: the hierarchical solve and Monte Carlo
+// agree on both faces, and both are lit.
+TEST(StackedFaces, BothSidesOfASheetAreLitAlikeByEverySolver) {
+    scene::Scene s;
+    s.name = "sheet";
+    uint32_t wall = s.addMaterial({"wall", RGB(0.5), RGB(0.0)});
+    uint32_t lamp = s.addMaterial({"lamp", RGB(0.0), RGB(5.0)});
+    test::addBox(s, Vec3(0), Vec3(4, 3, 2.5), {wall, wall, wall, wall, wall, wall}, true);
+    test::addQuadFacing(s, Vec3(1.5, 1, 2.49), Vec3(2.5, 1, 2.49), Vec3(2.5, 2, 2.49), Vec3(1.5, 2, 2.49),
+                        lamp, Vec3(2, 1.5, 0));
+    test::addQuadFacing(s, Vec3(1.5, 1.5, 0.5), Vec3(2.5, 1.5, 0.5), Vec3(2.5, 1.5, 1.5),
+                        Vec3(1.5, 1.5, 1.5), wall, Vec3(2, 0, 1));
+    const uint32_t panel = uint32_t(s.patches.size() - 1);
+    test::addQuadFacing(s, Vec3(1.8, 1.5, 0.7), Vec3(2.2, 1.5, 0.7), Vec3(2.2, 1.5, 1.3),
+                        Vec3(1.8, 1.5, 1.3), wall, Vec3(2, 3, 1));
+    const uint32_t label = uint32_t(s.patches.size() - 1);
+    s.applyMaterials();
+    transport::Visibility vis(s);
+    hr::HrSolver solver(s, vis, test::hrSettings("bfa", 1e-4));
+    hr::HrResult h = solver.solve();
+    ASSERT_TRUE(h.converged);
+    reference::MonteCarloSettings mc;
+    mc.samples = 4096;
+    reference::MonteCarloResult r = reference::solveMonteCarlo(s, vis, mc, false);
+    for (uint32_t p : {panel, label}) {
+        const double ref = patchAverage(*r.field, p).r, se = r.stdError[r.field->offset(p)].r;
+        const double got = patchAverage(*h.field, p).r;
+        std::cout << "patch " << p << ": hierarchical " << got << ", monte carlo " << ref << " +- " << se
+                  << "\n";
+        EXPECT_GT(ref, 0.03);  // lit: about 0.075 on both sides
+        EXPECT_NEAR(got, ref, 0.02 * ref + 4.0 * se) << "patch " << p;
     }
 }
 

@@ -13,6 +13,7 @@
 #include "core/rng.h"
 #include "scene/element.h"
 #include "scene/scene.h"
+#include "tests/scenes.h"
 #include "transport/formfactor.h"
 
 using namespace hrad;
@@ -112,6 +113,96 @@ TEST(Visibility, IntersectIgnoresPatch) {
     EXPECT_FALSE(h.hit);
     h = vis.intersect({0.5, 0.5, 5}, {0, 0, 1});
     EXPECT_FALSE(h.hit);
+}
+
+// The two sides of a sheet: a label facing +y lies on a larger face of
+// opposite normal in the same plane (graz.mgf: a binder's spine label on the
+// spine's inner face). A face in the plane of a segment's end point never
+// blocks, so the label and a point in front of it see each other whichever
+// end the ray starts from, and whichever face has the lower index. A nearest
+// hit arriving from the front meets the label, not the back of the other
+// face at the same depth.
+TEST(Visibility, TheOtherSideOfASheetBlocksNeitherWay) {
+    for (bool labelFirst : {true, false}) {
+        scene::Scene s;
+        uint32_t m = s.addMaterial({"m", RGB(0.5), RGB(0.0)});
+        auto label = [&] {
+            test::addQuadFacing(s, Vec3(-0.2, 0, -0.3), Vec3(0.2, 0, -0.3), Vec3(0.2, 0, 0.3),
+                                Vec3(-0.2, 0, 0.3), m, Vec3(0, 1, 0));
+            return uint32_t(s.patches.size() - 1);
+        };
+        auto spine = [&] {
+            test::addQuadFacing(s, Vec3(-0.5, 0, -0.5), Vec3(0.5, 0, -0.5), Vec3(0.5, 0, 0.5),
+                                Vec3(-0.5, 0, 0.5), m, Vec3(0, -1, 0));
+            return uint32_t(s.patches.size() - 1);
+        };
+        uint32_t l = 0, sp = 0;
+        if (labelFirst) {
+            l = label();
+            sp = spine();
+        } else {
+            sp = spine();
+            l = label();
+        }
+        // A lamp-like patch in front of the label, so segments have two end patches.
+        test::addQuadFacing(s, Vec3(-1, 2, -1), Vec3(1, 2, -1), Vec3(1, 2, 1), Vec3(-1, 2, 1), m,
+                            Vec3(0, 0, 0));
+        const uint32_t lamp = uint32_t(s.patches.size() - 1);
+        Visibility vis(s);
+        Pcg32 rng(3);
+        int blocked = 0;
+        for (int i = 0; i < 256; ++i) {
+            Vec3 x = s.patches[l].point(rng.nextDouble(), rng.nextDouble());
+            Vec3 y = s.patches[lamp].point(rng.nextDouble(), rng.nextDouble());
+            blocked += vis.occluded(Segment{x, y, l, lamp});
+            blocked += vis.occluded(Segment{y, x, lamp, l});
+            // From the label into its hemisphere: the lamp, not the spine at t = 0.
+            RayHit out = vis.intersect(x, y - x, 0.0, 1e300, l);
+            ASSERT_TRUE(out.hit);
+            EXPECT_EQ(out.patch, lamp);
+            // From the lamp to the label: the label, not the spine's back.
+            RayHit in = vis.intersect(y, x - y, 0.0, 1e300, lamp);
+            ASSERT_TRUE(in.hit);
+            EXPECT_EQ(in.patch, l) << "label first " << labelFirst;
+            EXPECT_NEAR(in.t, 1.0, 1e-5);
+        }
+        EXPECT_EQ(blocked, 0) << "label first " << labelFirst;
+        // Behind the sheet, the spine's side sees a point below it; the label
+        // stands in the way of nothing there either, and a segment crossing
+        // the sheet away from its end points is blocked by it.
+        Vec3 below(0.1, -1, 0.05);
+        Vec3 onSpine = s.patches[sp].point(0.9, 0.9);
+        EXPECT_FALSE(vis.occluded(Segment{onSpine, below, sp, UINT32_MAX}));
+        EXPECT_TRUE(vis.occluded(Segment{Vec3(0, 1, 0), below, UINT32_MAX, UINT32_MAX}));
+    }
+}
+
+// Two floor tiles sharing an edge, a wall standing on the edge's far side:
+// a segment from a point on the shared edge (it belongs to tile A) is not
+// blocked by tile B, in the same plane; the wall, in another plane, still
+// closes the room behind it.
+TEST(Visibility, ATileBesideTheEndPointDoesNotBlockAWallDoes) {
+    scene::Scene s;
+    uint32_t m = s.addMaterial({"m", RGB(0.5), RGB(0.0)});
+    s.addQuad({0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, m);  // tile A, facing +z
+    s.addQuad({1, 0, 0}, {2, 0, 0}, {2, 1, 0}, {1, 1, 0}, m);  // tile B
+    test::addQuadFacing(s, Vec3(2, -1, 0), Vec3(2, 2, 0), Vec3(2, 2, 2), Vec3(2, -1, 2), m,
+                        Vec3(0, 0, 1));  // a wall at x = 2
+    ASSERT_GT(s.patches[0].normal.z, 0.0);
+    Visibility vis(s);
+    Pcg32 rng(5);
+    int blocked = 0, walled = 0;
+    for (int i = 0; i < 256; ++i) {
+        Vec3 edge(1.0, rng.nextDouble(), 0.0);
+        Vec3 up(rng.nextDouble() * 1.9, rng.nextDouble(), 0.2 + rng.nextDouble());
+        blocked += vis.occluded(Segment{edge, up, 0, UINT32_MAX});
+        blocked += vis.occluded(Segment{up, edge, UINT32_MAX, 0});
+        Vec3 behind(3.0, rng.nextDouble(), 0.5 + rng.nextDouble());
+        Vec3 floor(1.999, rng.nextDouble(), 0.0);
+        walled += vis.occluded(Segment{floor, behind, 1, UINT32_MAX});
+    }
+    EXPECT_EQ(blocked, 0);
+    EXPECT_EQ(walled, 256);
 }
 
 TEST(Visibility, ConcurrentQueriesAgree) {
