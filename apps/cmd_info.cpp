@@ -39,6 +39,11 @@ int runInfo(const std::string& spec, Params& params) {
                 "stacked faces  {} pairs of coplanar overlapping faces; {} patches are hidden "
                 "in part (the emitting, else the smaller, face is in front: scene/coplanar.h)\n",
                 ov.numPairs(), ov.numHiddenPatches());
+        if (ov.numSheetPairs())
+            fmt::print(
+                "sheets         {} pairs of overlapping faces in one plane facing opposite ways; "
+                "each sees its own side (transport/visibility.h)\n",
+                ov.numSheetPairs());
     }
     fmt::print("emitters       {} patches\n", s.numEmitters());
     fmt::print("total area     {:.6g}\n", s.totalArea());

@@ -79,9 +79,15 @@ bool CoplanarOverlaps::inFront(const Patch& g, uint32_t gi, const Patch& p, uint
     return gi < pi;
 }
 
-CoplanarOverlaps::CoplanarOverlaps(const Scene& scene) {
+namespace {
+
+/// Overlapping pairs of faces in one plane (see the header): facing the same
+/// way (`opposite` false) or opposite ways (true; the two sides of a sheet).
+/// Patches are bucketed by their quantised plane; for opposite pairs the
+/// plane is taken with a canonical sign, so a face and its reverse share a
+/// bucket.
+std::vector<std::pair<uint32_t, uint32_t>> overlappingPairs(const Scene& scene, bool opposite) {
     const uint32_t n = uint32_t(scene.patches.size());
-    if (n < 2) return;
     Bounds3 b = scene.bounds();
     const double diag = glm::length(b.hi - b.lo);
     const double tol = std::max(1e-6 * diag, 1e-300);
@@ -91,7 +97,18 @@ CoplanarOverlaps::CoplanarOverlaps(const Scene& scene) {
         const Patch& p = scene.patches[i];
         offset[i] = glm::dot(p.normal, p.v[0]);
         PlaneKey k{int32_t(std::lround(p.normal.x * 1000)), int32_t(std::lround(p.normal.y * 1000)),
-                   int32_t(std::lround(p.normal.z * 1000)), int64_t(std::floor(offset[i] / tol))};
+                   int32_t(std::lround(p.normal.z * 1000)), 0};
+        double off = offset[i];
+        // lround is odd-symmetric, so -n quantises to -k: flip to the sign
+        // whose first non-zero component is positive.
+        const int32_t first = k.nx != 0 ? k.nx : (k.ny != 0 ? k.ny : k.nz);
+        if (opposite && first < 0) {
+            k.nx = -k.nx;
+            k.ny = -k.ny;
+            k.nz = -k.nz;
+            off = -off;
+        }
+        k.d = int64_t(std::floor(off / tol));
         buckets[k].push_back(i);
     }
     std::vector<std::pair<uint32_t, uint32_t>> found;
@@ -137,8 +154,11 @@ CoplanarOverlaps::CoplanarOverlaps(const Scene& scene) {
                 if (B.lo.y >= A.hi.y || A.lo.y >= B.hi.y) continue;
                 const Patch& pa = scene.patches[A.patch];
                 const Patch& pb = scene.patches[B.patch];
-                if (glm::dot(pa.normal, pb.normal) < 1.0 - 1e-6) continue;
-                if (std::fabs(offset[A.patch] - offset[B.patch]) > tol) continue;
+                const double c = glm::dot(pa.normal, pb.normal);
+                if (opposite ? c > -(1.0 - 1e-6) : c < 1.0 - 1e-6) continue;
+                const double gap = opposite ? offset[A.patch] + offset[B.patch]
+                                            : offset[A.patch] - offset[B.patch];
+                if (std::fabs(gap) > tol) continue;
                 double common = std::fabs(area2(clipConvex(A.poly, B.poly)));
                 if (common > 1e-6 * std::min(A.area, B.area))
                     found.emplace_back(std::min(A.patch, B.patch), std::max(A.patch, B.patch));
@@ -147,6 +167,25 @@ CoplanarOverlaps::CoplanarOverlaps(const Scene& scene) {
     }
     std::sort(found.begin(), found.end());
     found.erase(std::unique(found.begin(), found.end()), found.end());
+    return found;
+}
+
+}  // namespace
+
+CoplanarOverlaps::CoplanarOverlaps(const Scene& scene) {
+    const uint32_t n = uint32_t(scene.patches.size());
+    if (n < 2) return;
+    {
+        // The two sides of a sheet (two-sided twins are one surface, not a pair).
+        std::vector<std::pair<uint32_t, uint32_t>> sheets = overlappingPairs(scene, true);
+        for (auto [i, j] : sheets) {
+            if (scene.patches[i].twin == j) continue;
+            if (sheet_.empty()) sheet_.assign(n, 0);
+            sheet_[i] = sheet_[j] = 1;
+            ++sheetPairs_;
+        }
+    }
+    std::vector<std::pair<uint32_t, uint32_t>> found = overlappingPairs(scene, false);
     pairs_ = found.size();
     if (found.empty()) return;
     std::vector<std::vector<uint32_t>> cover(n), partner(n);

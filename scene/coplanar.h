@@ -21,6 +21,11 @@
 // exactly one face and form factors over a receiver's hemisphere sum to at
 // most one.
 //
+// Faces in one plane facing opposite ways are not stacked: they are the two
+// sides of a sheet (a wall modelled as two faces, a label on the outside of a
+// cover whose faces point inwards). They are found the same way and only
+// flagged (`inSheet`).
+//
 // Detection: patches are bucketed by their quantised plane (unit normal to
 // 1e-3, offset to `planeTolerance`, neighbouring offset cells probed); within
 // a bucket, faces whose 2-D bounding boxes overlap are clipped against each
@@ -59,6 +64,13 @@ class CoplanarOverlaps {
     bool hasPartners(uint32_t p) const {
         return p + 1 < partnerOffsets_.size() && partnerOffsets_[p + 1] > partnerOffsets_[p];
     }
+    /// Pairs of overlapping faces in one plane facing opposite ways (the two
+    /// sides of a sheet; two-sided twins excluded), and whether patch p is in
+    /// one. Neither side hides the other: transport/visibility.h lets each
+    /// see its own side, and a nearest hit on the back of one yields to the
+    /// front of the other.
+    uint64_t numSheetPairs() const { return sheetPairs_; }
+    bool inSheet(uint32_t p) const { return p < sheet_.size() && sheet_[p] != 0; }
     /// True when G is drawn in front of P where they overlap (the rule above).
     static bool inFront(const Patch& g, uint32_t gi, const Patch& p, uint32_t pi);
 
@@ -69,6 +81,8 @@ class CoplanarOverlaps {
         int n = 0;
     };
     uint64_t pairs_ = 0;
+    uint64_t sheetPairs_ = 0;
+    std::vector<uint8_t> sheet_;  ///< per patch, 1 when in a sheet pair (empty: none)
     // CSR: for patch p, the faces in front of it (coverOffsets_), and all its
     // partners (partnerOffsets_). Empty when there are no pairs.
     std::vector<uint64_t> coverOffsets_;

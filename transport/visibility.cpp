@@ -48,10 +48,12 @@
 //
 // Nearest hits (intersect) with an ignored patch apply the same rule to the
 // ray's origin patch, and break ties at the hit: when the nearest hit is the
-// back of a one-sided face and a face whose front meets the ray lies in the
-// same plane at the same point, the ray hits that front face (the sheet's
-// side the ray arrives at; the Monte Carlo reference reads the same side as
-// the segments above).
+// back of a one-sided face that is one side of a sheet (scene/coplanar.h,
+// `inSheet`) and a face whose front meets the ray lies in the same plane at
+// the same point, the ray hits that front face (the sheet's side the ray
+// arrives at; the Monte Carlo reference reads the same side as the segments
+// above). A second query over the window of the plane tolerance decides it;
+// back hits on faces that are not in a sheet cost nothing more.
 //
 // Thread safety: after rtcCommitScene the scene is read-only; rtcOccluded*/
 // rtcIntersect1 are thread-safe, and each query has its own context on the stack.
@@ -80,8 +82,7 @@ constexpr size_t kBatch = 256;  // rays per rtcOccluded1M call (stack buffer)
 struct CoplanarData {
     const scene::CoplanarOverlaps* overlaps = nullptr;  ///< null: the scene has none
     const uint32_t* twin = nullptr;  ///< back twin of each front patch (null: no two-sided)
-    const Vec3* normal = nullptr;    ///< plane of every patch: normal and offset
-    const double* offset = nullptr;
+    const scene::Patch* patches = nullptr;  ///< the scene's patches (planes)
 };
 
 /// One Embree geometry's user data: its primID -> patch table and the float
@@ -103,19 +104,20 @@ struct EndPlane {
 struct QueryContext {
     RTCIntersectContext ctx;  // must be first: Embree hands us &ctx
     const uint32_t* pairs;    // 2 entries per ray (front patches), indexed by the ray's id
-    const EndPlane* planes = nullptr;  // 2 entries per ray: the planes of the end patches
+    const EndPlane* planes = nullptr;        // 2 entries per ray: the planes of the end patches
     const uint32_t* planePatches = nullptr;  // 2 entries per ray: those patches, as given
     float planeTol = 0.0f;
     const uint32_t* endpoints = nullptr;  // the same, as given (occlusion with stacked faces)
     const CoplanarData* coplanar = nullptr;
     bool nearest = false;     // rtcIntersect1: the nearest hit must be a visible face
-    const scene::Patch* frontOnly = nullptr;  // non-null: reject hits on the back of a one-sided face
+    const scene::Patch* frontOnly =
+        nullptr;  // non-null: reject hits on the back of a one-sided face
 };
 
 /// Whether the primitive `prim` lies in plane `e` (see the header comment):
 /// 0 no, +1 facing the same way, -1 facing the other way.
-inline int inPlane(const EndPlane& e, float tol, const GeometryData& g, unsigned prim, float ngx, float ngy,
-                   float ngz) {
+inline int inPlane(const EndPlane& e, float tol, const GeometryData& g, unsigned prim, float ngx,
+                   float ngy, float ngz) {
     if (e.n[0] == 0.0f && e.n[1] == 0.0f && e.n[2] == 0.0f) return 0;
     const float dot = ngx * e.n[0] + ngy * e.n[1] + ngz * e.n[2];
     const float len2 = ngx * ngx + ngy * ngy + ngz * ngz;
@@ -151,11 +153,13 @@ void ignoreEndpointsFilter(const RTCFilterFunctionNArguments* args) {
                         ngz = RTCHitN_Ng_z(args->hit, N, i);
             bool skip = false;
             for (int k = 0; k < 2 && qc->planes && !skip; ++k) {
-                const int side = inPlane(qc->planes[2 * id + k], qc->planeTol, geom, prim, ngx, ngy, ngz);
+                const int side =
+                    inPlane(qc->planes[2 * id + k], qc->planeTol, geom, prim, ngx, ngy, ngz);
                 // A face stacked on the end patch, facing the same way, is
                 // left to the stacked-face rules below (it may hide the end).
                 const uint32_t e = qc->planePatches[2 * id + k];
-                skip = side < 0 || (side > 0 && !(qc->coplanar && qc->coplanar->overlaps->partners(e, patch)));
+                skip = side < 0 ||
+                       (side > 0 && !(qc->coplanar && qc->coplanar->overlaps->partners(e, patch)));
             }
             if (skip) {
                 args->valid[i] = 0;
@@ -188,10 +192,11 @@ void ignoreEndpointsFilter(const RTCFilterFunctionNArguments* args) {
                      RTCRayN_org_z(args->ray, N, i));
             Vec3 dir(RTCRayN_dir_x(args->ray, N, i), RTCRayN_dir_y(args->ray, N, i),
                      RTCRayN_dir_z(args->ray, N, i));
-            const Vec3& n = cd->normal[patch];
+            const scene::Patch& hp = cd->patches[patch];
+            const Vec3& n = hp.normal;
             double dn = glm::dot(n, dir);
             if (dn == 0.0) continue;
-            Vec3 x = org + ((cd->offset[patch] - glm::dot(n, org)) / dn) * dir;
+            Vec3 x = org + ((glm::dot(n, hp.v[0]) - glm::dot(n, org)) / dn) * dir;
             uint32_t side = dn > 0.0 && back != UINT32_MAX ? back : patch;
             if (ov.hidden(side, x)) args->valid[i] = 0;
         }
@@ -226,13 +231,8 @@ struct Visibility::Impl {
     // Two-sided pairs (empty when the scene has none): the front patch of
     // every patch, and the back twin of every front patch.
     std::vector<uint32_t> front, twin;
-    // Every patch's normal (empty unless the scene has two-sided pairs or
-    // stacked faces).
-    std::vector<Vec3> normal;
-    // Stacked coplanar faces (none: `coplanar.overlaps` is null), with every
-    // patch's plane offset.
+    // Stacked coplanar faces (none: `coplanar.overlaps` is null).
     scene::CoplanarOverlaps overlaps;
-    std::vector<double> planeOffset;
     CoplanarData coplanar;
     unsigned triGeom = RTC_INVALID_GEOMETRY_ID, quadGeom = RTC_INVALID_GEOMETRY_ID;
 
@@ -272,7 +272,8 @@ Visibility::Visibility(const scene::Scene& sc) : impl_(std::make_unique<Impl>())
         const double diag = b.diagonal();
         double coord = 0.0;
         if (b.valid())
-            for (int k = 0; k < 3; ++k) coord = std::max({coord, std::fabs(b.lo[k]), std::fabs(b.hi[k])});
+            for (int k = 0; k < 3; ++k)
+                coord = std::max({coord, std::fabs(b.lo[k]), std::fabs(b.hi[k])});
         m.planeTol = float(std::max(1e-6 * diag, 8.0 * double(FLT_EPSILON) * coord));
     }
     if (sc.numBackSides() > 0) {
@@ -283,18 +284,10 @@ Visibility::Visibility(const scene::Scene& sc) : impl_(std::make_unique<Impl>())
             m.twin[i] = sc.patches[i].twin;
         }
     }
-    if (sc.numBackSides() > 0 || !m.overlaps.empty()) {
-        m.normal.resize(sc.patches.size());
-        for (uint32_t i = 0; i < sc.patches.size(); ++i) m.normal[i] = sc.patches[i].normal;
-    }
     if (!m.overlaps.empty()) {
-        m.planeOffset.resize(sc.patches.size());
-        for (uint32_t i = 0; i < sc.patches.size(); ++i)
-            m.planeOffset[i] = glm::dot(sc.patches[i].normal, sc.patches[i].v[0]);
         m.coplanar.overlaps = &m.overlaps;
         m.coplanar.twin = m.twin.empty() ? nullptr : m.twin.data();
-        m.coplanar.normal = m.normal.data();
-        m.coplanar.offset = m.planeOffset.data();
+        m.coplanar.patches = m.patches;
     }
     for (uint32_t i = 0; i < sc.patches.size(); ++i)
         if (!sc.patches[i].backSide)
@@ -330,8 +323,10 @@ Visibility::Visibility(const scene::Scene& sc) : impl_(std::make_unique<Impl>())
         m.check("geometry setup");
         return id;
     };
-    if (!m.triToPatch.empty()) m.triGeom = addGeometry(RTC_GEOMETRY_TYPE_TRIANGLE, m.triToPatch, 3, m.triData);
-    if (!m.quadToPatch.empty()) m.quadGeom = addGeometry(RTC_GEOMETRY_TYPE_QUAD, m.quadToPatch, 4, m.quadData);
+    if (!m.triToPatch.empty())
+        m.triGeom = addGeometry(RTC_GEOMETRY_TYPE_TRIANGLE, m.triToPatch, 3, m.triData);
+    if (!m.quadToPatch.empty())
+        m.quadGeom = addGeometry(RTC_GEOMETRY_TYPE_QUAD, m.quadToPatch, 4, m.quadData);
     rtcCommitScene(m.scene);
     m.check("rtcCommitScene");
 }
@@ -456,7 +451,7 @@ RayHit Visibility::intersect(const Vec3& origin, const Vec3& dir, double tmin, d
         // the same plane at the same point is hit instead (header comment).
         const scene::Patch& hp = impl_->patches[patch];
         const double dn = glm::dot(hp.normal, dir);
-        if (hp.twin == UINT32_MAX && dn > 0.0) {
+        if (hp.twin == UINT32_MAX && dn > 0.0 && impl_->overlaps.inSheet(patch)) {
             const double t = double(rh.ray.tfar);
             const double w = 2.0 * double(impl_->planeTol) / dn;
             RTCRayHit again = rh;
@@ -479,7 +474,7 @@ RayHit Visibility::intersect(const Vec3& origin, const Vec3& dir, double tmin, d
     out.hit = true;
     out.patch = patch;
     if (out.patch < impl_->twin.size() && impl_->twin[out.patch] != UINT32_MAX &&
-        glm::dot(impl_->normal[out.patch], dir) > 0.0)
+        glm::dot(impl_->patches[out.patch].normal, dir) > 0.0)
         out.patch = impl_->twin[out.patch];
     out.t = double(rh.ray.tfar);
     out.point = origin + out.t * dir;

@@ -43,6 +43,7 @@ struct RayHit {
 
 class Visibility {
   public:
+    /// Reads `scene`'s patches during queries: the scene must outlive this.
     explicit Visibility(const scene::Scene& scene);
     ~Visibility();
     Visibility(const Visibility&) = delete;

@@ -478,7 +478,8 @@ TEST_P(NoLeaks, ClosedCavitiesStayDark) {
     // (a) a lit box, and inside it a cavity box with inward faces.
     test::addBox(s, Vec3(0.5, 0.5, 0), Vec3(1.5, 1.5, 1), {wall, wall, wall, wall, wall, wall},
                  false);
-    const uint32_t boxBottom = uint32_t(s.patches.size()) - 2;  // addBox: z = lo.z is the fifth face
+    // addBox: the face at z = lo.z is the fifth.
+    const uint32_t boxBottom = uint32_t(s.patches.size()) - 2;
     test::addBox(s, Vec3(0.6, 0.6, 0.1), Vec3(1.4, 1.4, 0.9),
                  {cavity, cavity, cavity, cavity, cavity, cavity}, true);
     // (b) a slab 1 cm thick standing in the room, lit on both sides, with a
@@ -500,7 +501,8 @@ TEST_P(NoLeaks, ClosedCavitiesStayDark) {
         if (!h.isLeaf(e)) continue;
         const auto& P = s.patches[h.patch(e)];
         double p = h.area(e) * maxComponent(h.B(e) - P.emission);
-        const bool dark = P.material == cavity || h.patch(e) == boxBottom || h.patch(e) == slabBottom;
+        const bool dark =
+            P.material == cavity || h.patch(e) == boxBottom || h.patch(e) == slabBottom;
         (dark ? leaked : lit) += p;
     }
     std::cout << model << " " << oracle << ": reflected power " << lit << ", in cavities " << leaked

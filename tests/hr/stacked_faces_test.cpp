@@ -108,8 +108,8 @@ TEST(StackedFaces, BothSidesOfASheetAreLitAlikeByEverySolver) {
     uint32_t wall = s.addMaterial({"wall", RGB(0.5), RGB(0.0)});
     uint32_t lamp = s.addMaterial({"lamp", RGB(0.0), RGB(5.0)});
     test::addBox(s, Vec3(0), Vec3(4, 3, 2.5), {wall, wall, wall, wall, wall, wall}, true);
-    test::addQuadFacing(s, Vec3(1.5, 1, 2.49), Vec3(2.5, 1, 2.49), Vec3(2.5, 2, 2.49), Vec3(1.5, 2, 2.49),
-                        lamp, Vec3(2, 1.5, 0));
+    test::addQuadFacing(s, Vec3(1.5, 1, 2.49), Vec3(2.5, 1, 2.49), Vec3(2.5, 2, 2.49),
+                        Vec3(1.5, 2, 2.49), lamp, Vec3(2, 1.5, 0));
     test::addQuadFacing(s, Vec3(1.5, 1.5, 0.5), Vec3(2.5, 1.5, 0.5), Vec3(2.5, 1.5, 1.5),
                         Vec3(1.5, 1.5, 1.5), wall, Vec3(2, 0, 1));
     const uint32_t panel = uint32_t(s.patches.size() - 1);
@@ -127,8 +127,8 @@ TEST(StackedFaces, BothSidesOfASheetAreLitAlikeByEverySolver) {
     for (uint32_t p : {panel, label}) {
         const double ref = patchAverage(*r.field, p).r, se = r.stdError[r.field->offset(p)].r;
         const double got = patchAverage(*h.field, p).r;
-        std::cout << "patch " << p << ": hierarchical " << got << ", monte carlo " << ref << " +- " << se
-                  << "\n";
+        std::cout << "patch " << p << ": hierarchical " << got << ", monte carlo " << ref << " +- "
+                  << se << "\n";
         EXPECT_GT(ref, 0.03);  // lit: about 0.075 on both sides
         EXPECT_NEAR(got, ref, 0.02 * ref + 4.0 * se) << "patch " << p;
     }

@@ -59,5 +59,36 @@ TEST(CoplanarOverlaps, OppositeFacesAndEmittersFirst) {
     EXPECT_FALSE(ov.hidden(1, Vec3(0.5, 0.5, 0)));
 }
 
+// Faces in one plane facing opposite ways are the two sides of a sheet: found
+// (whatever their order and sizes, across the quantisation of the plane
+// offset), flagged, never stacked; a face next to them, or a two-sided
+// surface's own back side, is not a sheet.
+TEST(CoplanarOverlaps, OppositeFacesAreTheTwoSidesOfASheet) {
+    Scene s;
+    uint32_t m = s.addMaterial({"m", RGB(0.5), RGB(0.0)});
+    uint32_t two = s.addMaterial({"two", RGB(0.5), RGB(0.0)});
+    s.materials[two].twoSided = true;
+    const double z = 0.3;  // an offset that is not a multiple of the tolerance
+    uint32_t label = quadUp(s, 0.2, 0.2, 0.4, 0.6, z, m);
+    test::addQuadFacing(s, Vec3(0, 0, z), Vec3(1, 0, z), Vec3(1, 1, z), Vec3(0, 1, z), m,
+                        Vec3(0.5, 0.5, z - 1));  // the cover, facing down
+    const uint32_t cover = uint32_t(s.patches.size() - 1);
+    uint32_t beside = quadUp(s, 1, 0, 2, 1, z, m);  // shares an edge with the cover
+    uint32_t sheet2 = quadUp(s, 5, 5, 6, 6, 1.0, two);
+    s.applyMaterials();
+    ASSERT_EQ(s.addBackSides(), 1u);
+    CoplanarOverlaps ov(s);
+    EXPECT_EQ(ov.numSheetPairs(), 1u);
+    EXPECT_TRUE(ov.inSheet(label));
+    EXPECT_TRUE(ov.inSheet(cover));
+    EXPECT_FALSE(ov.inSheet(beside));
+    EXPECT_FALSE(ov.inSheet(sheet2));
+    EXPECT_FALSE(ov.inSheet(s.patches[sheet2].twin));
+    // Not stacked: nothing hides anything.
+    EXPECT_EQ(ov.numPairs(), 0u);
+    EXPECT_FALSE(ov.hidden(label, Vec3(0.3, 0.4, z)));
+    EXPECT_FALSE(ov.hidden(cover, Vec3(0.3, 0.4, z)));
+}
+
 }  // namespace
 }  // namespace hrad::scene

@@ -17,7 +17,7 @@ namespace {
 struct Room {
     scene::Scene s;
     uint32_t firstInner = 0, lastInner = 0;  ///< the inner box's six faces
-    uint32_t boxBottom = 0;  ///< the lit box's bottom, lying on the room's floor
+    uint32_t boxBottom = 0;                  ///< the lit box's bottom, lying on the room's floor
 };
 
 Room makeRoom() {
