@@ -176,10 +176,12 @@ CoplanarOverlaps::CoplanarOverlaps(const Scene& scene) {
     const uint32_t n = uint32_t(scene.patches.size());
     if (n < 2) return;
     {
-        // The two sides of a sheet (two-sided twins are one surface, not a pair).
+        // The two sides of a sheet, both one-sided (a two-sided surface sees
+        // both ways already; its twin, and the twins of faces stacked on it,
+        // face the other way in its plane and are not sheets).
         std::vector<std::pair<uint32_t, uint32_t>> sheets = overlappingPairs(scene, true);
         for (auto [i, j] : sheets) {
-            if (scene.patches[i].twin == j) continue;
+            if (scene.patches[i].twin != UINT32_MAX || scene.patches[j].twin != UINT32_MAX) continue;
             if (sheet_.empty()) sheet_.assign(n, 0);
             sheet_[i] = sheet_[j] = 1;
             ++sheetPairs_;

@@ -21,8 +21,8 @@
 // exactly one face and form factors over a receiver's hemisphere sum to at
 // most one.
 //
-// Faces in one plane facing opposite ways are not stacked: they are the two
-// sides of a sheet (a wall modelled as two faces, a label on the outside of a
+// One-sided faces in one plane facing opposite ways are not stacked: they
+// are the two sides of a sheet (a wall modelled as two faces, a label on the outside of a
 // cover whose faces point inwards). They are found the same way and only
 // flagged (`inSheet`).
 //
@@ -64,9 +64,9 @@ class CoplanarOverlaps {
     bool hasPartners(uint32_t p) const {
         return p + 1 < partnerOffsets_.size() && partnerOffsets_[p + 1] > partnerOffsets_[p];
     }
-    /// Pairs of overlapping faces in one plane facing opposite ways (the two
-    /// sides of a sheet; two-sided twins excluded), and whether patch p is in
-    /// one. Neither side hides the other: transport/visibility.h lets each
+    /// Pairs of one-sided overlapping faces in one plane facing opposite ways
+    /// (the two sides of a sheet; faces with a two-sided twin excluded), and
+    /// whether patch p is in one. Neither side hides the other: transport/visibility.h lets each
     /// see its own side, and a nearest hit on the back of one yields to the
     /// front of the other.
     uint64_t numSheetPairs() const { return sheetPairs_; }

@@ -75,8 +75,11 @@ TEST(CoplanarOverlaps, OppositeFacesAreTheTwoSidesOfASheet) {
     const uint32_t cover = uint32_t(s.patches.size() - 1);
     uint32_t beside = quadUp(s, 1, 0, 2, 1, z, m);  // shares an edge with the cover
     uint32_t sheet2 = quadUp(s, 5, 5, 6, 6, 1.0, two);
+    // A two-sided poster on it: stacked on its front; its back side and the
+    // sheet's overlap facing opposite ways, but both see both ways already.
+    uint32_t poster = quadUp(s, 5.2, 5.2, 5.5, 5.5, 1.0, two);
     s.applyMaterials();
-    ASSERT_EQ(s.addBackSides(), 1u);
+    ASSERT_EQ(s.addBackSides(), 2u);
     CoplanarOverlaps ov(s);
     EXPECT_EQ(ov.numSheetPairs(), 1u);
     EXPECT_TRUE(ov.inSheet(label));
@@ -84,8 +87,9 @@ TEST(CoplanarOverlaps, OppositeFacesAreTheTwoSidesOfASheet) {
     EXPECT_FALSE(ov.inSheet(beside));
     EXPECT_FALSE(ov.inSheet(sheet2));
     EXPECT_FALSE(ov.inSheet(s.patches[sheet2].twin));
-    // Not stacked: nothing hides anything.
-    EXPECT_EQ(ov.numPairs(), 0u);
+    EXPECT_FALSE(ov.inSheet(poster));
+    // The sheet's faces are not stacked (the poster is, on both sides).
+    EXPECT_EQ(ov.numPairs(), 2u);
     EXPECT_FALSE(ov.hidden(label, Vec3(0.3, 0.4, z)));
     EXPECT_FALSE(ov.hidden(cover, Vec3(0.3, 0.4, z)));
 }
