@@ -428,7 +428,8 @@ TEST(ClusterTransfer, DeferredLinksAreComputedOnceTheirSenderIsLit) {
 
 // RenderPark's classroom lost 6.7 % of its reflected light (green) with
 // oriented clustering against the unclustered solve (bfa, eps 1e-3; the
-// unclustered reflected power, 1,136.72, is stored here: a 90 s solve).
+// unclustered reflected power, 1,147.75, is stored here: a 100 s solve,
+// re-measured on 2026-11-28; 1,136.72 with the code of a few days before).
 // Two causes were found and fixed: cluster links made in the first judging
 // pass, when only the lamps carry light, drew their senders' ray end points
 // over surfaces that stay dark as much as over lit ones (deferred links and
@@ -448,7 +449,7 @@ TEST(ClusterTransfer, ClassroomKeepsMoreThan98PercentOfTheUnclusteredLight) {
     HrResult r = HrSolver(s, vis, HrSettings::fromParams(p)).solve();
     EXPECT_TRUE(r.converged);
     const double reflected = r.hierarchy->radiosityPower().g - s.emittedPower().g;
-    const double none = 1136.72;  // cluster.model = none, reflected power, green
+    const double none = 1147.75;  // cluster.model = none, reflected power, green
     std::cout << "reflected power (green): oriented " << reflected << ", none " << none << " ("
               << 100 * (reflected / none - 1) << " %)\n";
     EXPECT_GT(reflected, 0.98 * none);
