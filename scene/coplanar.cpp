@@ -82,7 +82,9 @@ bool CoplanarOverlaps::inFront(const Patch& g, uint32_t gi, const Patch& p, uint
 namespace {
 
 /// Overlapping pairs of faces in one plane (see the header): facing the same
-/// way (`opposite` false) or opposite ways (true; the two sides of a sheet).
+/// way (`opposite` false) or opposite ways (true; the two sides of a sheet,
+/// among one-sided faces only: a two-sided surface sees both ways already,
+/// and its twin and the twins of faces stacked on it are not sheets).
 /// Patches are bucketed by their quantised plane; for opposite pairs the
 /// plane is taken with a canonical sign, so a face and its reverse share a
 /// bucket.
@@ -95,6 +97,7 @@ std::vector<std::pair<uint32_t, uint32_t>> overlappingPairs(const Scene& scene, 
     std::vector<double> offset(n);
     for (uint32_t i = 0; i < n; ++i) {
         const Patch& p = scene.patches[i];
+        if (opposite && p.twin != UINT32_MAX) continue;
         offset[i] = glm::dot(p.normal, p.v[0]);
         PlaneKey k{int32_t(std::lround(p.normal.x * 1000)), int32_t(std::lround(p.normal.y * 1000)),
                    int32_t(std::lround(p.normal.z * 1000)), 0};
@@ -175,18 +178,10 @@ std::vector<std::pair<uint32_t, uint32_t>> overlappingPairs(const Scene& scene, 
 CoplanarOverlaps::CoplanarOverlaps(const Scene& scene) {
     const uint32_t n = uint32_t(scene.patches.size());
     if (n < 2) return;
-    {
-        // The two sides of a sheet, both one-sided (a two-sided surface sees
-        // both ways already; its twin, and the twins of faces stacked on it,
-        // face the other way in its plane and are not sheets).
-        std::vector<std::pair<uint32_t, uint32_t>> sheets = overlappingPairs(scene, true);
-        for (auto [i, j] : sheets) {
-            if (scene.patches[i].twin != UINT32_MAX || scene.patches[j].twin != UINT32_MAX) continue;
-            if (sheet_.empty()) sheet_.assign(n, 0);
-            sheet_[i] = sheet_[j] = 1;
-            ++sheetPairs_;
-        }
-    }
+    const std::vector<std::pair<uint32_t, uint32_t>> sheets = overlappingPairs(scene, true);
+    sheetPairs_ = sheets.size();
+    if (!sheets.empty()) sheet_.assign(n, 0);
+    for (auto [i, j] : sheets) sheet_[i] = sheet_[j] = 1;
     std::vector<std::pair<uint32_t, uint32_t>> found = overlappingPairs(scene, false);
     pairs_ = found.size();
     if (found.empty()) return;

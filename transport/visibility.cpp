@@ -82,7 +82,6 @@ constexpr size_t kBatch = 256;  // rays per rtcOccluded1M call (stack buffer)
 struct CoplanarData {
     const scene::CoplanarOverlaps* overlaps = nullptr;  ///< null: the scene has none
     const uint32_t* twin = nullptr;  ///< back twin of each front patch (null: no two-sided)
-    const scene::Patch* patches = nullptr;  ///< the scene's patches (planes)
 };
 
 /// One Embree geometry's user data: its primID -> patch table and the float
@@ -109,9 +108,9 @@ struct QueryContext {
     float planeTol = 0.0f;
     const uint32_t* endpoints = nullptr;  // the same, as given (occlusion with stacked faces)
     const CoplanarData* coplanar = nullptr;
+    const scene::Patch* patches = nullptr;  // the scene's patches
     bool nearest = false;     // rtcIntersect1: the nearest hit must be a visible face
-    const scene::Patch* frontOnly =
-        nullptr;  // non-null: reject hits on the back of a one-sided face
+    bool frontOnly = false;   // reject hits on the back of a one-sided face
 };
 
 /// Whether the primitive `prim` lies in plane `e` (see the header comment):
@@ -166,7 +165,7 @@ void ignoreEndpointsFilter(const RTCFilterFunctionNArguments* args) {
                 continue;
             }
             if (qc->frontOnly) {
-                const scene::Patch& hp = qc->frontOnly[patch];
+                const scene::Patch& hp = qc->patches[patch];
                 const double dn = hp.normal.x * RTCRayN_dir_x(args->ray, N, i) +
                                   hp.normal.y * RTCRayN_dir_y(args->ray, N, i) +
                                   hp.normal.z * RTCRayN_dir_z(args->ray, N, i);
@@ -192,7 +191,7 @@ void ignoreEndpointsFilter(const RTCFilterFunctionNArguments* args) {
                      RTCRayN_org_z(args->ray, N, i));
             Vec3 dir(RTCRayN_dir_x(args->ray, N, i), RTCRayN_dir_y(args->ray, N, i),
                      RTCRayN_dir_z(args->ray, N, i));
-            const scene::Patch& hp = cd->patches[patch];
+            const scene::Patch& hp = qc->patches[patch];
             const Vec3& n = hp.normal;
             double dn = glm::dot(n, dir);
             if (dn == 0.0) continue;
@@ -287,7 +286,6 @@ Visibility::Visibility(const scene::Scene& sc) : impl_(std::make_unique<Impl>())
     if (!m.overlaps.empty()) {
         m.coplanar.overlaps = &m.overlaps;
         m.coplanar.twin = m.twin.empty() ? nullptr : m.twin.data();
-        m.coplanar.patches = m.patches;
     }
     for (uint32_t i = 0; i < sc.patches.size(); ++i)
         if (!sc.patches[i].backSide)
@@ -401,6 +399,7 @@ void Visibility::occluded(const Segment* segments, size_t count, uint8_t* out) c
         qc.planeTol = impl_->planeTol;
         qc.endpoints = cd ? endpoints : nullptr;
         qc.coplanar = cd;
+        qc.patches = impl_->patches;
         rtcOccluded1M(impl_->scene, &qc.ctx, rays, unsigned(n), sizeof(RTCRay));
         // An occluded ray has tfar set to -inf.
         for (size_t i = 0; i < n; ++i) out[base + i] = (hiddenEnd[i] || rays[i].tfar < 0.0f) ? 1 : 0;
@@ -442,6 +441,7 @@ RayHit Visibility::intersect(const Vec3& origin, const Vec3& dir, double tmin, d
     qc.planePatches = planePatches;
     qc.planeTol = impl_->planeTol;
     qc.coplanar = impl_->coplanar.overlaps ? &impl_->coplanar : nullptr;
+    qc.patches = impl_->patches;
     qc.nearest = true;
     rtcIntersect1(impl_->scene, &qc.ctx, &rh);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return RayHit{};
@@ -462,7 +462,7 @@ RayHit Visibility::intersect(const Vec3& origin, const Vec3& dir, double tmin, d
             again.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
             QueryContext front = qc;
             rtcInitIntersectContext(&front.ctx);
-            front.frontOnly = impl_->patches;
+            front.frontOnly = true;
             rtcIntersect1(impl_->scene, &front.ctx, &again);
             if (again.hit.geomID != RTC_INVALID_GEOMETRY_ID) {
                 rh = again;
