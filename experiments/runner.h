@@ -29,7 +29,7 @@
 //          deferred_links_computed, deferred_links_left, unopened_links, stand_in_links,
 //          stand_in_rays, near_stand_ins_made, near_stand_in_rays, stand_in_links_final,
 //          handover_rays,
-//          handover_by_openness, handover_by_cosine, iterations},
+//          handover_by_openness, handover_by_cosine, handover_capped, iterations},
 //   timings{load, visibility_build, [cluster_build], [handover_openness], linking,
 //           refine, [stand_in], [near_stand_in], gather, push_pull, error_estimate,
 //           noise_estimate, solve_total, reference, error,

@@ -75,6 +75,7 @@ class HrEntry final : public Solver {
                             {"handover_rays", res->opennessRays},
                             {"handover_by_openness", res->handOverByOpenness},
                             {"handover_by_cosine", res->handOverByCosine},
+                            {"handover_capped", res->handOverCapped},
                             {"links_ss", res->linksSS},
                             {"links_sc", res->linksSC},
                             {"links_cs", res->linksCS},

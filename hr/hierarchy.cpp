@@ -448,7 +448,7 @@ RGB Hierarchy::linkSent(uint64_t i, const glm::vec3& dir) const {
 void Hierarchy::handOverNewLinks() {
     if (!openness_ || clusterLinkDir_.empty()) return;
     const uint32_t np = numPatches();
-    std::atomic<uint64_t> byOpenness{0}, byCosine{0};
+    std::atomic<uint64_t> byOpenness{0}, byCosine{0}, capped{0};
     tbb::parallel_for(tbb::blocked_range<uint32_t>(np, np + numClusters_, 1), [&](const auto& r) {
         std::vector<uint64_t> fresh;
         std::vector<double> num, den;
@@ -488,7 +488,16 @@ void Hierarchy::handOverNewLinks() {
                 Link& l = links_[fresh[f]];
                 l.flags |= Link::kHandedOver;
                 if (num[f] > 0 && den[f] > 0) {
-                    l.K = float(l.K * (den[f] / num[f]));
+                    // Held to the unoccluded bound (header); Fupper of a
+                    // sampled link is its judged estimate, not a bound, and
+                    // 0 means none is known.
+                    double k = double(l.K) * (den[f] / num[f]);
+                    const double bound = std::max(double(l.K), double(l.Fupper));
+                    if (!(l.flags & Link::kSampled) && l.Fupper > 0.f && k > bound) {
+                        k = bound;
+                        ++capped;
+                    }
+                    l.K = float(k);
                     l.flags |= Link::kOpenHandOver;
                     ++open;
                 }
@@ -499,6 +508,7 @@ void Hierarchy::handOverNewLinks() {
     });
     handOverByOpenness_ += byOpenness.load();
     handOverByCosine_ += byCosine.load();
+    handOverCapped_ += capped.load();
 }
 
 void Hierarchy::handOverStandIns() {

@@ -224,6 +224,9 @@ class Hierarchy {
     /// when first set (some are refined away later).
     uint64_t handOverByOpenness() const { return handOverByOpenness_; }
     uint64_t handOverByCosine() const { return handOverByCosine_; }
+    /// Of those by openness, the links whose K / W was held to Fupper
+    /// (handOverNewLinks).
+    uint64_t handOverCapped() const { return handOverCapped_; }
     /// cluster.stand_in_handover = seen (with the openness table, whose
     /// points it uses; `visibility` casts its shadow rays, null: off):
     /// stand-ins that no direction hands over (Link::byArea) give each
@@ -527,6 +530,17 @@ class Hierarchy {
     /// the push makes, so the link delivers exactly the power it did by
     /// cosine), and it is flagged kOpenHandOver; where W = 0 it stays handed
     /// by cosine. Done once per link, cluster by cluster.
+    /// No surface takes more than the sender's unoccluded irradiance: K / W
+    /// is held to the link's upper bound Fupper (when one is set: all cosines 1 at the
+    /// nearest points of the two spheres, ClusterLinker::link), since a
+    /// surface of the cluster gets K / W cos_k w_k with cos_k w_k <= 1. W
+    /// and the visibility in K are separate estimates (16 direction bins and
+    /// 4 points per surface; 8 rays): where the rays find the sender but
+    /// the only open surface facing it is a sliver, W is tiny and K / W put
+    /// the whole link's power on the sliver (graz.mgf cut by
+    /// split_intersections: a piece of 7e-8 m^2 in a binder took K = 51, a
+    /// radiosity of 4e4 against the Monte Carlo reference's 4.5). The power
+    /// past the bound is not delivered.
     void handOverNewLinks();
     /// With the openness table and setSeenHandOver: every stand-in into a
     /// cluster that no direction hands over (Link::byArea), other than a
@@ -563,7 +577,7 @@ class Hierarchy {
     const scene::Scene* scene_;
     const cluster::ClusterTree* tree_ = nullptr;
     const cluster::SurfaceOpenness* openness_ = nullptr;
-    uint64_t handOverByOpenness_ = 0, handOverByCosine_ = 0;
+    uint64_t handOverByOpenness_ = 0, handOverByCosine_ = 0, handOverCapped_ = 0;
     cluster::ClusterModel model_ = cluster::ClusterModel::None;
     uint32_t numClusters_ = 0;
     /// Oriented model: unit direction from each cluster-receiver link's

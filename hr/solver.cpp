@@ -1484,6 +1484,7 @@ HrResult HrSolver::solve(bool progress) {
     if (res.openness) res.memory.set("handover_openness", res.openness->memoryBytes());
     res.handOverByOpenness = h.handOverByOpenness();
     res.handOverByCosine = h.handOverByCosine();
+    res.handOverCapped = h.handOverCapped();
     RGB standIn(0.0);  // the light the stand-ins carry: what their receivers reflect of it
     for (uint32_t r = 0; r < h.numElements(); ++r) {
         bool rc = h.isCluster(r);

@@ -477,6 +477,9 @@ struct HrResult {
     /// kept; some are refined away later): by cosine and openness, and by
     /// cosine alone (no surface of the receiving cluster found open).
     uint64_t handOverByOpenness = 0, handOverByCosine = 0;
+    /// Of those by openness, the ones held to their unoccluded bound
+    /// (Hierarchy::handOverNewLinks).
+    uint64_t handOverCapped = 0;
     std::string clusterModel;  ///< the model used (auto resolved)
     double clusterBuildSeconds = 0.0;
     /// Links by kind after the solve: surface-surface, surface receiving from a

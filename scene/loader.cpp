@@ -167,8 +167,10 @@ Scene loadScene(const std::string& spec, const Params& params) {
         if (st.splitPatches > 0)
             spdlog::info(
                 "split {} patches that pass through others into {} triangles ({} "
-                "crossings, {:.2f} s)",
-                st.splitPatches, st.pieces, st.crossings, ts.seconds());
+                "crossings, {} pieces thinner than the tolerance left out, {:.3g} in area; "
+                "{:.2f} s)",
+                st.splitPatches, st.pieces, st.crossings, st.thinPieces, st.thinArea,
+                ts.seconds());
     }
     // Two-sided materials become front/back patch pairs (scene.h, Patch::twin).
     if (twoSided == "none") {

@@ -316,7 +316,13 @@ bool alongBoundary(const Patch& p, const Vec3& a, const Vec3& b, double tol) {
 
 /// Retriangulates patch p with the segments as constraints (constrained
 /// Delaunay in its plane); triangles counter-clockwise around p's normal.
-bool splitPatch(const Patch& p, const std::vector<std::pair<Vec3, Vec3>>& segments,
+/// Segment end points within `tol` of a corner of p, of an end point
+/// already inserted, or of an edge of p are moved onto it first: the
+/// crossing segments are computed in floating point, and an end point a
+/// rounding error away from a corner or an edge would otherwise make a
+/// piece of no size (areas of 1e-20 m^2 on graz.mgf) whose kernels are
+/// singular.
+bool splitPatch(const Patch& p, const std::vector<std::pair<Vec3, Vec3>>& segments, double tol,
                 std::vector<std::array<Vec3, 3>>& out) {
     const Vec3 n = p.normal;
     const int nv = p.numVertices();
@@ -342,9 +348,27 @@ bool splitPatch(const Patch& p, const std::vector<std::pair<Vec3, Vec3>>& segmen
         CDT cdt;
         for (int i = 0; i < nv; ++i)
             cdt.insert_constraint(poly[size_t(i)], poly[size_t((i + 1) % nv)]);
+        std::vector<K::Point_2> ends;
+        auto snap = [&](K::Point_2 q) {
+            const double t2 = tol * tol;
+            for (const K::Point_2& c : poly)
+                if (CGAL::squared_distance(c, q) <= t2) return c;
+            for (const K::Point_2& c : ends)
+                if (CGAL::squared_distance(c, q) <= t2) return c;
+            for (int i = 0; i < nv; ++i) {
+                const K::Segment_2 e(poly[size_t(i)], poly[size_t((i + 1) % nv)]);
+                if (CGAL::squared_distance(e, q) <= t2) {
+                    const K::Line_2 line = e.supporting_line();
+                    q = line.projection(q);
+                    break;
+                }
+            }
+            ends.push_back(q);
+            return q;
+        };
         for (const auto& [a, b] : segments) {
-            K::Point_2 pa = to2(a), pb = to2(b);
-            if (pa != pb) cdt.insert_constraint(pa, pb);
+            K::Point_2 pa = snap(to2(a)), pb = snap(to2(b));
+            if (CGAL::squared_distance(pa, pb) > tol * tol) cdt.insert_constraint(pa, pb);
         }
         for (CDT::Face_handle f : cdt.finite_face_handles()) {
             K::Point_2 c =
@@ -422,12 +446,24 @@ SplitStats splitIntersections(Scene& scene) {
     for (uint32_t i = 0; i < uint32_t(old.size()); ++i) {
         auto it = cuts.find(i);
         tris.clear();
-        if (it == cuts.end() || !splitPatch(old[i], it->second, tris)) {
+        if (it == cuts.end() || !splitPatch(old[i], it->second, tol, tris)) {
             scene.patches.push_back(old[i]);
             continue;
         }
         ++st.splitPatches;
         for (const auto& t : tris) {
+            // A piece thinner than the tolerance (two constraints crossing
+            // or meeting at a grazing angle) is left out: a slit narrower
+            // than the rounding of the crossing itself.
+            double longest2 = 0.0;
+            for (int k = 0; k < 3; ++k)
+                longest2 = std::max(longest2, glm::dot(t[size_t((k + 1) % 3)] - t[size_t(k)], t[size_t((k + 1) % 3)] - t[size_t(k)]));
+            const double area = 0.5 * glm::length(glm::cross(t[1] - t[0], t[2] - t[0]));
+            if (!(2.0 * area > tol * std::sqrt(longest2))) {
+                ++st.thinPieces;
+                st.thinArea += area;
+                continue;
+            }
             if (!scene.addTriangle(t[0], t[1], t[2], old[i].material)) continue;
             Patch& added = scene.patches.back();
             added.rho = old[i].rho;

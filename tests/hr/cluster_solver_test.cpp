@@ -201,6 +201,23 @@ TEST(ClusterTransfer, HandOverLightsOnlyTheSurfacesThatSeeOut) {
     };
     EXPECT_NEAR(power(byOpenness), power(byCosine), 1e-6 * power(byCosine));
     EXPECT_NEAR(power(byCosine), 0.5 * double(float(K)) * sumCos, 1e-9);
+    // No surface takes more than the link's unoccluded bound: with Fupper
+    // between K and K / W, K / W is held to Fupper and the power past it is
+    // not delivered (Hierarchy::handOverNewLinks).
+    ASSERT_LT(W, 0.9);
+    const double bound = 0.5 * (K + K / W);
+    Hierarchy hb(s, &tree, cluster::ClusterModel::Oriented);
+    hb.setOpenness(&openness);
+    Link l;
+    l.sender = emitter;
+    l.K = float(K);
+    l.Fupper = float(bound);
+    l.setVis(1.0);
+    hb.setLinks({ce}, {l});
+    EXPECT_TRUE(hb.link(0).flags & Link::kOpenHandOver);
+    EXPECT_NEAR(hb.link(0).K, bound, 1e-6 * bound);
+    EXPECT_EQ(hb.handOverCapped(), 1u);
+    EXPECT_EQ(hb.handOverByOpenness(), 1u);
 }
 
 // An emitter below a group of small quads that all face up, away from it.
