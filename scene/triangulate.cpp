@@ -349,8 +349,8 @@ bool splitPatch(const Patch& p, const std::vector<std::pair<Vec3, Vec3>>& segmen
         for (int i = 0; i < nv; ++i)
             cdt.insert_constraint(poly[size_t(i)], poly[size_t((i + 1) % nv)]);
         std::vector<K::Point_2> ends;
+        const double t2 = tol * tol;
         auto snap = [&](K::Point_2 q) {
-            const double t2 = tol * tol;
             for (const K::Point_2& c : poly)
                 if (CGAL::squared_distance(c, q) <= t2) return c;
             for (const K::Point_2& c : ends)
@@ -368,7 +368,7 @@ bool splitPatch(const Patch& p, const std::vector<std::pair<Vec3, Vec3>>& segmen
         };
         for (const auto& [a, b] : segments) {
             K::Point_2 pa = snap(to2(a)), pb = snap(to2(b));
-            if (CGAL::squared_distance(pa, pb) > tol * tol) cdt.insert_constraint(pa, pb);
+            if (CGAL::squared_distance(pa, pb) > t2) cdt.insert_constraint(pa, pb);
         }
         for (CDT::Face_handle f : cdt.finite_face_handles()) {
             K::Point_2 c =
@@ -456,8 +456,10 @@ SplitStats splitIntersections(Scene& scene) {
             // or meeting at a grazing angle) is left out: a slit narrower
             // than the rounding of the crossing itself.
             double longest2 = 0.0;
-            for (int k = 0; k < 3; ++k)
-                longest2 = std::max(longest2, glm::dot(t[size_t((k + 1) % 3)] - t[size_t(k)], t[size_t((k + 1) % 3)] - t[size_t(k)]));
+            for (int k = 0; k < 3; ++k) {
+                const Vec3 e = t[size_t((k + 1) % 3)] - t[size_t(k)];
+                longest2 = std::max(longest2, glm::dot(e, e));
+            }
             const double area = 0.5 * glm::length(glm::cross(t[1] - t[0], t[2] - t[0]));
             if (!(2.0 * area > tol * std::sqrt(longest2))) {
                 ++st.thinPieces;

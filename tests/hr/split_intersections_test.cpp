@@ -143,7 +143,8 @@ TEST(SplitIntersections, NoPieceOfGrazIsThinnerThanTheToleranceOrOutshinesItsLam
             if (p.numVertices() != 3) continue;
             double longest = 0.0;
             for (int k = 0; k < 3; ++k)
-                longest = std::max(longest, glm::length(p.v[size_t((k + 1) % 3)] - p.v[size_t(k)]));
+                longest =
+                    std::max(longest, glm::length(p.v[size_t((k + 1) % 3)] - p.v[size_t(k)]));
             n += 2.0 * p.area <= tol * longest ? 1 : 0;
         }
         return n;
@@ -163,7 +164,8 @@ TEST(SplitIntersections, NoPieceOfGrazIsThinnerThanTheToleranceOrOutshinesItsLam
         const hr::Hierarchy& h = *r.hierarchy;
         double lamp = 0.0;
         for (uint32_t i = 0; i < s.patches.size(); ++i)
-            if (maxComponent(s.patches[i].emission) > 0) lamp = std::max(lamp, maxComponent(h.B(i)));
+            if (maxComponent(s.patches[i].emission) > 0)
+                lamp = std::max(lamp, maxComponent(h.B(i)));
         ASSERT_GT(lamp, 0.0);
         uint32_t brighter = 0;
         for (uint32_t i = 0; i < s.patches.size(); ++i)
