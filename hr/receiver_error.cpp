@@ -9,29 +9,6 @@
 namespace hrad::hr {
 
 namespace {
-/// Per surface element, the range [lo, hi] of its leaves' radiosities, per
-/// channel (children are created after their parents, so one pass from the
-/// last element to the first sees every child before its parent).
-void leafRanges(const Hierarchy& h, std::vector<RGB>& lo, std::vector<RGB>& hi) {
-    const uint32_t n = h.numElements();
-    lo.assign(n, RGB(0.0));
-    hi.assign(n, RGB(0.0));
-    for (uint32_t e = n; e-- > 0;) {
-        if (h.isCluster(e) || h.patch(e) == kNone) continue;
-        if (h.firstChild(e) == kNone) {
-            lo[e] = hi[e] = h.B(e);
-            continue;
-        }
-        lo[e] = RGB(1e300);
-        hi[e] = RGB(-1e300);
-        for (uint32_t c = 0; c < h.numChildren(e); ++c) {
-            const uint32_t k = h.child(e, c);
-            lo[e] = glm::min(lo[e], lo[k]);
-            hi[e] = glm::max(hi[e], hi[k]);
-        }
-    }
-}
-
 /// The samples `eval(r, s, out)` writes for the link s -> r, packed.
 template <class Eval>
 KernelSamples linkSamplesBy(const Hierarchy& h, uint32_t r, uint32_t s, Eval eval) {
@@ -44,12 +21,39 @@ KernelSamples linkSamplesBy(const Hierarchy& h, uint32_t r, uint32_t s, Eval eva
 }
 }  // namespace
 
+void leafRanges(const Hierarchy& h, LeafRanges& out) {
+    // Children are created after their parents, so one pass from the last
+    // element to the first sees every child before its parent; a surface
+    // element's four children are consecutive.
+    const uint32_t n = h.numElements();
+    out.lo.assign(n, RGB(0.0));
+    out.hi.assign(n, RGB(0.0));
+    for (uint32_t e = n; e-- > 0;) {
+        if (h.isCluster(e) || h.patch(e) == kNone) continue;
+        const uint32_t fc = h.firstChild(e);
+        if (fc == kNone) {
+            out.lo[e] = out.hi[e] = h.B(e);
+            continue;
+        }
+        RGB lo(1e300), hi(-1e300);
+        for (uint32_t k = fc; k < fc + 4; ++k) {
+            lo = glm::min(lo, out.lo[k]);
+            hi = glm::max(hi, out.hi[k]);
+        }
+        out.lo[e] = lo;
+        out.hi[e] = hi;
+    }
+}
+
 void senderTotals(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
                   const std::vector<Link>& pending, const std::vector<uint32_t>& acceptedRecv,
-                  const std::vector<Link>& accepted, std::vector<SenderTotal>& out) {
+                  const std::vector<Link>& accepted, std::vector<SenderTotal>& out,
+                  const LeafRanges* ranges) {
     const uint32_t n = h.numElements();
-    std::vector<RGB> lo, hi;
-    leafRanges(h, lo, hi);
+    LeafRanges ownRanges;
+    if (!ranges) leafRanges(h, ownRanges);
+    const std::vector<RGB>& lo = ranges ? ranges->lo : ownRanges.lo;
+    const std::vector<RGB>& hi = ranges ? ranges->hi : ownRanges.hi;
     auto term = [&](uint32_t r, const Link& l) -> double {
         const uint32_t s = l.sender;
         if (h.isCluster(r) || s == kNone || h.isCluster(s) || (l.flags & Link::kOpen) ||
@@ -64,8 +68,17 @@ void senderTotals(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
     // can evaluate), its term and its sender.
     std::vector<float> own;
     std::vector<uint32_t> ownSender;
+    // Only the totals of the senders of those links are read: the accepted
+    // links of other senders (most of them, after the first round of a
+    // pass) are skipped before their terms are made.
+    std::vector<uint8_t> needed(n, 0);
+    for (size_t i = 0; i < pending.size(); ++i) {
+        const uint32_t s = pending[i].sender;
+        if (s < n && h.carriesKernelSamples(pendingRecv[i], pending[i])) needed[s] = 1;
+    }
     auto add = [&](const std::vector<uint32_t>& recv, const std::vector<Link>& links, bool keep) {
         for (size_t i = 0; i < links.size(); ++i) {
+            if (!keep && !(links[i].sender < n && needed[links[i].sender])) continue;
             double t = term(recv[i], links[i]);
             if (keep && h.carriesKernelSamples(recv[i], links[i])) {
                 own.push_back(float(t));
@@ -107,7 +120,7 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
                     const std::vector<uint32_t>& acceptedRecv, const std::vector<Link>& accepted,
                     const std::vector<KernelSamples>& acceptedSamples,
                     std::vector<ReceiverError>& out, bool residualSamples,
-                    const SampleFn& compute) {
+                    const SampleFn& compute, const LeafRanges* ranges) {
     const size_t np = pending.size();
     size_t carriers = 0;
     for (size_t i = 0; i < np; ++i) carriers += h.carriesKernelSamples(pendingRecv[i], pending[i]);
@@ -160,8 +173,10 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
         place(acceptedRecv, accepted, acceptedSamples, 0);
         place(pendingRecv, pending, pendingSamples, 1);
     }
-    std::vector<RGB> lo, hi;
-    leafRanges(h, lo, hi);
+    LeafRanges ownRanges;
+    if (!ranges) leafRanges(h, ownRanges);
+    const std::vector<RGB>& lo = ranges ? ranges->lo : ownRanges.lo;
+    const std::vector<RGB>& hi = ranges ? ranges->hi : ownRanges.hi;
     constexpr int K = transport::FormFactorEngine::kMaxKernelSamples;
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 64), [&](const auto& range) {
         std::vector<float> linkDev, linkSend;

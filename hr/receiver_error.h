@@ -89,12 +89,22 @@ struct SenderTotal {
     uint32_t links = 0;  ///< surface links from s with a positive term
 };
 
+/// Per surface element, the range [lo, hi] of its leaves' radiosities, per
+/// channel (clusters and unused slots: zero). What senderTotals() and
+/// receiverErrors() bound a subdivided sender's spread by; computed once
+/// per refinement round and handed to both.
+struct LeafRanges {
+    std::vector<RGB> lo, hi;
+};
+void leafRanges(const Hierarchy& h, LeafRanges& out);
+
 /// P_s for the sender of every link of `pending` that carriesKernelSamples()
 /// (links in `pending` and `accepted` both count), and the link's own term:
 /// one entry per such link, in their order (no other link has a term).
 void senderTotals(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
                   const std::vector<Link>& pending, const std::vector<uint32_t>& acceptedRecv,
-                  const std::vector<Link>& accepted, std::vector<SenderTotal>& out);
+                  const std::vector<Link>& accepted, std::vector<SenderTotal>& out,
+                  const LeafRanges* ranges = nullptr);
 
 /// The samples of the link from surface element s to surface element r
 /// (receiverErrors' `compute`).
@@ -112,13 +122,14 @@ using SampleFn = std::function<KernelSamples(uint32_t r, uint32_t s)>;
 /// cannot subdivide gets no kernel term, only the unsigned part of its
 /// partially visible links: no decision reads its aggregate
 /// (oracles::receiverRefinement). Parallel over receivers; deterministic.
+/// `ranges`, when given, must be leafRanges() of `h` as it is.
 void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
                     const std::vector<Link>& pending,
                     const std::vector<KernelSamples>& pendingSamples,
                     const std::vector<uint32_t>& acceptedRecv, const std::vector<Link>& accepted,
                     const std::vector<KernelSamples>& acceptedSamples,
                     std::vector<ReceiverError>& out, bool residualSamples = false,
-                    const SampleFn& compute = {});
+                    const SampleFn& compute = {}, const LeafRanges* ranges = nullptr);
 
 /// The kernel samples of the link from surface element s to surface element
 /// r (zeros past the receiver's sample count).

@@ -8,6 +8,7 @@
 #include <bit>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <unordered_map>
 
@@ -596,6 +597,8 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
                                              bool bounds, bool upper) const {
     uint32_t s = l.sender;
     oracles::LinkEstimate e;
+    // The two ends of a cluster link, made once (endOf is not cheap).
+    std::optional<std::pair<cluster::LinkEnd, cluster::LinkEnd>> ends;
     e.F = l.K;
     double v = l.vis();
     e.visibility = v;
@@ -630,7 +633,8 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
         // A link touching a cluster is judged with its own visibility
         // estimate (Link::visibility), independent of the one in K
         // (makeClusterLink), times the unoccluded point approximation.
-        e.unoccludedF = linker_->kernel(endOf(h, r), endOf(h, s));
+        ends.emplace(endOf(h, r), endOf(h, s));
+        e.unoccludedF = linker_->kernel(ends->first, ends->second);
         if (l.flags & Link::kUncertain) {
             // All judged rays blocked: the oracle sees the unoccluded
             // transfer times the 95 % upper bound of the visibility, so the
@@ -664,9 +668,11 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
         !(l.flags & Link::kSampled)) {
         // The link stores K without the receiver's projected-area
         // fraction (applied per surface when pushing).
-        Vec3 u = h.center(s) - h.center(r);
+        // (Not sampled and a cluster receiver: the ends are known.)
+        const cluster::LinkEnd& re = ends->first;
+        Vec3 u = ends->second.center - re.center;
         double len = glm::length(u);
-        double g = len > 0 ? linker_->projectedFraction(endOf(h, r), u / len) : 1.0;
+        double g = len > 0 ? linker_->projectedFraction(re, u / len) : 1.0;
         e.F *= g;
         e.unoccludedF *= g;
     }
@@ -836,11 +842,14 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
             spdlog::warn("hr.max_links = {} reached: refinement stops here", s_.maxLinks);
         }
         std::vector<SenderTotal> stot;
-        if (!capHit && s_.senderTotal && (oracle.needsReceiverError() || guardEps > 0.0))
-            senderTotals(h, recv, pending, finalRecv, finalLinks, stot);
+        const bool wantTotals =
+            !capHit && s_.senderTotal && (oracle.needsReceiverError() || guardEps > 0.0);
+        LeafRanges ranges;
+        if (wantTotals || (!capHit && aggregate)) leafRanges(h, ranges);
+        if (wantTotals) senderTotals(h, recv, pending, finalRecv, finalLinks, stot, &ranges);
         if (!capHit && aggregate)
             receiverErrors(h, recv, pending, pendingS, finalRecv, finalLinks, finalS, rerr,
-                           coupling_ != nullptr);
+                           coupling_ != nullptr, {}, &ranges);
         // Partially visible links into clusters (cluster.partial_receivers):
         // the power each may hand to unseen surfaces of its receiving
         // cluster, and their sum per receiving cluster.
@@ -850,38 +859,9 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
         const bool nearStandIns = linker_ && linker_->settings().standInNear;
         const bool partialCheck = !capHit && (s_.openPartialReceivers || nearStandIns) &&
                                   checkEps > 0 && h.numClusters() > 0;
-        if (partialCheck) {
-            misplaced.assign(n, 0.0);
-            tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const auto& range) {
-                for (size_t i = range.begin(); i != range.end(); ++i) {
-                    const Link& l = pending[i];
-                    if (!h.isCluster(recv[i]) || (l.flags & Link::kOpen)) continue;
-                    if (l.byArea()) {
-                        // A stand-in whose receiving cluster takes the light
-                        // by area may put all of it on the wrong surfaces.
-                        oracles::LinkEstimate e = linkEstimate(h, recv[i], l, false);
-                        misplaced[i] =
-                            maxComponent(e.receiverRho * e.senderB) * e.F * e.receiverArea;
-                        continue;
-                    }
-                    if (!s_.openPartialReceivers ||
-                        !(l.flags & (Link::kPartial | Link::kUncertain)))
-                        continue;
-                    oracles::LinkEstimate e = linkEstimate(h, recv[i], l, false);
-                    double unseen = (l.flags & Link::kUncertain) ? 1.0 : 1.0 - e.visibility;
-                    misplaced[i] = maxComponent(e.receiverRho * e.senderB) *
-                                   (e.visibility > 0 ? e.F / e.visibility : e.F) * unseen *
-                                   e.receiverArea;
-                }
-            });
-            clusterMisplaced.assign(h.numClusters(), 0.0);
-            clusterPartial.assign(h.numClusters(), 0);
-            for (size_t i = 0; i < n; ++i)
-                if (misplaced[i] > 0) {
-                    clusterMisplaced[h.clusterIndex(recv[i])] += misplaced[i];
-                    ++clusterPartial[h.clusterIndex(recv[i])];
-                }
-        }
+        // Filled by the decision pass below, from the estimate it makes
+        // anyway; the sums per receiving cluster are taken after it.
+        if (partialCheck) misplaced.assign(n, 0.0);
         if (!capHit) {
             // rerr and stot hold the links that carry kernel samples only:
             // each block of links starts at its first such link.
@@ -942,6 +922,22 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                             e.linkSenderTotal = stot[si].link;
                             e.senderLinks = stot[si].links;
                         }
+                        if (partialCheck && h.isCluster(r)) {
+                            if (l.byArea()) {
+                                // A stand-in whose receiving cluster takes
+                                // the light by area may put all of it on the
+                                // wrong surfaces.
+                                misplaced[i] = maxComponent(e.receiverRho * e.senderB) * e.F *
+                                               e.receiverArea;
+                            } else if (s_.openPartialReceivers &&
+                                       (l.flags & (Link::kPartial | Link::kUncertain))) {
+                                const double unseen =
+                                    (l.flags & Link::kUncertain) ? 1.0 : 1.0 - e.visibility;
+                                misplaced[i] = maxComponent(e.receiverRho * e.senderB) *
+                                               (e.visibility > 0 ? e.F / e.visibility : e.F) *
+                                               unseen * e.receiverArea;
+                            }
+                        }
                         Decision d = oracles::constrain(oracle.decide(e), e);
                         // Only the receiver's subdivision lowers its aggregate (the
                         // children of a sender sum to its kernel): a receiver that
@@ -964,24 +960,12 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                                     (l.uncertainty / 100.0) * e.receiverArea >
                                 checkEps * e.emittedPower)
                             d = forcedDecision(h, r, s);
-                        // A partially visible (or all-blocked) link into a
-                        // cluster hands its light to every surface of the
-                        // cluster that faces the sender, seen or not: up to the
-                        // unseen fraction of its power lands on the wrong
-                        // surfaces (closed cavities, the far side of a table).
-                        // That power must be within eps too, else the receiving
-                        // cluster is opened (cluster.partial_receivers = open).
-                        // The links into one cluster misplace light together (as
-                        // a receiver's averaged senders do, hr/receiver_error.h):
-                        // their sum is held to eps too, refining the links with at
-                        // least an even share of it.
+                        // An accepted link that may misplace light
+                        // (misplaced > 0) is checked after this pass, when
+                        // the sums per receiving cluster are known.
                         if (d == Decision::Accept && partialCheck && misplaced[i] > 0) {
-                            const uint32_t c = h.clusterIndex(r);
-                            const double limit = checkEps * e.emittedPower;
-                            if (misplaced[i] > limit ||
-                                (clusterMisplaced[c] > limit &&
-                                 misplaced[i] * clusterPartial[c] >= clusterMisplaced[c]))
-                                d = oracles::constrain(Decision::RefineReceiver, e);
+                            decision[i] = uint8_t(d);
+                            continue;
                         }
                         // A refused stand-in (or sampled link that found nothing)
                         // of a pair too close for the point approximation is
@@ -994,10 +978,55 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                     }
                 }
             });
+            if (partialCheck) {
+                // A partially visible (or all-blocked) link into a cluster
+                // hands its light to every surface of the cluster that faces
+                // the sender, seen or not: up to the unseen fraction of its
+                // power lands on the wrong surfaces (closed cavities, the far
+                // side of a table). That power must be within eps too, else
+                // the receiving cluster is opened (cluster.partial_receivers
+                // = open). The links into one cluster misplace light together
+                // (as a receiver's averaged senders do, hr/receiver_error.h):
+                // their sum is held to eps too, refining the links with at
+                // least an even share of it.
+                clusterMisplaced.assign(h.numClusters(), 0.0);
+                clusterPartial.assign(h.numClusters(), 0);
+                for (size_t i = 0; i < n; ++i)
+                    if (misplaced[i] > 0) {
+                        clusterMisplaced[h.clusterIndex(recv[i])] += misplaced[i];
+                        ++clusterPartial[h.clusterIndex(recv[i])];
+                    }
+                const double limit = checkEps * epsPower_;
+                tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const auto& range) {
+                    for (size_t i = range.begin(); i != range.end(); ++i) {
+                        if (!(misplaced[i] > 0) || Decision(decision[i]) != Decision::Accept)
+                            continue;
+                        const uint32_t r = recv[i], s = pending[i].sender;
+                        const uint32_t c = h.clusterIndex(r);
+                        if (!(misplaced[i] > limit ||
+                              (clusterMisplaced[c] > limit &&
+                               misplaced[i] * clusterPartial[c] >= clusterMisplaced[c])))
+                            continue;
+                        oracles::LinkEstimate sides;
+                        sides.receiverCanSubdivide = h.canSubdivide(r);
+                        sides.senderCanSubdivide = h.canSubdivide(s);
+                        Decision d = oracles::constrain(Decision::RefineReceiver, sides);
+                        // As for every refused sampled link above.
+                        if (d != Decision::Accept && nearStandIns &&
+                            (pending[i].flags & Link::kSampled)) {
+                            const Decision f = forcedDecision(h, r, s);
+                            if (f != Decision::Accept) d = f;
+                        }
+                        decision[i] = uint8_t(d);
+                    }
+                });
+            }
         }
         // What the decisions needed is freed before the next round's links
         // are made (the largest arrays of a round otherwise coexist).
         releaseVector(rerr);
+        releaseVector(ranges.lo);
+        releaseVector(ranges.hi);
         releaseVector(stot);
         releaseVector(misplaced);
         releaseVector(clusterMisplaced);
