@@ -130,10 +130,14 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
         return !h.isCluster(r) && l.sender != kNone && !h.isCluster(l.sender) &&
                !(l.flags & Link::kOpen);
     };
-    // Receivers to evaluate: those with a pending surface link.
+    // Receivers to evaluate: those with a pending surface link; without
+    // `compute` (refinement), only those with one that either end's
+    // subdivision could refine (no decision reads the others).
     std::vector<uint8_t> wanted(n, 0);
     for (size_t i = 0; i < np; ++i)
-        if (surfaceLink(pendingRecv[i], pending[i])) wanted[pendingRecv[i]] = 1;
+        if (surfaceLink(pendingRecv[i], pending[i]) &&
+            (compute || h.canSubdivide(pendingRecv[i]) || h.canSubdivide(pending[i].sender)))
+            wanted[pendingRecv[i]] = 1;
     // Their surface links, pending (code 2i + 1) and accepted (code 2i), in
     // CSR form by receiver (counting sort, stable).
     std::vector<uint64_t> offset(size_t(n) + 1, 0);

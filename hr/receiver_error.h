@@ -121,7 +121,10 @@ using SampleFn = std::function<KernelSamples(uint32_t r, uint32_t s)>;
 /// lacks are computed now (the error estimate). Without it a receiver that
 /// cannot subdivide gets no kernel term, only the unsigned part of its
 /// partially visible links: no decision reads its aggregate
-/// (oracles::receiverRefinement). Parallel over receivers; deterministic.
+/// (oracles::receiverRefinement); and a receiver none of whose pending
+/// surface links has an end that can subdivide is not evaluated at all
+/// (its entries stay "not evaluated": refinement keeps such links unjudged).
+/// Parallel over receivers; deterministic.
 /// `ranges`, when given, must be leafRanges() of `h` as it is.
 void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
                     const std::vector<Link>& pending,

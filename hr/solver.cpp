@@ -887,6 +887,16 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                             decision[i] = uint8_t(forcedDecision(h, r, s));
                             continue;
                         }
+                        // A surface link neither of whose ends can subdivide
+                        // is kept whatever it is judged to be (every refusal
+                        // below goes through oracles::constrain or its like);
+                        // finely tessellated scenes have most of their links
+                        // there.
+                        if (!h.canSubdivide(r) && !h.canSubdivide(s) &&
+                            !(l.flags & Link::kSampled)) {
+                            decision[i] = uint8_t(Decision::Accept);
+                            continue;
+                        }
                         // Surface links judged by the receiver aggregate need no
                         // per-link form-factor range (17 contour integrals each).
                         const bool wantBounds = bounds && !(aggregate && surfacePair(h, r, s));
