@@ -355,6 +355,33 @@ TEST(ClusterTransfer, OrientedKeepsTheLightOfTheUnclusteredSolve) {
     EXPECT_LT(linksOriented * 3, linksNone);
 }
 
+// cluster.partial_receivers = open (the default): a partially visible link
+// into a cluster may hand its unseen fraction to the wrong surfaces, so that
+// power, and its sum over the links into one cluster, must be within eps or
+// the receiving cluster is opened (hr/solver.h). The check's misplaced power
+// comes from the decision pass's own estimate and the per-cluster sums are
+// judged after it; this pins that the check still refines. Measured on
+// office:2 (oriented, bfa 1e-3): 50,580 links with it, 43,265 without.
+TEST(ClusterTransfer, PartialReceiversAreOpenedWhereTheirUnseenLightMatters) {
+    scene::Scene s = scene::loadScene("office:2");
+    transport::Visibility vis(s);
+    auto solve = [&](const std::string& mode) {
+        Params p;
+        p.set("cluster.model", "oriented");
+        p.set("cluster.partial_receivers", mode);
+        p.set("oracle.eps", 1e-3);
+        HrSolver solver(s, vis, HrSettings::fromParams(p));
+        HrResult r = solver.solve();
+        EXPECT_TRUE(r.converged) << mode;
+        return std::pair<uint64_t, RGB>(r.hierarchy->numLinks(), r.hierarchy->radiosityPower());
+    };
+    auto [openLinks, openPower] = solve("open");
+    auto [keepLinks, keepPower] = solve("keep");
+    std::cout << "links: open " << openLinks << ", keep " << keepLinks << "\n";
+    EXPECT_GT(double(openLinks), 1.1 * double(keepLinks));
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(openPower[c] / keepPower[c], 1.0, 0.01) << c;
+}
+
 // office:3 (odd N: the BVH lays clusters across the walls between rooms)
 // lost 4.1 % of the radiosity power with oriented clustering (389.09 against
 // 405.79, green), 3.7 % even with 64 cluster visibility rays. Measured per
