@@ -13,6 +13,7 @@
 #include <unordered_map>
 
 #include "core/log.h"
+#include "core/memory.h"
 #include "core/rng.h"
 #include "core/timer.h"
 #include "hr/iteration_tail.h"
@@ -367,6 +368,31 @@ Link HrSolver::makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint3
         l.uncertainty = uint8_t(std::min(255.0, std::ceil(100.0 * c.relativeError)));
     }
     return l;
+}
+
+uint64_t HrSolver::passPeakBytes(const Hierarchy& h, uint64_t links, uint64_t samples,
+                                 uint64_t elements) const {
+    // A judging pass moves the links out of the hierarchy and keeps them,
+    // with their receivers, as pending and as kept side by side (two Links
+    // and two receiver indices per link; the kept arrays are reserved to the
+    // pending size), and their kernel samples likewise. On top of that, the
+    // larger of what the decisions hold (per link: ReceiverError and
+    // SenderTotal of the links that carry samples, the misplaced power, the
+    // decision; receiverErrors() transiently three 8-byte indices per
+    // surface link) and what the new links' round holds (two 8-byte offsets
+    // per link); per element the leaf ranges, the aggregates' offsets and
+    // totals. setLinks() (the sort into rows: one more Link per link, and
+    // the samples once more) stays below this. Polynomial bases add their
+    // coupling matrices.
+    const uint64_t coupling =
+        coupling_ ? sizeof(uint32_t) + sizeof(float) * uint64_t(h.basisSize() * h.basisSize()) : 0;
+    const uint64_t kept = 2 * (sizeof(Link) + sizeof(uint32_t) + coupling);
+    const uint64_t decisions = std::max<uint64_t>(
+        sizeof(ReceiverError) + sizeof(SenderTotal) + sizeof(double) + 1 + 3 * sizeof(uint64_t),
+        2 * sizeof(uint64_t) + 1);
+    const uint64_t perElement = 2 * sizeof(RGB) + 2 * sizeof(uint64_t) + sizeof(double) + 8;
+    return links * (kept + decisions) + 2 * samples * sizeof(KernelSamples) +
+           elements * perElement;
 }
 
 Link HrSolver::makeStandIn(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays,
@@ -740,6 +766,11 @@ double HrSolver::estimateError(const Hierarchy& h) const {
 
 uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double eps, HrResult& res,
                           IterationRecord& rec) {
+    // memory.budget_mb (below): what the process holds besides the links and
+    // elements (the scene, Embree, the clusters, the libraries, and whatever
+    // the allocator kept), measured now.
+    const uint64_t rssNow = currentRssBytes(), held = h.elementBytes() + h.linkBytes();
+    const uint64_t fixedBytes = rssNow > held ? rssNow - held : 0;
     std::vector<uint32_t> recv = h.linkReceivers();
     // The coupling matrices of the links as they are, for the links kept.
     PreviousCoupling previous;
@@ -1087,18 +1118,14 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
             keepRefined();
             break;
         }
-        // Memory budget, checked before allocating the round: the hierarchy
-        // as it is, the links of this round and of the next one, and the
-        // elements the marked ones will add. Past it, the links still to be
-        // refined are kept as they are (a coarser solution, flagged).
+        // Memory budget, checked before allocating the round: the process's
+        // peak until the next round is checked, which is the next judging
+        // pass over the links of this round and of the next one
+        // (passPeakBytes). Past it, the links still to be refined are kept
+        // as they are (a coarser solution, flagged).
         if (s_.memoryBudget > 0) {
             uint64_t marked = 0;
             for (uint8_t m : mark) marked += m;
-            uint64_t perLink =
-                sizeof(Link) + sizeof(uint32_t) +
-                (coupling_
-                     ? sizeof(uint32_t) + sizeof(float) * uint64_t(h.basisSize() * h.basisSize())
-                     : 0);
             // Kernel samples for the new links in the share the links so far
             // carry them.
             const uint64_t samplesNow = finalS.size() + pendingS.size();
@@ -1106,11 +1133,23 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                                             ? 0
                                             : uint64_t(double(newCount) * double(samplesNow) /
                                                        double(finalLinks.size() + n));
-            uint64_t perElement = h.numElements() ? h.elementBytes() / h.numElements() : 64;
-            uint64_t estimate =
-                h.elementBytes() + h.linkBytes() + (finalLinks.size() + n + newCount) * perLink +
-                (samplesNow + newSamples) * sizeof(KernelSamples) + 4 * marked * perElement;
-            if (estimate > s_.memoryBudget) {
+            const uint64_t perElement = h.numElements() ? h.elementBytes() / h.numElements() : 64;
+            // This round: the kept, the pending and the new links side by
+            // side, with the pending links' two offsets; then the next pass
+            // over the links kept and made (finalLinks already holds this
+            // round's accepted ones, finalS their samples).
+            const uint64_t round =
+                (finalLinks.size() + n + newCount) * (sizeof(Link) + sizeof(uint32_t)) +
+                n * (2 * sizeof(size_t) + 1) + (samplesNow + newSamples) * sizeof(KernelSamples);
+            const uint64_t next = passPeakBytes(h, finalLinks.size() + newCount,
+                                                finalS.size() + newSamples, h.numElements() + 4 * marked);
+            const uint64_t estimate =
+                fixedBytes + h.elementBytes() + 4 * marked * perElement + std::max(round, next);
+            // A thirty-second of the budget is kept for what the estimate
+            // leaves out (the allocator's own overhead, per-thread buffers):
+            // without it the bathroom's peak passed a 700 MiB budget by
+            // 0.5-1.5 % (bench/results/large_scenes.md).
+            if (estimate > s_.memoryBudget - s_.memoryBudget / 32) {
                 if (!res.memoryBudgetHit)
                     spdlog::warn(
                         "memory.budget_mb = {} reached (refinement would need about {}): "

@@ -45,10 +45,15 @@
 //                                       current iteration; the solution so far is the
 //                                       result (summary time_limit_hit, converged false)
 //   memory.budget_mb   int     0       refinement stops (with a warning, and
-//                                       summary memory_budget_hit) before a round whose
-//                                       links and elements would take more than this many
-//                                       MiB (estimated from their sizes before allocating);
-//                                       the solve then finishes on the coarser hierarchy.
+//                                       summary memory_budget_hit) before a round after
+//                                       which the process would pass this many MiB: what it
+//                                       held apart from links and elements when the pass
+//                                       began (resident set), plus the elements, plus the
+//                                       peak of the next judging pass over the links
+//                                       (HrSolver::passPeakBytes: 109 bytes per link, 48 per
+//                                       kernel-sample block, 80 per element), estimated
+//                                       before allocating, within 31/32 of the budget; the
+//                                       solve then finishes on the coarser hierarchy.
 //                                       0: 80 % of the machine's physical memory
 //   ff.*                               form-factor settings (transport/formfactor.h)
 //   hr.receiver_eps    auto    auto    receiver check for oracles that do not read the
@@ -605,6 +610,11 @@ class HrSolver {
         return s_.judgeVisibility && l.vis() > 0 && l.Fupper > 0;
     }
     Link makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
+    /// What a judging pass over `links` links (`samples` of them with kernel
+    /// samples) and `elements` elements allocates at its peak, besides the
+    /// elements themselves (memory.budget_mb).
+    uint64_t passPeakBytes(const Hierarchy& h, uint64_t links, uint64_t samples,
+                           uint64_t elements) const;
     /// The stand-in for a link from s to r that had to be opened when
     /// refinement stopped early (cluster/link.h "Stand-ins"; Link::kStandIn).
     /// `samples` (sending clusters) receives its samples.
