@@ -1077,9 +1077,14 @@ class Loader {
             std::error_code ec;
             if (!fs::is_regular_file(file, ec)) fail(fp, "mesh file '{}' not found", file);
             if (type == "serialized") {
-                int64_t index = int64_t(floatProp(s, "shape_index", 0));
-                if (index < 0) fail(s, "shape_index must be >= 0");
-                SerializedMesh mesh = readSerialized(file, uint64_t(index), opt_.maxFaces - std::min(faces_, opt_.maxFaces),
+                // Checked as a number before it becomes an index: a value no
+                // integer type holds must not be cast (fuzz finding).
+                const double shapeIndex = floatProp(s, "shape_index", 0);
+                if (!(shapeIndex >= 0) || shapeIndex > 4294967295.0 ||
+                    shapeIndex != std::floor(shapeIndex))
+                    fail(s, "shape_index must be a whole number in [0, 2^32), not {}", shapeIndex);
+                const uint64_t index = uint64_t(shapeIndex);
+                SerializedMesh mesh = readSerialized(file, index, opt_.maxFaces - std::min(faces_, opt_.maxFaces),
                                                      "shape at " + where(s));
                 polys.reserve(mesh.triangles.size());
                 for (const auto& t : mesh.triangles)

@@ -101,6 +101,28 @@ TEST(MitsubaSerialized, LoadsThroughTheXmlShape) {
     EXPECT_NEAR(s.patches[1].area + s.patches[2].area, 1.0, 1e-6);
 }
 
+// A shape_index no integer holds (7.8e91: a fuzz finding, UBSan's
+// float-cast-overflow), a negative or a fractional one is refused with the
+// shape's line, not cast.
+TEST(MitsubaSerialized, ShapeIndexOutsideTheWholeNumbersIsAnInputError) {
+    auto dir = test::tempDir("mts_ser_index");
+    test::writeFile(dir / "m.serialized", serializedFile({meshRecord(kQuadPos, kQuadIdx, false)}));
+    for (const std::string v : {"7.77778e+91", "-1", "1.5", "4294967296"}) {
+        auto xml = test::writeFile(dir / "s.xml", "<scene version=\"3.0.0\">\n"
+                                                  "  <shape type=\"serialized\"><string name=\"filename\" "
+                                                  "value=\"m.serialized\"/><float name=\"shape_index\" value=\"" +
+                                                      v + "\"/></shape>\n</scene>\n");
+        try {
+            loadScene(xml.string());
+            ADD_FAILURE() << "no error for shape_index " << v;
+        } catch (const InputError& e) {
+            std::string w = e.what();
+            EXPECT_NE(w.find("s.xml:2: error: "), std::string::npos) << w;
+            EXPECT_NE(w.find("shape_index"), std::string::npos) << w;
+        }
+    }
+}
+
 TEST(MitsubaSerialized, TruncatedOrCorruptFilesNameTheByteOffset) {
     auto dir = test::tempDir("mts_ser_bad");
     std::string good = serializedFile({meshRecord(kQuadPos, kQuadIdx, false)});
