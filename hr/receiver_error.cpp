@@ -45,15 +45,24 @@ void leafRanges(const Hierarchy& h, LeafRanges& out) {
     }
 }
 
+namespace {
+/// `given`, or leafRanges() of h computed into `own`.
+const LeafRanges& rangesOf(const Hierarchy& h, const LeafRanges* given, LeafRanges& own) {
+    if (given) return *given;
+    leafRanges(h, own);
+    return own;
+}
+}  // namespace
+
 void senderTotals(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
                   const std::vector<Link>& pending, const std::vector<uint32_t>& acceptedRecv,
                   const std::vector<Link>& accepted, std::vector<SenderTotal>& out,
                   const LeafRanges* ranges) {
     const uint32_t n = h.numElements();
     LeafRanges ownRanges;
-    if (!ranges) leafRanges(h, ownRanges);
-    const std::vector<RGB>& lo = ranges ? ranges->lo : ownRanges.lo;
-    const std::vector<RGB>& hi = ranges ? ranges->hi : ownRanges.hi;
+    const LeafRanges& lr = rangesOf(h, ranges, ownRanges);
+    const std::vector<RGB>& lo = lr.lo;
+    const std::vector<RGB>& hi = lr.hi;
     auto term = [&](uint32_t r, const Link& l) -> double {
         const uint32_t s = l.sender;
         if (h.isCluster(r) || s == kNone || h.isCluster(s) || (l.flags & Link::kOpen) ||
@@ -119,8 +128,8 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
                     const std::vector<KernelSamples>& pendingSamples,
                     const std::vector<uint32_t>& acceptedRecv, const std::vector<Link>& accepted,
                     const std::vector<KernelSamples>& acceptedSamples,
-                    std::vector<ReceiverError>& out, bool residualSamples,
-                    const SampleFn& compute, const LeafRanges* ranges) {
+                    std::vector<ReceiverError>& out, bool residualSamples, const SampleFn& compute,
+                    const LeafRanges* ranges) {
     const size_t np = pending.size();
     size_t carriers = 0;
     for (size_t i = 0; i < np; ++i) carriers += h.carriesKernelSamples(pendingRecv[i], pending[i]);
@@ -178,9 +187,9 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
         place(pendingRecv, pending, pendingSamples, 1);
     }
     LeafRanges ownRanges;
-    if (!ranges) leafRanges(h, ownRanges);
-    const std::vector<RGB>& lo = ranges ? ranges->lo : ownRanges.lo;
-    const std::vector<RGB>& hi = ranges ? ranges->hi : ownRanges.hi;
+    const LeafRanges& lr = rangesOf(h, ranges, ownRanges);
+    const std::vector<RGB>& lo = lr.lo;
+    const std::vector<RGB>& hi = lr.hi;
     constexpr int K = transport::FormFactorEngine::kMaxKernelSamples;
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 64), [&](const auto& range) {
         std::vector<float> linkDev, linkSend;
