@@ -300,7 +300,7 @@ class Hierarchy {
     /// setLinks keeps only the blocks its links refer to.
     uint32_t addStandIn(std::span<const cluster::StandInSample> samples, float judged);
     /// Surface-to-surface links with a judged visibility (hr.judge_visibility
-    /// = independent; HrSolver::evaluateLink): Link::visibility holds an
+    /// = independent; hr/link_builder.h): Link::visibility holds an
     /// estimate from rays independent of those in K, the one the oracle
     /// judges, and Fupper the unoccluded form factor (the conservative bound
     /// is recomputed where needed). Otherwise Link::visibility is the

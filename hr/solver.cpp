@@ -222,7 +222,8 @@ HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visib
     : scene_(&scene),
       vis_(&visibility),
       s_(std::move(settings)),
-      engine_(scene, &visibility, s_.ff) {
+      engine_(scene, &visibility, s_.ff),
+      links_(engine_, s_.judgeVisibility, s_.ff.visRays) {
     minArea_ = s_.minArea > 0 ? s_.minArea : s_.minAreaRel * scene.totalArea();
     emittedPower_ = maxComponent(scene.emittedPower());
     if (!(emittedPower_ > 0)) emittedPower_ = 1.0;
@@ -297,79 +298,6 @@ uint64_t HrSolver::updateCoupling(Hierarchy& h, const PreviousCoupling* previous
     return rays;
 }
 
-cluster::LinkEnd HrSolver::endOf(const Hierarchy& h, uint32_t e) const {
-    cluster::LinkEnd x;
-    x.isCluster = h.isCluster(e);
-    if (x.isCluster) {
-        x.cluster = h.clusterIndex(e);
-        x.singleSurface = h.numChildren(e) == 1 && !h.isCluster(h.child(e, 0));
-        x.maxB = maxComponent(h.maxB(e));
-    } else {
-        x.patch = h.patch(e);
-        x.domain = h.domain(e);
-    }
-    x.center = h.center(e);
-    x.radius = h.radius(e);
-    x.area = h.area(e);
-    x.stableId = h.stableId(e);
-    return x;
-}
-
-Decision HrSolver::forcedDecision(const Hierarchy& h, uint32_t r, uint32_t s) const {
-    if (r == s) return Decision::RefineBoth;  // a cluster's self-link must be opened
-    switch (linker_->opening(endOf(h, r), endOf(h, s))) {
-        case cluster::Opening::None:
-            return Decision::Accept;
-        case cluster::Opening::Receiver:
-            return Decision::RefineReceiver;
-        case cluster::Opening::Sender:
-            return Decision::RefineSender;
-        case cluster::Opening::Both:
-            return Decision::RefineBoth;
-    }
-    return Decision::RefineBoth;
-}
-
-Link HrSolver::makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const {
-    cluster::LinkEnd se = endOf(h, s);
-    if (se.isCluster && linker_->settings().sampleNear) {
-        // What the gather will multiply K by (gatherRow): the sender's
-        // radiosity towards the receiver's centre (a sampled near link is
-        // calibrated to it, cluster/link.h).
-        Vec3 d = h.center(r) - h.center(s);
-        double len = glm::length(d);
-        RGB b = (len > 0 ? h.directionalB(s, d / len) : h.B(s)) + h.rho(s) * linker_->ambient();
-        se.sent = (b.r + b.g + b.b) / 3.0;
-    }
-    cluster::ClusterLink c = linker_->link(endOf(h, r), se, h.allB());
-    Link l;
-    l.sender = s;
-    rays = c.rays;
-    if (c.open != cluster::Opening::None) {
-        // Not valid in the point approximation: nothing computed, opened
-        // next round (refine() asks forcedDecision which side).
-        l.flags = Link::kOpen;
-        return l;
-    }
-    if (c.deferred) {
-        l.flags = Link::kDeferred;
-        l.setVis(1.0);
-        return l;
-    }
-    if (!(c.K > 0) && !c.partial && !c.uncertain && c.rays == 0) return l;
-    if (c.partial) l.flags |= Link::kPartial;
-    if (c.uncertain) l.flags |= Link::kUncertain;
-    l.K = float(c.K);
-    l.Fupper = float(std::min(c.Fupper, 3.0e38));
-    l.setVis(c.judged);
-    if (c.sampled) {
-        l.flags |= Link::kSampled;
-        l.Fupper = float(c.judgedF);
-        l.uncertainty = uint8_t(std::min(255.0, std::ceil(100.0 * c.relativeError)));
-    }
-    return l;
-}
-
 uint64_t HrSolver::passPeakBytes(const Hierarchy& h, uint64_t links, uint64_t samples,
                                  uint64_t elements) const {
     // A judging pass moves the links out of the hierarchy and keeps them,
@@ -395,57 +323,6 @@ uint64_t HrSolver::passPeakBytes(const Hierarchy& h, uint64_t links, uint64_t sa
            elements * perElement;
 }
 
-Link HrSolver::makeStandIn(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays,
-                           std::vector<cluster::StandInSample>* samples, bool judge) const {
-    cluster::ClusterLink c = linker_->standIn(endOf(h, r), endOf(h, s), samples, judge);
-    rays = c.rays;
-    Link l;
-    l.sender = s;
-    // A stand-in whose carried estimate found nothing carries nothing (K =
-    // 0, no samples) but is judged, and handed over, like the others: what
-    // decides whether a stand-in stays must not depend on its carried
-    // estimate (cluster/link.h "Judged stand-ins").
-    if (!(c.K > 0) && samples) samples->clear();
-    l.flags = Link::kSampled | Link::kStandIn;
-    if (c.byCosine) l.flags |= Link::kHandedOver;  // by cosine, not by area (Link::kStandIn)
-    if (c.partial) l.flags |= Link::kPartial;
-    if (c.uncertain) l.flags |= Link::kUncertain;
-    l.K = float(c.K > 0 ? c.K : 0.0);
-    l.Fupper = float(c.judgedF);  // a sending cluster's: its sample block (makeStandIns)
-    l.setVis(c.judged);
-    l.uncertainty = uint8_t(std::min(255.0, std::ceil(100.0 * c.relativeError)));
-    return l;
-}
-
-uint64_t HrSolver::makeStandIns(Hierarchy& h, const std::vector<uint32_t>& recv,
-                                std::vector<Link>& links, const std::vector<size_t>& open,
-                                bool judge) const {
-    // Estimated in parallel; the samples of sending clusters are stored in
-    // link order afterwards (Hierarchy::addStandIn), so results do not
-    // depend on the threads.
-    std::vector<std::vector<cluster::StandInSample>> samples(open.size());
-    std::atomic<uint64_t> rays{0};
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, open.size(), 256), [&](const auto& range) {
-        uint64_t localRays = 0;
-        for (size_t j = range.begin(); j != range.end(); ++j) {
-            const size_t i = open[j];
-            const uint32_t s = links[i].sender;
-            uint32_t nr = 0;
-            links[i] =
-                makeStandIn(h, recv[i], s, nr, h.isCluster(s) ? &samples[j] : nullptr, judge);
-            localRays += nr;
-        }
-        rays += localRays;
-    });
-    for (size_t j = 0; j < open.size(); ++j) {
-        Link& l = links[open[j]];
-        if (!(l.flags & Link::kStandIn) || !h.isCluster(l.sender)) continue;
-        l.Fupper = std::bit_cast<float>(h.addStandIn(samples[j], l.Fupper));
-        std::vector<cluster::StandInSample>().swap(samples[j]);
-    }
-    return rays.load();
-}
-
 void HrSolver::standInNear(Hierarchy& h, const std::vector<uint32_t>& recv,
                            std::vector<Link>& links, HrResult& res, IterationRecord& rec) const {
     if (!linker_ || !linker_->settings().standInNear) return;
@@ -453,10 +330,10 @@ void HrSolver::standInNear(Hierarchy& h, const std::vector<uint32_t>& recv,
     std::vector<size_t> open;
     for (size_t i = 0; i < links.size(); ++i)
         if ((links[i].flags & Link::kOpen) &&
-            linker_->standInNear(endOf(h, recv[i]), endOf(h, links[i].sender)))
+            linker_->standInNear(links_.endOf(h, recv[i]), links_.endOf(h, links[i].sender)))
             open.push_back(i);
     if (open.empty()) return;
-    const uint64_t rays = makeStandIns(h, recv, links, open, true);
+    const uint64_t rays = links_.standIns(h, recv, links, open, true);
     countStandIns(res, rec, open.size(), rays, t.seconds(), true);
 }
 
@@ -477,91 +354,11 @@ void HrSolver::standInUnopened(Hierarchy& h, const std::vector<uint32_t>& recv,
     for (size_t i = 0; i < links.size(); ++i)
         if (links[i].flags & Link::kOpen) open.push_back(i);
     if (open.empty()) return;
-    const uint64_t rays = makeStandIns(h, recv, links, open, false);
+    const uint64_t rays = links_.standIns(h, recv, links, open, false);
     countStandIns(res, rec, open.size(), rays, t.seconds(), false);
     spdlog::info(
         "{} links that had to be opened got a stand-in transfer ({} rays, {} samples, {:.1f} s)",
         open.size(), rays, h.standInSampleCount(), t.seconds());
-}
-
-void HrSolver::fillBounds(const Hierarchy& h, uint32_t r, const Link& l,
-                          oracles::LinkEstimate& e) const {
-    if (l.flags & Link::kSampled) {
-        // The sampled transfer's error bound (twice its standard error).
-        double rel = l.uncertainty / 100.0;
-        e.Fmin = std::max(0.0, e.F * (1.0 - rel));
-        e.Fmax = e.F * (1.0 + rel);
-        return;
-    }
-    if (e.receiverIsCluster || e.senderIsCluster) {
-        // The point approximation of a cluster transfer has no receiver
-        // points: use the widest interval the link knows, [0, upper bound].
-        e.Fmin = 0.0;
-        e.Fmax = std::max(e.F, double(l.Fupper));
-        return;
-    }
-    uint32_t s = l.sender;
-    transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
-    transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
-    // The same receiver points as the link's form factor (no rays: visibility
-    // is the link's). F is their weighted mean, so [min, max] contains it up
-    // to the float rounding of Link::K; the max/min with F keep it contained.
-    transport::PointRange pr = engine_.pointRange(er, es);
-    e.Fmax = std::max(pr.max, e.F);
-    // Partial visibility: some receiver points may see none of the sender;
-    // with only a visibility fraction known, 0 is the conservative lower bound.
-    e.Fmin = e.partialVisibility ? 0.0 : std::min(pr.min, e.F);
-}
-
-Link HrSolver::makeLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const {
-    const int kind = (h.isCluster(r) ? 2 : 0) + (h.isCluster(s) ? 1 : 0);  // SS, SC, CS, CC
-    HrResult::LinkKindCost& c = linkCost_.local();
-    // Timed once per stride (HrResult::linkCost).
-    const bool timed = c.evaluations[kind]++ % HrResult::kLinkTimingStride == 0;
-    const auto t0 =
-        timed ? std::chrono::steady_clock::now() : std::chrono::steady_clock::time_point();
-    Link l = evaluateLink(h, r, s, rays);
-    c.rays[kind] += rays;
-    if (timed)
-        c.seconds[kind] +=
-            double(HrResult::kLinkTimingStride) *
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    return l;
-}
-
-Link HrSolver::evaluateLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const {
-    if (h.isCluster(r) || h.isCluster(s)) return makeClusterLink(h, r, s, rays);
-    transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
-    transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
-    Link l;
-    l.sender = s;
-    rays = 0;
-    if (!engine_.facing(er, es)) return l;
-    transport::FormFactorResult f = engine_.compute(er, es);
-    rays = f.rays;
-    l.K = float(f.F);
-    if (s_.judgeVisibility) {
-        // The oracle judges an independent visibility estimate (header,
-        // "Judged visibility"); Fupper keeps the unoccluded form factor.
-        l.Fupper = float(f.unoccludedF);
-        bool partial = false;
-        uint32_t cast = 0;
-        const double judged = f.rays > 0
-                                  ? engine_.visibilityFraction(er, es, s_.ff.visRays, &cast,
-                                                               kJudgedVisibilitySalt, &partial)
-                                  : f.visibility;
-        rays += cast;
-        l.setVis(judged);
-        if (partial) l.flags |= Link::kPartial;
-        // Every judged ray blocked while the carried ones found the sender:
-        // judged with a bound, not with 0 (header, "Judged visibility").
-        if (f.rays > 0 && judged == 0.0 && f.F > 0.0) l.flags |= Link::kUncertain;
-        return l;
-    }
-    l.Fupper = float(std::max(engine_.upperBound(er, es), f.unoccludedF));
-    l.setVis(f.visibility);
-    if (f.partial) l.flags |= Link::kPartial;
-    return l;
 }
 
 void HrSolver::initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vector<Link>& links,
@@ -597,10 +394,10 @@ void HrSolver::initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vect
             for (uint32_t s = 0; s < k; ++s) {
                 if (s == r || (!included_.empty() && !included_[s])) continue;
                 uint32_t nr = 0;
-                Link l = makeLink(h, r, s, nr);
+                Link l = links_.make(h, r, s, nr);
                 localRays += nr;
                 ++localFf;
-                if (l.K > 0 || keepSurfaceLink(l)) rows[r].push_back(l);
+                if (l.K > 0 || links_.keepSurfaceLink(l)) rows[r].push_back(l);
             }
             rays += localRays;
             ffs += localFf;
@@ -658,8 +455,8 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
     } else if (h.isCluster(r) || h.isCluster(s)) {
         // A link touching a cluster is judged with its own visibility
         // estimate (Link::visibility), independent of the one in K
-        // (makeClusterLink), times the unoccluded point approximation.
-        ends.emplace(endOf(h, r), endOf(h, s));
+        // (LinkBuilder::make), times the unoccluded point approximation.
+        ends.emplace(links_.endOf(h, r), links_.endOf(h, s));
         e.unoccludedF = linker_->kernel(ends->first, ends->second);
         if (l.flags & Link::kUncertain) {
             // All judged rays blocked: the oracle sees the unoccluded
@@ -709,7 +506,7 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
     // The limits of Hierarchy::setSubdivisionLimits (solve).
     e.receiverCanSubdivide = h.canSubdivide(r);
     e.senderCanSubdivide = h.canSubdivide(s);
-    if (bounds) fillBounds(h, r, l, e);
+    if (bounds) links_.fillBounds(h, r, l, e);
     return e;
 }
 
@@ -841,7 +638,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                     if (!(pending[i].flags & Link::kDeferred) || !(maxComponent(h.maxB(s)) > 0))
                         continue;
                     uint32_t nr = 0;
-                    pending[i] = makeLink(h, recv[i], s, nr);
+                    pending[i] = links_.make(h, recv[i], s, nr);
                     localRays += nr;
                     ++localComputed;
                 }
@@ -915,7 +712,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                         const Link& l = pending[i];
                         uint32_t r = recv[i], s = l.sender;
                         if (l.flags & Link::kOpen) {
-                            decision[i] = uint8_t(forcedDecision(h, r, s));
+                            decision[i] = uint8_t(links_.forcedDecision(h, r, s));
                             continue;
                         }
                         // A surface link neither of whose ends can subdivide
@@ -1000,7 +797,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                             maxComponent(e.receiverRho * e.senderB) * e.F *
                                     (l.uncertainty / 100.0) * e.receiverArea >
                                 checkEps * e.emittedPower)
-                            d = forcedDecision(h, r, s);
+                            d = links_.forcedDecision(h, r, s);
                         // An accepted link that may misplace light
                         // (misplaced > 0) is checked after this pass, when
                         // the sums per receiving cluster are known.
@@ -1012,7 +809,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                         // of a pair too close for the point approximation is
                         // opened on the side its geometry asks for.
                         if (d != Decision::Accept && nearStandIns && (l.flags & Link::kSampled)) {
-                            const Decision f = forcedDecision(h, r, s);
+                            const Decision f = links_.forcedDecision(h, r, s);
                             if (f != Decision::Accept) d = f;
                         }
                         decision[i] = uint8_t(d);
@@ -1055,7 +852,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                         // As for every refused sampled link above.
                         if (d != Decision::Accept && nearStandIns &&
                             (pending[i].flags & Link::kSampled)) {
-                            const Decision f = forcedDecision(h, r, s);
+                            const Decision f = links_.forcedDecision(h, r, s);
                             if (f != Decision::Accept) d = f;
                         }
                         decision[i] = uint8_t(d);
@@ -1219,7 +1016,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                     uint32_t nr = 0;
                     // A self-link between surfaces carries nothing (planar
                     // patches); between clusters it is kept, to be opened.
-                    nlinks[o] = rc == sc && !h.isCluster(rc) ? Link{} : makeLink(h, rc, sc, nr);
+                    nlinks[o] = rc == sc && !h.isCluster(rc) ? Link{} : links_.make(h, rc, sc, nr);
                     nrecv[o] = rc;
                     if (aggregate && childSampled(rc, sc)) {
                         // Samples only for links that carry light (the others
@@ -1249,7 +1046,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                                (nlinks[i].sender != kNone && h.isCluster(nlinks[i].sender));
             bool keep = clusterLink ? (nlinks[i].flags & (Link::kOpen | Link::kUncertain |
                                                           Link::kPartial | Link::kDeferred)) != 0
-                                    : keepSurfaceLink(nlinks[i]);
+                                    : links_.keepSurfaceLink(nlinks[i]);
             const bool sampled = aggregate && h.storesKernelSamples(nrecv[i], nlinks[i]);
             const size_t si = sampled ? rs++ : 0;
             if (!(nlinks[i].K > 0) && !keep) continue;
@@ -1286,7 +1083,7 @@ HrResult HrSolver::solve(bool progress) {
     res.epsPower = epsPower_;
     res.epsReflected = s_.epsReflected;
     res.minArea = minArea_;
-    linkCost_.clear();
+    links_.resetCost();
     if (s_.clusterModel == cluster::ClusterModel::Auto) {
         s_.clusterModel = scene_->patches.size() > cluster::kAutoClusterPatches
                               ? cluster::ClusterModel::Oriented
@@ -1328,6 +1125,7 @@ HrResult HrSolver::solve(bool progress) {
     h.setSeed(s_.seed);
     linker_ = std::make_unique<cluster::ClusterLinker>(*scene_, res.clusterTree.get(),
                                                        s_.clusterModel, vis_, s_.clusterLink);
+    links_.setLinker(linker_.get());
     if (res.clusterTree && h.clusterModel() == cluster::ClusterModel::Oriented &&
         s_.clusterLink.visibleHandover) {
         res.openness =
@@ -1590,14 +1388,9 @@ HrResult HrSolver::solve(bool progress) {
             "hr.max_links, memory.budget_mb or hr.max_seconds) without a stand-in "
             "(cluster.stand_in = false); they carry no light",
             res.unopenedLinks);
-    for (const HrResult::LinkKindCost& c : linkCost_)
-        for (int k = 0; k < 4; ++k) {
-            res.linkCost.evaluations[k] += c.evaluations[k];
-            res.linkCost.rays[k] += c.rays[k];
-            res.linkCost.seconds[k] += c.seconds[k];
-        }
+    res.linkCost = links_.cost();
     {
-        const HrResult::LinkKindCost& c = res.linkCost;
+        const LinkKindCost& c = res.linkCost;
         spdlog::info(
             "link evaluations (kept or refined away), rays, CPU s by kind: surface-surface "
             "{} / {} / {:.2f}, surface<-cluster {} / {} / {:.2f}, cluster<-surface {} / "

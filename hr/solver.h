@@ -342,6 +342,7 @@
 #include "core/params.h"
 #include "core/timer.h"
 #include "hr/hierarchy.h"
+#include "hr/link_builder.h"
 #include "hr/noise.h"
 #include "oracles/oracle.h"
 #include "scene/scene.h"
@@ -492,16 +493,9 @@ struct HrResult {
     uint64_t linksSS = 0, linksSC = 0, linksCS = 0, linksCC = 0;
     /// Link evaluations (form factors or cluster transfers, kept or refined
     /// away), their visibility rays and their CPU seconds (summed over
-    /// threads), by kind in the order above: where refinement spends. The
-    /// seconds are estimated from every kLinkTimingStride-th evaluation of
-    /// each kind (per thread) times the stride: reading the clock twice per
-    /// evaluation cost 1.4 % of the bathroom's CPU.
-    static constexpr uint64_t kLinkTimingStride = 8;
-    struct LinkKindCost {
-        uint64_t evaluations[4] = {0, 0, 0, 0};
-        uint64_t rays[4] = {0, 0, 0, 0};
-        double seconds[4] = {0, 0, 0, 0};
-    } linkCost;
+    /// threads), by kind in the order above: where refinement spends
+    /// (hr/link_builder.h LinkKindCost).
+    LinkKindCost linkCost;
     uint64_t totalRays = 0, totalFormFactors = 0;
     /// Links made without rays while their sending cluster was dark and
     /// computed once it carried light (cluster.defer_dark).
@@ -596,35 +590,11 @@ class HrSolver {
     /// against which sampled near cluster links' errors are checked.
     uint64_t refine(Hierarchy& h, const oracles::Oracle& oracle, double eps, HrResult& res,
                     IterationRecord& rec);
-    /// Evaluates the link s -> r (evaluateLink) and adds its cost to
-    /// linkCost_.
-    Link makeLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
-    Link evaluateLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
-    /// Seeds the judged visibility rays of surface links apart from the
-    /// carried ones (transport visibilityEstimate's salt).
-    static constexpr uint64_t kJudgedVisibilitySalt = 0x6a7564676564ULL;
-    /// A surface-to-surface link whose carried estimate found nothing but
-    /// whose judged one did (hr.judge_visibility): kept, carrying 0, so that
-    /// what the oracle decides does not depend on the carried estimate.
-    bool keepSurfaceLink(const Link& l) const {
-        return s_.judgeVisibility && l.vis() > 0 && l.Fupper > 0;
-    }
-    Link makeClusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays) const;
     /// What a judging pass over `links` links (`samples` of them with kernel
     /// samples) and `elements` elements allocates at its peak, besides the
     /// elements themselves (memory.budget_mb).
     uint64_t passPeakBytes(const Hierarchy& h, uint64_t links, uint64_t samples,
                            uint64_t elements) const;
-    /// The stand-in for a link from s to r that had to be opened when
-    /// refinement stopped early (cluster/link.h "Stand-ins"; Link::kStandIn).
-    /// `samples` (sending clusters) receives its samples.
-    Link makeStandIn(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& rays,
-                     std::vector<cluster::StandInSample>* samples, bool judge) const;
-    /// Replaces links[i] for each i in `open` by its stand-in, storing the
-    /// samples of those from sending clusters in h; returns the rays cast.
-    /// `judge`: each also gets an independent estimate to be judged by.
-    uint64_t makeStandIns(Hierarchy& h, const std::vector<uint32_t>& recv, std::vector<Link>& links,
-                          const std::vector<size_t>& open, bool judge) const;
     /// Adds stand-ins made to the result's counts (near: judged ones).
     void countStandIns(HrResult& res, IterationRecord& rec, uint64_t links, uint64_t rays,
                        double seconds, bool near) const;
@@ -637,16 +607,6 @@ class HrSolver {
     /// storing the samples of those from sending clusters in h.
     void standInUnopened(Hierarchy& h, const std::vector<uint32_t>& recv, std::vector<Link>& links,
                          HrResult& res, IterationRecord& rec) const;
-    /// Node e as the cluster link builder sees it.
-    cluster::LinkEnd endOf(const Hierarchy& h, uint32_t e) const;
-    /// Refinement forced by validity (self-links, single-surface clusters,
-    /// clusters too close for the point approximation), independent of the
-    /// oracle; Accept means "valid". makeClusterLink() evaluates it once and
-    /// marks invalid links Link::kOpen; refine() asks it only for those.
-    oracles::Decision forcedDecision(const Hierarchy& h, uint32_t r, uint32_t s) const;
-    /// Fills e.Fmin / e.Fmax for link l of receiver r (only for oracles whose
-    /// needsBounds() is true; the other fields of e must be set).
-    void fillBounds(const Hierarchy& h, uint32_t r, const Link& l, oracles::LinkEstimate& e) const;
     /// Polynomial bases: sets the coupling matrices of h's current links,
     /// reusing those of `previous` (coupling index per link of the previous
     /// link set, keyed by receiver and sender) and computing the others.
@@ -659,6 +619,8 @@ class HrSolver {
     const transport::Visibility* vis_;
     HrSettings s_;
     transport::FormFactorEngine engine_;
+    /// Makes the links refinement asks for (hr/link_builder.h).
+    LinkBuilder links_;
     double minArea_ = 0.0;
     double emittedPower_ = 1.0;
     /// The power eps is a fraction of in the current judging pass
@@ -668,8 +630,6 @@ class HrSolver {
     IterationHook hook_;
     bool progress_ = false;  ///< progress bars on stderr (solve's argument)
     Timer solveTimer_;       ///< started by solve() (hr.max_seconds)
-    /// Per-thread link evaluation costs of the current solve (HrResult::linkCost).
-    mutable tbb::enumerable_thread_specific<HrResult::LinkKindCost> linkCost_;
     /// Patches the transport includes (hr.reach_rays; empty: all).
     std::vector<uint8_t> included_;
     bool outOfTime() const { return s_.maxSeconds > 0 && solveTimer_.seconds() > s_.maxSeconds; }
