@@ -75,18 +75,9 @@ struct TreeBuilder {
         node.patchBegin = begin;
         node.patchEnd = end;
         node.depth = uint16_t(depth);
-        for (uint32_t i = begin; i < end; ++i) {
-            node.box.expand(pb[t.order_[i]].lo);
-            node.box.expand(pb[t.order_[i]].hi);
-        }
         t.nodes_.push_back(node);
         t.depth_ = std::max(t.depth_, depth);
         return uint32_t(t.nodes_.size() - 1);
-    }
-
-    void makeLeaf(uint32_t c) {
-        t.nodes_[c].ownBegin = t.nodes_[c].patchBegin;
-        t.nodes_[c].ownEnd = t.nodes_[c].patchEnd;
     }
 
     void setChildren(uint32_t c, const std::vector<uint32_t>& kids) {
@@ -174,7 +165,6 @@ struct TreeBuilder {
         uint32_t c = newNode(begin, end, depth);
         uint32_t n = end - begin;
         if (n <= uint32_t(cfg.leafSize) || depth >= cfg.maxDepth) {
-            makeLeaf(c);
             return c;
         }
         uint32_t mid = sahSplit(t.order_, begin, end, pb, pc);
@@ -220,10 +210,6 @@ struct TreeBuilder {
     void closeNode(uint32_t c) {
         ClusterNode& node = t.nodes_[c];
         node.patchEnd = uint32_t(t.order_.size());
-        for (uint32_t i = node.patchBegin; i < node.patchEnd; ++i) {
-            node.box.expand(pb[t.order_[i]].lo);
-            node.box.expand(pb[t.order_[i]].hi);
-        }
     }
 
     void appendPatches(uint32_t id) {
@@ -244,7 +230,6 @@ struct TreeBuilder {
         uint32_t c = openNode(depth);
         for (uint32_t p : patches) t.order_.push_back(p);
         closeNode(c);
-        makeLeaf(c);
         return c;
     }
 
@@ -258,7 +243,6 @@ struct TreeBuilder {
         if (count <= uint32_t(cfg.leafSize)) {
             appendPatches(id);
             closeNode(c);
-            makeLeaf(c);
             return c;
         }
         std::vector<uint32_t> kids;
@@ -309,7 +293,6 @@ struct TreeBuilder {
         uint32_t n = end - begin;
         for (int guard = 0;; ++guard) {
             if (n <= uint32_t(cfg.leafSize) || depth >= cfg.maxDepth || guard > 60) {
-                makeLeaf(c);
                 return;
             }
             double h = 0.5 * size;
@@ -424,13 +407,15 @@ void ClusterTree::finalize() {
         ClusterNode& c = nodes_[ci];
         for (uint32_t i = 0; i < c.childCount; ++i)
             parent_[children_[c.childBegin + i]] = uint32_t(ci);
-        for (uint32_t i = c.ownBegin; i < c.ownEnd; ++i) patchCluster_[order_[i]] = uint32_t(ci);
+        for (uint32_t i = c.ownBegin(); i < c.ownEnd(); ++i) patchCluster_[order_[i]] = uint32_t(ci);
         double a = 0;
         RGB rho(0.0);
         Vec3 cen(0.0), S(0.0);
         std::array<double, 6> M{};
+        scene::Bounds3 box;  // of every vertex below: what the sphere must hold
         for (uint32_t i = c.patchBegin; i < c.patchEnd; ++i) {
             const auto& p = P[order_[i]];
+            for (int k = 0; k < p.numVertices(); ++k) box.expand(p.v[k]);
             a += p.area;
             rho += p.area * p.rho;
             cen += p.area * p.centroid();
@@ -445,14 +430,14 @@ void ClusterTree::finalize() {
         }
         c.area = a;
         c.rho = a > 0 ? rho / a : RGB(0.0);
-        c.centroid = a > 0 ? cen / a : c.box.center();
+        c.centroid = a > 0 ? cen / a : box.center();
         c.normalSum = S;
         c.normalMoment = M;
         // Sphere around the centroid containing the whole box.
         double r2 = 0;
         for (int k = 0; k < 8; ++k) {
-            Vec3 corner(k & 1 ? c.box.hi.x : c.box.lo.x, k & 2 ? c.box.hi.y : c.box.lo.y,
-                        k & 4 ? c.box.hi.z : c.box.lo.z);
+            Vec3 corner(k & 1 ? box.hi.x : box.lo.x, k & 2 ? box.hi.y : box.lo.y,
+                        k & 4 ? box.hi.z : box.lo.z);
             r2 = std::max(r2, glm::dot(corner - c.centroid, corner - c.centroid));
         }
         c.radius = std::sqrt(r2);

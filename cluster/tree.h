@@ -60,7 +60,6 @@
 namespace hrad::cluster {
 
 struct ClusterNode {
-    scene::Bounds3 box;
     double area = 0.0;
     RGB rho{0.0};         ///< area-weighted mean reflectance of the surfaces below
     Vec3 centroid{0.0};   ///< area-weighted centroid of the surfaces below
@@ -69,14 +68,18 @@ struct ClusterNode {
     std::array<double, 6> normalMoment{};     ///< M = sum_k A_k n_k n_k^T (xx, xy, xz, yy, yz, zz)
     uint32_t childBegin = 0, childCount = 0;  ///< sub-clusters: children[childBegin..+childCount)
     uint32_t patchBegin = 0, patchEnd = 0;    ///< all patches below: order[patchBegin..patchEnd)
-    uint32_t ownBegin = 0, ownEnd = 0;        ///< patches held directly (leaf clusters)
     uint16_t depth = 0;
     bool face = false;  ///< a face cluster (cluster.faces; its shape: ClusterTree::faceShape)
+    /// The patches held directly: a leaf holds its whole range, a node with
+    /// sub-clusters none (every builder makes them so; not stored, nor is the
+    /// bounding box, which only the build needs: 56 bytes of a node).
+    uint32_t ownBegin() const { return childCount ? patchEnd : patchBegin; }
+    uint32_t ownEnd() const { return patchEnd; }
 };
 
 /// The shape of a face-cluster node (ClusterTree::faceShape). Kept beside the
 /// nodes, and only when face clusters are built: volume nodes, the default,
-/// do not pay its 64 bytes (a third of a node).
+/// do not pay its 64 bytes (two fifths of a node).
 struct FaceShape {
     Vec3 coneAxis{0.0};      ///< unit axis of a cone holding every normal below
     double coneCos = -1.0;   ///< min_k n_k . coneAxis (cosine of the cone's half-angle)

@@ -163,7 +163,7 @@ RGB Hierarchy::directionalB(uint32_t e, const Vec3& d) const {
 uint32_t Hierarchy::numChildren(uint32_t e) const {
     if (isCluster(e)) {
         const auto& c = tree_->node(clusterIndex(e));
-        return c.childCount ? c.childCount : c.ownEnd - c.ownBegin;
+        return c.childCount ? c.childCount : c.ownEnd() - c.ownBegin();
     }
     return firstChild_[e] == kNone ? 0 : 4;
 }
@@ -173,7 +173,7 @@ uint32_t Hierarchy::child(uint32_t e, uint32_t i) const {
         uint32_t ci = clusterIndex(e);
         const auto& c = tree_->node(ci);
         if (c.childCount) return numPatches() + tree_->child(ci, i);
-        return tree_->patchAt(c.ownBegin + i);
+        return tree_->patchAt(c.ownBegin() + i);
     }
     return firstChild_[e] + i;
 }
