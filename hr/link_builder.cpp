@@ -206,10 +206,10 @@ Link LinkBuilder::evaluate(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t&
         l.Fupper = float(f.unoccludedF);
         bool partial = false;
         uint32_t cast = 0;
-        const double judged = f.rays > 0
-                                  ? engine_->visibilityFraction(er, es, visRays_, &cast,
-                                                                kJudgedVisibilitySalt, &partial)
-                                  : f.visibility;
+        const double judged =
+            f.rays > 0 ? engine_->visibilityFraction(er, es, engine_->settings().visRays, &cast,
+                                                     kJudgedVisibilitySalt, &partial)
+                       : f.visibility;
         rays += cast;
         l.setVis(judged);
         if (partial) l.flags |= Link::kPartial;

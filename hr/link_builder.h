@@ -46,10 +46,10 @@ struct LinkKindCost {
 
 class LinkBuilder {
   public:
-    /// `judgeVisibility`: hr.judge_visibility = independent; `visRays`: the
-    /// surface links' ff.vis_rays (the judged estimate casts as many).
-    LinkBuilder(const transport::FormFactorEngine& engine, bool judgeVisibility, int visRays)
-        : engine_(&engine), judgeVisibility_(judgeVisibility), visRays_(visRays) {}
+    /// `judgeVisibility`: hr.judge_visibility = independent (the judged
+    /// estimate casts as many rays as the engine's ff.vis_rays).
+    LinkBuilder(const transport::FormFactorEngine& engine, bool judgeVisibility)
+        : engine_(&engine), judgeVisibility_(judgeVisibility) {}
 
     /// The cluster link physics (null: no clusters). Not owned.
     void setLinker(const cluster::ClusterLinker* linker) { linker_ = linker; }
@@ -103,7 +103,6 @@ class LinkBuilder {
     const transport::FormFactorEngine* engine_;
     const cluster::ClusterLinker* linker_ = nullptr;
     bool judgeVisibility_;
-    int visRays_;
     mutable tbb::enumerable_thread_specific<LinkKindCost> cost_;
 };
 

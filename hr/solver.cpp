@@ -5,8 +5,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <bit>
-#include <chrono>
 #include <cmath>
 #include <optional>
 #include <sstream>
@@ -223,7 +221,7 @@ HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visib
       vis_(&visibility),
       s_(std::move(settings)),
       engine_(scene, &visibility, s_.ff),
-      links_(engine_, s_.judgeVisibility, s_.ff.visRays) {
+      links_(engine_, s_.judgeVisibility) {
     minArea_ = s_.minArea > 0 ? s_.minArea : s_.minAreaRel * scene.totalArea();
     emittedPower_ = maxComponent(scene.emittedPower());
     if (!(emittedPower_ > 0)) emittedPower_ = 1.0;

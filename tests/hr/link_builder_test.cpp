@@ -3,14 +3,15 @@
 // squares facing each other one apart exchange the closed-form form factor
 // 0.19982 (Howell's catalogue, C-11: parallel directly opposed squares, side
 // over distance 1); a blocker between them sets the visibility.
+#include "hr/link_builder.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "hr/link_builder.h"
+#include "tests/scenes.h"
 #include "transport/formfactor.h"
 #include "transport/visibility.h"
-#include "tests/scenes.h"
 
 namespace hrad::hr {
 namespace {
@@ -49,12 +50,12 @@ struct Squares {
 
 TEST(LinkBuilder, FacingSquaresCarryTheirClosedFormFormFactor) {
     Squares su(0.0);
-    LinkBuilder b(su.engine, true, 16);
+    LinkBuilder b(su.engine, true);
     uint32_t rays = 0;
     Link l = b.make(su.h, 1, 0, rays);
     EXPECT_EQ(l.sender, 0u);
     EXPECT_NEAR(l.K, kParallelSquares, 1e-4);  // 0.199844 with the default rule
-    EXPECT_EQ(l.vis(), 1.0);  // nothing between them
+    EXPECT_EQ(l.vis(), 1.0);                   // nothing between them
     EXPECT_FALSE(l.flags & Link::kPartial);
     // The unoccluded form factor is kept as the bound the oracle may read.
     EXPECT_GE(l.Fupper, l.K);
@@ -68,7 +69,7 @@ TEST(LinkBuilder, FacingSquaresCarryTheirClosedFormFormFactor) {
 
 TEST(LinkBuilder, SurfacesThatDoNotFaceGetNoLinkAndCastNoRays) {
     Squares su(0.0);
-    LinkBuilder b(su.engine, true, 16);
+    LinkBuilder b(su.engine, true);
     uint32_t rays = 7;
     // The emitter sees the receiver, but a square does not see itself.
     Link l = b.make(su.h, 0, 0, rays);
@@ -82,7 +83,7 @@ TEST(LinkBuilder, ABlockerSetsTheVisibilityBothEstimatesSee) {
     // one (Link::vis, independent rays) see part of the sender.
     Squares half(0.5);
     for (bool judged : {true, false}) {
-        LinkBuilder b(half.engine, judged, 16);
+        LinkBuilder b(half.engine, judged);
         uint32_t rays = 0;
         Link l = b.make(half.h, 1, 0, rays);
         EXPECT_TRUE(l.flags & Link::kPartial) << judged;
@@ -93,7 +94,7 @@ TEST(LinkBuilder, ABlockerSetsTheVisibilityBothEstimatesSee) {
         EXPECT_GT(rays, 0u);
         if (judged) {
             // The judged estimate draws its own rays: twice the carried ones.
-            LinkBuilder carried(half.engine, false, 16);
+            LinkBuilder carried(half.engine, false);
             uint32_t carriedRays = 0;
             carried.make(half.h, 1, 0, carriedRays);
             EXPECT_EQ(rays, 2 * carriedRays);
@@ -101,7 +102,7 @@ TEST(LinkBuilder, ABlockerSetsTheVisibilityBothEstimatesSee) {
     }
     // Fully covered: nothing arrives and nothing is kept.
     Squares full(1.0);
-    LinkBuilder b(full.engine, true, 16);
+    LinkBuilder b(full.engine, true);
     uint32_t rays = 0;
     Link l = b.make(full.h, 1, 0, rays);
     EXPECT_EQ(l.K, 0.f);
