@@ -20,7 +20,12 @@
 //   hrad_version, build_type, host, date, scene, scene_label, settings,
 //   reference_settings, scene_info{...}, solver, solver_settings, oracle,
 //   converged, link_cap_hit, memory_budget_hit, time_limit_hit, min_area,
-//   error_estimate, stand_in_power_share, noise_estimate (hr/noise.h: the
+//   error_estimate (each receiver's kernel range and averaged senders, summed:
+//   an upper estimate), error_estimate_leaves and error_estimate_points
+//   (hr/receiver_error.h leafAverageError: the error of the leaves' averages
+//   from the push of coarse surface links, and of the irradiance at the
+//   leaves' points; null for a polynomial basis), stand_in_power_share,
+//   noise_estimate (hr/noise.h: the
 //   relative standard deviation of the reflected power that the solve's own
 //   rays leave, max channel), noise{reflected_power_sd[3], direct_sd[3],
 //   amplification[3], relative, l2_nonemitter_direct, noisy_links},

@@ -39,7 +39,7 @@ CREATE TABLE IF NOT EXISTS runs (
   l1_reflected_lum REAL, l2_reflected_lum REAL, l1_nonemitter_lum REAL,
   l2_nonemitter_lum REAL, mean_ratio_nonemitter REAL, error_estimate REAL, residual REAL,
   slurm_job_id TEXT, slurm_array_task_id INTEGER, noise_estimate REAL,
-  noise_l2_nonemitter REAL);
+  noise_l2_nonemitter REAL, error_estimate_leaves REAL, error_estimate_points REAL);
 CREATE TABLE IF NOT EXISTS iterations (
   run_key TEXT, iteration INTEGER, stage INTEGER, eps REAL, links INTEGER,
   elements INTEGER, leaves INTEGER, refined_links INTEGER, rays INTEGER,
@@ -62,10 +62,13 @@ CREATE TABLE IF NOT EXISTS failures (
 ///      slurm_job_id and slurm_array_task_id (provenance)
 ///   4  runs gain noise_estimate and noise_l2_nonemitter (the solve's own
 ///      ray noise, hr/noise.h)
+///   5  runs gain error_estimate_leaves and error_estimate_points (the
+///      error of the leaves' averages and of the irradiance at the leaves'
+///      points, hr/receiver_error.h leafAverageError)
 /// Older versions are migrated when opened for writing (missing columns are
 /// added, NULL in old rows) and read as they are when opened read-only.
 constexpr int32_t kApplicationId = 0x48524144;
-constexpr int kSchemaVersion = 4;
+constexpr int kSchemaVersion = 5;
 
 const char* kTables[] = {"studies", "runs", "iterations", "failures"};
 
@@ -79,7 +82,8 @@ const std::pair<const char*, const char*> kAddedRunColumns[] = {
     {"l1_nonemitter_lum", "REAL"}, {"l2_nonemitter_lum", "REAL"},
     {"mean_ratio_nonemitter", "REAL"}, {"error_estimate", "REAL"},
     {"residual", "REAL"}, {"slurm_job_id", "TEXT"}, {"slurm_array_task_id", "INTEGER"},
-    {"noise_estimate", "REAL"}, {"noise_l2_nonemitter", "REAL"}};
+    {"noise_estimate", "REAL"}, {"noise_l2_nonemitter", "REAL"},
+    {"error_estimate_leaves", "REAL"}, {"error_estimate_points", "REAL"}};
 const std::pair<const char*, const char*> kAddedFailureColumns[] = {
     {"slurm_job_id", "TEXT"}, {"slurm_array_task_id", "INTEGER"}};
 
@@ -403,7 +407,7 @@ void ResultStore::addRun(const std::string& key, const std::string& study, int64
         "regions", "reference_desc", "bytes", "summary", "l1_reflected_lum",
         "l2_reflected_lum", "l1_nonemitter_lum", "l2_nonemitter_lum", "mean_ratio_nonemitter",
         "error_estimate", "residual", "slurm_job_id", "slurm_array_task_id", "noise_estimate",
-        "noise_l2_nonemitter"};
+        "noise_l2_nonemitter", "error_estimate_leaves", "error_estimate_points"};
     auto [slurmJob, slurmTask] = slurmProvenance();
     json settings = at(s, "settings");
     json oracle = nullptr;
@@ -469,7 +473,9 @@ void ResultStore::addRun(const std::string& key, const std::string& study, int64
                               slurmJob,
                               slurmTask,
                               at(s, "noise_estimate"),
-                              at(s, "noise", "l2_nonemitter_direct")};
+                              at(s, "noise", "l2_nonemitter_direct"),
+                              at(s, "error_estimate_leaves"),
+                              at(s, "error_estimate_points")};
     exec("BEGIN IMMEDIATE");
     try {
         Stmt st(db_, insertSql("runs", cols, "INSERT OR REPLACE"));

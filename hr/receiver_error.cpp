@@ -2,9 +2,12 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <limits>
 
 namespace hrad::hr {
 
@@ -283,6 +286,87 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
             }
         }
     });
+}
+
+}  // namespace hrad::hr
+
+namespace hrad::hr {
+
+double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
+                        const std::vector<Link>& links, const SampleFn& samples,
+                        double* pointwise) {
+    if (h.basisDegree() > 0) {
+        if (pointwise) *pointwise = std::numeric_limits<double>::quiet_NaN();
+        return std::numeric_limits<double>::quiet_NaN();
+    }
+    const uint32_t n = h.numElements();
+    auto surfaceLink = [&](uint32_t r, const Link& l) {
+        return !h.isCluster(r) && l.sender != kNone && !h.isCluster(l.sender) &&
+               !(l.flags & Link::kOpen) && l.K > 0;
+    };
+    // Surface links by receiver (CSR).
+    std::vector<uint64_t> offset(size_t(n) + 1, 0);
+    for (size_t i = 0; i < links.size(); ++i)
+        if (surfaceLink(recv[i], links[i])) ++offset[recv[i] + 1];
+    for (uint32_t e = 0; e < n; ++e) offset[e + 1] += offset[e];
+    std::vector<uint64_t> items(offset[n]);
+    {
+        std::vector<uint64_t> fill(offset.begin(), offset.end() - 1);
+        for (size_t i = 0; i < links.size(); ++i)
+            if (surfaceLink(recv[i], links[i])) items[fill[recv[i]]++] = i;
+    }
+    struct Sums {
+        double avg = 0.0, point = 0.0;
+    };
+    const Sums sum = tbb::parallel_deterministic_reduce(
+        tbb::blocked_range<uint32_t>(0, n, 64), Sums{},
+        [&](const auto& range, Sums acc) {
+            for (uint32_t L = range.begin(); L != range.end(); ++L) {
+                if (h.isCluster(L) || !h.isLeaf(L)) continue;
+                const bool quad =
+                    h.scene().patches[h.patch(L)].kind == scene::PatchKind::Quad;
+                // Simpson weights in kernelSamplePoints' order: corner i,
+                // midpoint of edge i, ..., centroid.
+                const int m = quad ? 9 : 7;
+                const double wc = quad ? 1.0 / 36 : 3.0 / 60, wm = quad ? 4.0 / 36 : 8.0 / 60,
+                             wz = quad ? 16.0 / 36 : 27.0 / 60;
+                auto weight = [&](int k) { return k == m - 1 ? wz : ((k & 1) ? wm : wc); };
+                // D(x_k): the exact transfer at L's points less what L
+                // gathers, per channel, over L's links and its ancestors'.
+                RGB D[KernelSamples::kCount];
+                for (auto& d : D) d = RGB(0.0);
+                RGB e(0.0);
+                for (uint32_t A = L; A != kNone && !h.isCluster(A); A = h.parent(A)) {
+                    for (uint64_t j = offset[A]; j < offset[A + 1]; ++j) {
+                        const Link& l = links[items[j]];
+                        const KernelSamples ks = samples(L, l.sender);
+                        // K = v F_l, v the visibility K carries.
+                        const double v = h.carriedVisibility(l), K = double(l.K);
+                        const RGB B = h.B(l.sender);
+                        double mean = 0.0;
+                        for (int k = 0; k < m; ++k) {
+                            mean += weight(k) * ks[k];
+                            D[k] += B * (v * ks[k] - K);
+                        }
+                        if (A != L) e += B * (v * mean - K);
+                    }
+                }
+                const RGB rho = h.rho(L);
+                acc.avg += h.area(L) * std::fabs(luminance(rho * e));
+                double p = 0.0;
+                for (int k = 0; k < m; ++k) p += weight(k) * std::fabs(luminance(rho * D[k]));
+                acc.point += h.area(L) * p;
+            }
+            return acc;
+        },
+        [](Sums a, const Sums& b) {
+            a.avg += b.avg;
+            a.point += b.point;
+            return a;
+        });
+    const double reflected = luminance(h.reflectedPower());
+    if (pointwise) *pointwise = reflected > 0 ? sum.point / reflected : 0.0;
+    return reflected > 0 ? sum.avg / reflected : 0.0;
 }
 
 }  // namespace hrad::hr

@@ -148,3 +148,45 @@ KernelSamples linkResidualSamples(const Hierarchy& h, const transport::CouplingE
                                   uint32_t r, uint32_t s);
 
 }  // namespace hrad::hr
+
+namespace hrad::hr {
+
+/// A posteriori estimates of the solve's error that let the levels cancel
+/// (summary error_estimate_leaves and error_estimate_points).
+///
+/// A leaf L gathers through its own links and through those of its
+/// ancestors, each ancestor link l (receiver A, sender s) pushed to L as the
+/// receiver average K_l = v_l F_l over A. The average over L of the exact
+/// transfer from the same sender (B constant on it) is v_l F_l(L), F_l(L)
+/// the mean over L of the point form factor to s. The error of L's average
+/// is therefore
+///     e_L = rho_L sum over strict surface ancestors A of L,
+///                 sum over A's surface links l of B_s (v_l F_l(L) - K_l),
+/// signed, so that links that compensate each other cancel (in a closed
+/// room the point form factors to all senders sum to one: the furnace's
+/// e_L is the leaf's error, one bounce deep), where the receiver-by-receiver
+/// range of the refinement check (receiverErrors) and of error_estimate
+/// adds them up level by level (Lischinski, Smits & Greenberg 1994 bound
+/// each link's part; this sums the parts before taking the norm). F_l(L)
+/// is the tensor Simpson rule on L's kernel sample points (corners, edge
+/// midpoints, centroid: weights 1, 4, 16 over 36 on a parallelogram; 3, 8,
+/// 27 over 60 on a triangle). The returned value is
+/// sum_L A_L |luminance(e_L)| over the luminance of the reflected power
+/// (the units of the l1_reflected_lum metric).
+///
+/// `pointwise`, when given, receives the same sum taken at each of L's
+/// sample points with L's own links included, D(x_k) = rho_L sum over L and
+/// its ancestors of B_s (v_l F_l(x_k) - K_l), Simpson-weighted |D| over the
+/// points: also the variation of the exact irradiance inside a leaf, which
+/// a constant leaf cannot follow and a reference finer than the leaf sees.
+///
+/// Left out: links that touch a cluster, where a partially visible link's
+/// shadow falls, the sender side (averaged senders: senderTotals) and the
+/// interreflection of the error. NaN for a polynomial basis. Parallel over
+/// leaves, deterministic. papers/README.md, "Estimates that let the levels
+/// cancel", measures both against full-matrix and Monte Carlo references.
+double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
+                        const std::vector<Link>& links, const SampleFn& samples,
+                        double* pointwise = nullptr);
+
+}  // namespace hrad::hr

@@ -1340,6 +1340,13 @@ HrResult HrSolver::solve(bool progress) {
             "rule missed the exact form factors by more than hr.basis_check = {})",
             coupling_->fallbacks(), s_.basisCheck);
     res.errorEstimate = estimateError(h);
+    {
+        const std::vector<uint32_t> recv = h.linkReceivers();
+        res.errorEstimateLeaves =
+            leafAverageError(h, recv, h.links(), [&](uint32_t r, uint32_t s) {
+                return linkKernelSamples(h, engine_, r, s);
+            }, &res.errorEstimatePoints);
+    }
     res.errorEstimateSeconds = te.seconds();
     {
         Timer tn;

@@ -523,6 +523,11 @@ struct HrResult {
     /// A posteriori estimate of the solve's relative L1 error of the
     /// reflected radiosity (HrSolver::estimateError); NaN when not computed.
     double errorEstimate = std::numeric_limits<double>::quiet_NaN();
+    /// The error of the leaves' averages from the push of coarse surface
+    /// links, all links together (hr/receiver_error.h leafAverageError);
+    /// NaN for a polynomial basis.
+    double errorEstimateLeaves = std::numeric_limits<double>::quiet_NaN();
+    double errorEstimatePoints = std::numeric_limits<double>::quiet_NaN();
     double errorEstimateSeconds = 0.0;
     /// The solve's own Monte Carlo noise, estimated from its links
     /// (hr/noise.h), and the time it took.

@@ -152,6 +152,21 @@ def main():
         check(list(zip(c["x"], c["y"])) == want, "error-vs-links curve is the store's (links, l2_lum)")
         plot(["error", "--store", store, "--out", out + "_mem", "--x", "peak_rss_mib"])
         nonempty(out + "_mem")
+        # estimate: the store's (true error, estimate) pairs, and the ratio
+        # range the side file states.
+        plot(["estimate", "--store", store, "--out", out + "_est",
+              "--y", "error_estimate,error_estimate_points"])
+        nonempty(out + "_est")
+        con = sqlite3.connect(store)
+        est = con.execute("select l1_reflected_lum, error_estimate_points from runs "
+                          "where l1_reflected_lum > 0 and error_estimate_points > 0").fetchall()
+        con.close()
+        panel = json.load(open(out + "_est.json"))["panels"]["error_estimate_points"]
+        got = sorted(zip(panel["points"]["cornell"]["x"], panel["points"]["cornell"]["y"]))
+        check(got == sorted(est) and len(est) == 3, "estimate figure holds the store's pairs")
+        ratios = [b / a for a, b in est]
+        check(abs(panel["ratio_min"] - min(ratios)) < 1e-12 and abs(panel["ratio_max"] - max(ratios)) < 1e-12,
+              "estimate figure states the ratio range")
         # eps: the store's (eps, links) per scene / oracle, and with the full
         # matrix's noiseless reference the denoised L2 is the plain one.
         plot(["eps", "--store", store, "--out", out + "_eps", "--y", "links,l2_nonemitter_denoised"])

@@ -1,6 +1,6 @@
 """Command line: /usr/bin/python3 -m hradplot KIND --store STORE --out STEM [options]
 
-KIND: error | scaling | eps | convergence | images | table
+KIND: error | scaling | eps | estimate | convergence | images | table
 Exit status 2 (message on stderr) when the store is missing, unreadable or
 lacks the columns a figure needs."""
 import argparse
@@ -13,7 +13,7 @@ from .store import StoreError, load_store
 def main(argv=None):
     p = argparse.ArgumentParser(prog="hradplot", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("kind", choices=["error", "scaling", "eps", "convergence", "images", "table"])
+    p.add_argument("kind", choices=["error", "scaling", "eps", "estimate", "convergence", "images", "table"])
     p.add_argument("--store", required=True, help="SQLite store or CSV folder (hrad results export)")
     p.add_argument("--out", required=True, help="output stem (figures: STEM.pdf/.png/.json) or .tex file")
     p.add_argument("--x", help="x column (error: compute_s; scaling: patches)")
@@ -36,7 +36,7 @@ def main(argv=None):
     group = a.group.split(",") if "," in a.group else a.group
     try:
         st = load_store(a.store)
-        if a.where and a.kind in ("error", "scaling", "eps"):
+        if a.where and a.kind in ("error", "scaling", "eps", "estimate"):
             st.runs = st.runs.query(a.where)
         if a.kind == "error":
             figures.error_vs(st, a.out, x=a.x or "compute_s", y=a.y or "l2_lum", group=group)
@@ -46,6 +46,10 @@ def main(argv=None):
         elif a.kind == "eps":
             figures.eps_vs(st, a.out, ys=(a.y or "l2_nonemitter_lum,l1_reflected_lum").split(","),
                            group=group if a.group != "method" else ["scene_short", "oracle"])
+        elif a.kind == "estimate":
+            figures.estimate_vs(st, a.out, x=a.x or "l1_reflected_lum",
+                                ys=(a.y or "error_estimate").split(","),
+                                group=group if a.group != "method" else "scene_short")
         elif a.kind == "convergence":
             figures.convergence(st, a.out, where=a.where)
         elif a.kind == "images":

@@ -15,7 +15,9 @@ LABELS = {
     "l1_reflected_lum": "relative $L_1$ error of the reflected radiosity $B-E$",
     "l2_reflected_lum": "relative $L_2$ error of the reflected radiosity $B-E$",
     "l2_nonemitter_lum": "relative $L_2$ error over non-emitting surfaces",
-    "error_estimate": "a posteriori error estimate",
+    "error_estimate": "estimate: receivers' ranges",
+    "error_estimate_leaves": "estimate: leaves' averages",
+    "error_estimate_points": "estimate: leaves' points",
     "noise_estimate": "the solve's own ray noise (relative sd of the reflected power)",
     "noise_l2_nonemitter": "the solve's own ray noise per patch (direct, non-emitters)",
     "l1_lum": "relative $L_1$ error (luminance)",
@@ -155,6 +157,43 @@ def error_vs(store, stem, x="compute_s", y="l2_lum", group="method"):
     ax.set_xlabel(LABELS.get(x, x))
     ax.set_ylabel(LABELS.get(y, y))
     ax.legend(loc="best")
+    style.save(fig, stem)
+    return _sidecar(stem, side)
+
+
+def estimate_vs(store, stem, x="l1_reflected_lum", ys=("error_estimate",), group="scene_short"):
+    """An a posteriori estimate against the true error: one panel per
+    estimate in ys, one marker set per group, no lines between points (they
+    are separate solves), the diagonal y = x solid and y = x / 3, 3 x dotted.
+    The side file lists every point and, per panel, the range of y / x."""
+    ys = list(ys)
+    gcols = group if isinstance(group, list) else [group]
+    df = _rows(store, [x] + ys, "estimate figure", gcols)
+    df = df[df[x] > 0]
+    fig, axes = style.figure(height=2.1 * len(ys) + 0.5, nrows=len(ys), sharex=True)
+    axes = np.atleast_1d(axes)
+    side = {"x": x, "panels": {}}
+    lo, hi = float(df[x].min()), float(df[x].max())
+    for ax, y in zip(axes, ys):
+        d = df[df[y] > 0]
+        panel = {"points": {}, "ratio_min": None, "ratio_max": None}
+        for i, (label, g) in enumerate(_groups(d, group)):
+            st = dict(style.style_for(i), ls="none")
+            ax.plot(g[x], g[y], label=label, **st)
+            panel["points"][label] = {"x": g[x].tolist(), "y": g[y].tolist()}
+        if len(d):
+            r = d[y] / d[x]
+            panel["ratio_min"], panel["ratio_max"] = float(r.min()), float(r.max())
+        t = np.geomspace(lo / 3, hi * 3, 8)
+        ax.plot(t, t, color="0.3", lw=0.8, zorder=1)
+        for f in (1 / 3, 3):
+            ax.plot(t, f * t, color="0.3", lw=0.6, ls=":", zorder=1)
+        _logscale(ax, d[x].tolist() + d[y].tolist() if len(d) else [lo, hi], "x")
+        _logscale(ax, d[x].tolist() + d[y].tolist() if len(d) else [lo, hi], "y")
+        ax.set_ylabel(LABELS.get(y, y))
+        side["panels"][y] = panel
+    axes[-1].set_xlabel(LABELS.get(x, x))
+    axes[0].legend(loc="best")
     style.save(fig, stem)
     return _sidecar(stem, side)
 

@@ -150,6 +150,8 @@ def _derive(runs):
                           ("l2_nonemitter_lum", ("error", "l2_nonemitter_lum")),
                           ("mean_ratio_nonemitter", ("error", "mean_ratio_nonemitter")),
                           ("error_estimate", ("error_estimate",)),
+                          ("error_estimate_leaves", ("error_estimate_leaves",)),
+                          ("error_estimate_points", ("error_estimate_points",)),
                           # The solve's own ray noise (hr/noise.h).
                           ("noise_estimate", ("noise_estimate",)),
                           ("noise_l2_nonemitter", ("noise", "l2_nonemitter_direct")),
