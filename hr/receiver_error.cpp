@@ -292,6 +292,80 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
 
 namespace hrad::hr {
 
+namespace {
+
+/// The surface links of `links` by receiver (CSR): items[offset[r] ..
+/// offset[r + 1]) are the indices of r's links that carry light.
+struct LinksByReceiver {
+    std::vector<uint64_t> offset, items;
+    LinksByReceiver(const Hierarchy& h, const std::vector<uint32_t>& recv,
+                    const std::vector<Link>& links) {
+        const uint32_t n = h.numElements();
+        auto surfaceLink = [&](uint32_t r, const Link& l) {
+            return !h.isCluster(r) && l.sender != kNone && !h.isCluster(l.sender) &&
+                   !(l.flags & Link::kOpen) && l.K > 0;
+        };
+        offset.assign(size_t(n) + 1, 0);
+        for (size_t i = 0; i < links.size(); ++i)
+            if (surfaceLink(recv[i], links[i])) ++offset[recv[i] + 1];
+        for (uint32_t e = 0; e < n; ++e) offset[e + 1] += offset[e];
+        items.resize(offset[n]);
+        std::vector<uint64_t> fill(offset.begin(), offset.end() - 1);
+        for (size_t i = 0; i < links.size(); ++i)
+            if (surfaceLink(recv[i], links[i])) items[fill[recv[i]]++] = i;
+    }
+};
+
+/// One leaf's errors (leafAverageError): e, the push of its ancestors'
+/// links to its average, and D at its kernel sample points with its own
+/// links too, with the Simpson weights of those points. `part(A, eA)` is
+/// called for every strict surface ancestor A with links, with its part.
+struct LeafError {
+    RGB e{0.0};
+    RGB D[KernelSamples::kCount];
+    double w[KernelSamples::kCount];
+    int m = 0;
+};
+template <class Part>
+LeafError leafError(const Hierarchy& h, const LinksByReceiver& by, const std::vector<Link>& links,
+                    const SampleFn& samples, uint32_t L, Part&& part) {
+    LeafError out;
+    const bool quad = h.scene().patches[h.patch(L)].kind == scene::PatchKind::Quad;
+    // Tensor Simpson on a parallelogram (corners 1, edge midpoints 4,
+    // centroid 16, over 36) and its triangle counterpart (3, 8, 27 over 60),
+    // in kernelSamplePoints' order: corner i, midpoint of edge i, ..., centroid.
+    out.m = quad ? 9 : 7;
+    for (int k = 0; k < out.m; ++k)
+        out.w[k] = k == out.m - 1 ? (quad ? 16.0 / 36 : 27.0 / 60)
+                                  : ((k & 1) ? (quad ? 4.0 / 36 : 8.0 / 60)
+                                             : (quad ? 1.0 / 36 : 3.0 / 60));
+    for (auto& d : out.D) d = RGB(0.0);
+    for (uint32_t A = L; A != kNone && !h.isCluster(A); A = h.parent(A)) {
+        if (by.offset[A + 1] == by.offset[A]) continue;
+        RGB eA(0.0);
+        for (uint64_t j = by.offset[A]; j < by.offset[A + 1]; ++j) {
+            const Link& l = links[by.items[j]];
+            const KernelSamples ks = samples(L, l.sender);
+            // K = v F_l, v the visibility K carries.
+            const double v = h.carriedVisibility(l), K = double(l.K);
+            const RGB B = h.B(l.sender);
+            double mean = 0.0;
+            for (int k = 0; k < out.m; ++k) {
+                mean += out.w[k] * ks[k];
+                out.D[k] += B * (v * ks[k] - K);
+            }
+            eA += B * (v * mean - K);
+        }
+        if (A != L) {
+            out.e += eA;
+            part(A, eA);
+        }
+    }
+    return out;
+}
+
+}  // namespace
+
 double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
                         const std::vector<Link>& links, const SampleFn& samples,
                         double* pointwise) {
@@ -299,62 +373,20 @@ double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
         if (pointwise) *pointwise = std::numeric_limits<double>::quiet_NaN();
         return std::numeric_limits<double>::quiet_NaN();
     }
-    const uint32_t n = h.numElements();
-    auto surfaceLink = [&](uint32_t r, const Link& l) {
-        return !h.isCluster(r) && l.sender != kNone && !h.isCluster(l.sender) &&
-               !(l.flags & Link::kOpen) && l.K > 0;
-    };
-    // Surface links by receiver (CSR).
-    std::vector<uint64_t> offset(size_t(n) + 1, 0);
-    for (size_t i = 0; i < links.size(); ++i)
-        if (surfaceLink(recv[i], links[i])) ++offset[recv[i] + 1];
-    for (uint32_t e = 0; e < n; ++e) offset[e + 1] += offset[e];
-    std::vector<uint64_t> items(offset[n]);
-    {
-        std::vector<uint64_t> fill(offset.begin(), offset.end() - 1);
-        for (size_t i = 0; i < links.size(); ++i)
-            if (surfaceLink(recv[i], links[i])) items[fill[recv[i]]++] = i;
-    }
+    const LinksByReceiver by(h, recv, links);
     struct Sums {
         double avg = 0.0, point = 0.0;
     };
     const Sums sum = tbb::parallel_deterministic_reduce(
-        tbb::blocked_range<uint32_t>(0, n, 64), Sums{},
+        tbb::blocked_range<uint32_t>(0, h.numElements(), 64), Sums{},
         [&](const auto& range, Sums acc) {
             for (uint32_t L = range.begin(); L != range.end(); ++L) {
                 if (h.isCluster(L) || !h.isLeaf(L)) continue;
-                const bool quad =
-                    h.scene().patches[h.patch(L)].kind == scene::PatchKind::Quad;
-                // Simpson weights in kernelSamplePoints' order: corner i,
-                // midpoint of edge i, ..., centroid.
-                const int m = quad ? 9 : 7;
-                const double wc = quad ? 1.0 / 36 : 3.0 / 60, wm = quad ? 4.0 / 36 : 8.0 / 60,
-                             wz = quad ? 16.0 / 36 : 27.0 / 60;
-                auto weight = [&](int k) { return k == m - 1 ? wz : ((k & 1) ? wm : wc); };
-                // D(x_k): the exact transfer at L's points less what L
-                // gathers, per channel, over L's links and its ancestors'.
-                RGB D[KernelSamples::kCount];
-                for (auto& d : D) d = RGB(0.0);
-                RGB e(0.0);
-                for (uint32_t A = L; A != kNone && !h.isCluster(A); A = h.parent(A)) {
-                    for (uint64_t j = offset[A]; j < offset[A + 1]; ++j) {
-                        const Link& l = links[items[j]];
-                        const KernelSamples ks = samples(L, l.sender);
-                        // K = v F_l, v the visibility K carries.
-                        const double v = h.carriedVisibility(l), K = double(l.K);
-                        const RGB B = h.B(l.sender);
-                        double mean = 0.0;
-                        for (int k = 0; k < m; ++k) {
-                            mean += weight(k) * ks[k];
-                            D[k] += B * (v * ks[k] - K);
-                        }
-                        if (A != L) e += B * (v * mean - K);
-                    }
-                }
+                const LeafError le = leafError(h, by, links, samples, L, [](uint32_t, const RGB&) {});
                 const RGB rho = h.rho(L);
-                acc.avg += h.area(L) * std::fabs(luminance(rho * e));
+                acc.avg += h.area(L) * std::fabs(luminance(rho * le.e));
                 double p = 0.0;
-                for (int k = 0; k < m; ++k) p += weight(k) * std::fabs(luminance(rho * D[k]));
+                for (int k = 0; k < le.m; ++k) p += le.w[k] * std::fabs(luminance(rho * le.D[k]));
                 acc.point += h.area(L) * p;
             }
             return acc;
@@ -367,6 +399,58 @@ double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
     const double reflected = luminance(h.reflectedPower());
     if (pointwise) *pointwise = reflected > 0 ? sum.point / reflected : 0.0;
     return reflected > 0 ? sum.avg / reflected : 0.0;
+}
+
+std::vector<uint8_t> leafBudgetMarks(const Hierarchy& h, const std::vector<uint32_t>& recv,
+                                     const std::vector<Link>& links, const SampleFn& samples,
+                                     double budget, double* total) {
+    const uint32_t n = h.numElements();
+    const LinksByReceiver by(h, recv, links);
+    // Per leaf: its error and each ancestor's part in it, gathered per chunk
+    // of elements and added in chunk order (deterministic).
+    struct Part {
+        uint32_t A;
+        double share;
+    };
+    const uint32_t chunk = 256;
+    const uint32_t chunks = (n + chunk - 1) / chunk;
+    std::vector<std::vector<Part>> parts(chunks);
+    std::vector<double> leafErr(chunks, 0.0);
+    tbb::parallel_for(uint32_t(0), chunks, [&](uint32_t c) {
+        std::vector<Part>& out = parts[c];
+        double err = 0.0;
+        for (uint32_t L = c * chunk; L < std::min(n, (c + 1) * chunk); ++L) {
+            if (h.isCluster(L) || !h.isLeaf(L)) continue;
+            const RGB rho = h.rho(L);
+            const double area = h.area(L);
+            const LeafError le = leafError(h, by, links, samples, L, [&](uint32_t A, const RGB& eA) {
+                if (h.canSubdivide(A)) out.push_back({A, area * std::fabs(luminance(rho * eA))});
+            });
+            err += area * std::fabs(luminance(rho * le.e));
+        }
+        leafErr[c] = err;
+    });
+    double sum = 0.0;
+    for (double v : leafErr) sum += v;
+    if (total) *total = sum;
+    if (!(sum > budget)) return {};
+    std::vector<double> share(n, 0.0);
+    for (const auto& p : parts)
+        for (const Part& q : p) share[q.A] += q.share;
+    std::vector<uint32_t> order;
+    for (uint32_t A = 0; A < n; ++A)
+        if (share[A] > 0) order.push_back(A);
+    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+        return share[a] != share[b] ? share[a] > share[b] : a < b;
+    });
+    std::vector<uint8_t> marks(n, 0);
+    double covered = 0.0;
+    for (uint32_t A : order) {
+        if (covered >= sum - budget) break;
+        marks[A] = 1;
+        covered += share[A];
+    }
+    return marks;
 }
 
 }  // namespace hrad::hr

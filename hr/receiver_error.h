@@ -190,3 +190,22 @@ double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
                         double* pointwise = nullptr);
 
 }  // namespace hrad::hr
+
+namespace hrad::hr {
+
+/// The leaf budget (hr.leaf_budget): the receivers whose surface links are
+/// pushed one level down so that the leaves' error estimated by
+/// leafAverageError (the sum over leaves of A_L |luminance(e_L)|, power) comes
+/// within `budget`. Each strict surface ancestor A of a leaf owns the part
+/// of e_L that its own links make, e_L^A; its share is
+/// sum over its leaves of A_L |luminance(e_L^A)|. While the total is over the
+/// budget, the receivers that can subdivide are marked in decreasing order
+/// of their share until the marked shares cover the excess (greedy; a share
+/// is at least the error its push removes where the leaves' parts do not
+/// compensate each other). Returns one flag per element (empty when the total
+/// is within the budget) and the total in `total`.
+std::vector<uint8_t> leafBudgetMarks(const Hierarchy& h, const std::vector<uint32_t>& recv,
+                                     const std::vector<Link>& links, const SampleFn& samples,
+                                     double budget, double* total = nullptr);
+
+}  // namespace hrad::hr

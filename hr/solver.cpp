@@ -159,6 +159,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
     else if (p.has("hr.receiver_eps"))
         s.receiverEps = p.getDouble("hr.receiver_eps", 0.0, 0.0, 1.0);
     s.senderTotal = p.getBool("hr.sender_total", s.senderTotal);
+    s.leafBudget = p.getBool("hr.leaf_budget", s.leafBudget);
     s.extrapolate = p.getBool("hr.extrapolate", s.extrapolate);
     s.relaxShare = p.getDouble("hr.relax_share", s.relaxShare, 0.0, 1.0);
     s.relaxFraction = p.getDouble("hr.relax_fraction", s.relaxFraction, 0.0, 1.0);
@@ -596,6 +597,25 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
             guardEps = oracle.receiverCheckEps();  // auto: the (stage's) oracle maps its eps
     }
     const bool aggregate = oracle.needsReceiverError() || guardEps > 0.0;
+    // hr.leaf_budget: receivers whose links are pushed down this pass. The
+    // budget is the check's eps of the power eps refers to (hr.eps_power),
+    // in luminance like the estimate.
+    std::vector<uint8_t> push;
+    if (s_.leafBudget && h.basisDegree() == 0) {
+        const double leafEps = guardEps > 0.0 ? guardEps : checkEps;
+        const RGB emitted = scene_->emittedPower();
+        const double budget = leafEps * epsPower_ * luminance(emitted) /
+                              std::max(maxComponent(emitted), 1e-300);
+        if (budget > 0.0) {
+            double total = 0.0;
+            push = leafBudgetMarks(
+                h, recv, pending,
+                [&](uint32_t r, uint32_t s) { return linkKernelSamples(h, engine_, r, s); },
+                budget, &total);
+            spdlog::debug("leaf budget: estimated leaf error {:.4g} against {:.4g}, {} pushed",
+                          total, budget, std::count(push.begin(), push.end(), uint8_t(1)));
+        }
+    }
     std::vector<ReceiverError> rerr;
     // Kernel samples travel with their links (geometry: computed once, when
     // the link is made; the initial links get theirs here). Each array holds
@@ -782,6 +802,9 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                             e.receiverRange * e.receiverArea > guardEps * e.emittedPower &&
                             oracles::carriesReceiverShare(e))
                             d = oracles::receiverRefinement(e);
+                        if (d == Decision::Accept && r < push.size() && push[r] &&
+                            !h.isCluster(r) && !h.isCluster(s) && e.receiverCanSubdivide)
+                            d = Decision::RefineReceiver;
                         // The sender side of the same check (hr.sender_total): a
                         // subdivided sender's average, gathered by all its
                         // receivers, within the check's eps share of the power.
@@ -1179,7 +1202,7 @@ HrResult HrSolver::solve(bool progress) {
         // The radiosities of the last judging pass (lazy refinement); a new
         // stage (a new eps) always judges.
         std::vector<RGB> judgedB;
-        const bool lazy = s_.refineGrowth > 0.0 && h.basisSize() == 1;
+        const bool lazy = s_.refineGrowth > 0.0 && h.basisSize() == 1 && !s_.leafBudget;
         for (int it = 0; it < s_.maxIterations; ++it) {
             IterationRecord rec;
             rec.iteration = ++iteration;

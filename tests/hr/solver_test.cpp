@@ -50,11 +50,13 @@ struct FurnaceRun {
     uint64_t links = 0, elements = 0, patches = 0;
     double estimateLeaves = 0, estimatePoints = 0, estimate = 0;
 };
-FurnaceRun runFurnace(const std::string& oracle, double eps, double rho, double receiverEps = -1) {
+FurnaceRun runFurnace(const std::string& oracle, double eps, double rho, double receiverEps = -1,
+                      bool leafBudget = false) {
     scene::Scene s = test::furnaceBox(1.0, rho);
     transport::Visibility vis(s);
     HrSettings st = settingsFor(oracle, eps);
     st.receiverEps = receiverEps;
+    st.leafBudget = leafBudget;
     // The Jacobi gather converges like rho^n: rho 0.9 needs ~150 iterations
     // for the tolerance 1e-7 of these tests.
     st.maxIterations = 400;
@@ -81,7 +83,7 @@ FurnaceRun runFurnace(const std::string& oracle, double eps, double rho, double 
     out.elements = h.numElements();
     out.patches = h.numPatches();
     std::cout << oracle << " eps " << eps << " rho " << rho << " receiver_eps " << receiverEps
-              << ": elements " << out.elements << ", links " << out.links
+              << (leafBudget ? " leaf budget" : "") << ": elements " << out.elements << ", links " << out.links
               << ", worst relative error " << out.worst << ", L1 " << out.l1
               << ", estimates: leaves " << out.estimateLeaves << ", points " << out.estimatePoints
               << ", receivers " << out.estimate << "\n";
@@ -149,6 +151,33 @@ INSTANTIATE_TEST_SUITE_P(Oracles, FurnaceAllOracles,
 // error_estimate, which adds each receiver's range, gave 3-5 times the
 // error. Unrefined (error oracle, 30 links) the furnace is exact and so is
 // the estimate.
+// hr.leaf_budget: the receivers whose links make most of the leaves' error
+// (the estimate below) have their links pushed down until that estimate is
+// within the check's eps of the emitted power (bfa: eps; ff: F_eps / 100),
+// which in the furnace (rho 0.5: emitted = reflected power) is the one-bounce
+// reflected L1; the solution's error may be up to 1 / (1 - rho) of it.
+// Measured per leaf: bfa 1e-2 0.98 % (1,650 links; without the budget 1.30 %,
+// 1,560), bfa 1e-3 0.097 % (29 k; 0.99 %, 19 k), ff 0.1 0.12 % (108 k; 3.5 %,
+// 31 k): issue 10's "within 1 % for every adaptive oracle" at every eps.
+TEST(HrSolver, LeafBudgetHoldsTheFurnaceWithinEps) {
+    struct Case {
+        std::string oracle;
+        double eps, leafEps;
+        bool overWithout;  // the solve without the budget is over 1 %
+    };
+    for (const Case& c : {Case{"bfa", 1e-2, 1e-2, true}, Case{"bfa", 1e-3, 1e-3, false},
+                          Case{"ff", 0.1, 1e-3, true}}) {
+        FurnaceRun with = runFurnace(c.oracle, c.eps, 0.5, -1, true);
+        EXPECT_GT(with.elements, with.patches) << "the oracle refined nothing";
+        EXPECT_LT(with.estimateLeaves, c.leafEps) << c.oracle << " " << c.eps;
+        EXPECT_LT(with.l1, std::min(0.01, 2.0 * c.leafEps)) << c.oracle << " " << c.eps;
+        if (c.overWithout) {
+            FurnaceRun without = runFurnace(c.oracle, c.eps, 0.5, -1, false);
+            EXPECT_GT(without.l1, 0.01) << c.oracle << " " << c.eps << ": nothing to hold";
+        }
+    }
+}
+
 TEST(HrSolver, LeafErrorEstimateMatchesTheFurnace) {
     for (double eps : {1e-2, 1e-3}) {
         FurnaceRun f = runFurnace("bfa", eps, 0.5);
