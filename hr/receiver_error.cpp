@@ -317,9 +317,11 @@ struct LinksByReceiver {
 };
 
 /// One leaf's errors (leafAverageError): e, the push of its ancestors'
-/// links to its average, and D at its kernel sample points with its own
-/// links too, with the Simpson weights of those points. `part(A, eA)` is
-/// called for every strict surface ancestor A with links, with its part.
+/// links to its average, and, with `points`, D at its kernel sample points
+/// with its own links too (without it D holds the ancestors' part only and
+/// the leaf's own links are not evaluated), with the Simpson weights of
+/// those points. `part(A, eA)` is called for every strict surface ancestor
+/// A with links, with its part.
 struct LeafError {
     RGB e{0.0};
     RGB D[KernelSamples::kCount];
@@ -328,7 +330,7 @@ struct LeafError {
 };
 template <class Part>
 LeafError leafError(const Hierarchy& h, const LinksByReceiver& by, const std::vector<Link>& links,
-                    const SampleFn& samples, uint32_t L, Part&& part) {
+                    const SampleFn& samples, uint32_t L, bool points, Part&& part) {
     LeafError out;
     const bool quad = h.scene().patches[h.patch(L)].kind == scene::PatchKind::Quad;
     // Tensor Simpson on a parallelogram (corners 1, edge midpoints 4,
@@ -336,11 +338,11 @@ LeafError leafError(const Hierarchy& h, const LinksByReceiver& by, const std::ve
     // in kernelSamplePoints' order: corner i, midpoint of edge i, ..., centroid.
     out.m = quad ? 9 : 7;
     for (int k = 0; k < out.m; ++k)
-        out.w[k] = k == out.m - 1 ? (quad ? 16.0 / 36 : 27.0 / 60)
-                                  : ((k & 1) ? (quad ? 4.0 / 36 : 8.0 / 60)
-                                             : (quad ? 1.0 / 36 : 3.0 / 60));
+        out.w[k] = k == out.m - 1
+                       ? (quad ? 16.0 / 36 : 27.0 / 60)
+                       : ((k & 1) ? (quad ? 4.0 / 36 : 8.0 / 60) : (quad ? 1.0 / 36 : 3.0 / 60));
     for (auto& d : out.D) d = RGB(0.0);
-    for (uint32_t A = L; A != kNone && !h.isCluster(A); A = h.parent(A)) {
+    for (uint32_t A = points ? L : h.parent(L); A != kNone && !h.isCluster(A); A = h.parent(A)) {
         if (by.offset[A + 1] == by.offset[A]) continue;
         RGB eA(0.0);
         for (uint64_t j = by.offset[A]; j < by.offset[A + 1]; ++j) {
@@ -382,7 +384,8 @@ double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
         [&](const auto& range, Sums acc) {
             for (uint32_t L = range.begin(); L != range.end(); ++L) {
                 if (h.isCluster(L) || !h.isLeaf(L)) continue;
-                const LeafError le = leafError(h, by, links, samples, L, [](uint32_t, const RGB&) {});
+                const LeafError le =
+                    leafError(h, by, links, samples, L, true, [](uint32_t, const RGB&) {});
                 const RGB rho = h.rho(L);
                 acc.avg += h.area(L) * std::fabs(luminance(rho * le.e));
                 double p = 0.0;
@@ -423,9 +426,11 @@ std::vector<uint8_t> leafBudgetMarks(const Hierarchy& h, const std::vector<uint3
             if (h.isCluster(L) || !h.isLeaf(L)) continue;
             const RGB rho = h.rho(L);
             const double area = h.area(L);
-            const LeafError le = leafError(h, by, links, samples, L, [&](uint32_t A, const RGB& eA) {
-                if (h.canSubdivide(A)) out.push_back({A, area * std::fabs(luminance(rho * eA))});
-            });
+            const LeafError le =
+                leafError(h, by, links, samples, L, false, [&](uint32_t A, const RGB& eA) {
+                    if (h.canSubdivide(A))
+                        out.push_back({A, area * std::fabs(luminance(rho * eA))});
+                });
             err += area * std::fabs(luminance(rho * le.e));
         }
         leafErr[c] = err;

@@ -83,7 +83,8 @@ FurnaceRun runFurnace(const std::string& oracle, double eps, double rho, double 
     out.elements = h.numElements();
     out.patches = h.numPatches();
     std::cout << oracle << " eps " << eps << " rho " << rho << " receiver_eps " << receiverEps
-              << (leafBudget ? " leaf budget" : "") << ": elements " << out.elements << ", links " << out.links
+              << (leafBudget ? " leaf budget" : "") << ": elements " << out.elements
+              << ", links " << out.links
               << ", worst relative error " << out.worst << ", L1 " << out.l1
               << ", estimates: leaves " << out.estimateLeaves << ", points " << out.estimatePoints
               << ", receivers " << out.estimate << "\n";
