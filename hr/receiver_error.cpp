@@ -298,8 +298,19 @@ namespace {
 /// offset[r + 1]) are the indices of r's links that carry light.
 struct LinksByReceiver {
     std::vector<uint64_t> offset, items;
+    /// With stored samples: the index in them of link i's, or kNoSample.
+    static constexpr uint64_t kNoSample = ~uint64_t(0);
+    std::vector<uint64_t> sampleOf;
     LinksByReceiver(const Hierarchy& h, const std::vector<uint32_t>& recv,
-                    const std::vector<Link>& links) {
+                    const std::vector<Link>& links,
+                    const std::vector<KernelSamples>* stored = nullptr) {
+        if (stored && !stored->empty()) {
+            sampleOf.assign(links.size(), kNoSample);
+            uint64_t k = 0;
+            for (size_t i = 0; i < links.size(); ++i)
+                if (h.storesKernelSamples(recv[i], links[i])) sampleOf[i] = k++;
+            HRAD_CHECK(k == stored->size());
+        }
         const uint32_t n = h.numElements();
         auto surfaceLink = [&](uint32_t r, const Link& l) {
             return !h.isCluster(r) && l.sender != kNone && !h.isCluster(l.sender) &&
@@ -330,13 +341,20 @@ struct LeafError {
 };
 template <class Part>
 LeafError leafError(const Hierarchy& h, const LinksByReceiver& by, const std::vector<Link>& links,
-                    const SampleFn& samples, uint32_t L, bool points, Part&& part) {
+                    const transport::FormFactorEngine& engine, uint32_t L, bool points,
+                    Part&& part, const std::vector<KernelSamples>* stored = nullptr) {
     LeafError out;
-    const bool quad = h.scene().patches[h.patch(L)].kind == scene::PatchKind::Quad;
+    const scene::Patch& P = h.scene().patches[h.patch(L)];
+    const bool quad = P.kind == scene::PatchKind::Quad;
+    // The leaf's sample points, once for all the senders.
+    Vec3 x[transport::FormFactorEngine::kMaxKernelSamples];
+    const int m = engine.kernelSamplePoints({h.patch(L), h.domain(L), h.stableId(L)}, x);
+    double F[transport::FormFactorEngine::kMaxKernelSamples];
     // Tensor Simpson on a parallelogram (corners 1, edge midpoints 4,
     // centroid 16, over 36) and its triangle counterpart (3, 8, 27 over 60),
     // in kernelSamplePoints' order: corner i, midpoint of edge i, ..., centroid.
-    out.m = quad ? 9 : 7;
+    out.m = m;
+    HRAD_CHECK(m == (quad ? 9 : 7));
     for (int k = 0; k < out.m; ++k)
         out.w[k] = k == out.m - 1
                        ? (quad ? 16.0 / 36 : 27.0 / 60)
@@ -346,15 +364,26 @@ LeafError leafError(const Hierarchy& h, const LinksByReceiver& by, const std::ve
         if (by.offset[A + 1] == by.offset[A]) continue;
         RGB eA(0.0);
         for (uint64_t j = by.offset[A]; j < by.offset[A + 1]; ++j) {
-            const Link& l = links[by.items[j]];
-            const KernelSamples ks = samples(L, l.sender);
+            const uint64_t i = by.items[j];
+            const Link& l = links[i];
+            // The leaf's own links carry their samples where stored (the
+            // same points, the same sender).
+            const bool own = A == L && !by.sampleOf.empty() && by.sampleOf[i] != by.kNoSample;
+            if (own) {
+                const KernelSamples& ks = (*stored)[by.sampleOf[i]];
+                for (int k = 0; k < m; ++k) F[k] = ks[k];
+            } else {
+                const uint32_t s = l.sender;
+                engine.kernelSamplesAt(x, m, P.normal, {h.patch(s), h.domain(s), h.stableId(s)},
+                                       F);
+            }
             // K = v F_l, v the visibility K carries.
             const double v = h.carriedVisibility(l), K = double(l.K);
             const RGB B = h.B(l.sender);
             double mean = 0.0;
-            for (int k = 0; k < out.m; ++k) {
-                mean += out.w[k] * ks[k];
-                out.D[k] += B * (v * ks[k] - K);
+            for (int k = 0; k < m; ++k) {
+                mean += out.w[k] * F[k];
+                out.D[k] += B * (v * F[k] - K);
             }
             eA += B * (v * mean - K);
         }
@@ -369,13 +398,13 @@ LeafError leafError(const Hierarchy& h, const LinksByReceiver& by, const std::ve
 }  // namespace
 
 double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
-                        const std::vector<Link>& links, const SampleFn& samples,
-                        double* pointwise) {
+                        const std::vector<Link>& links, const transport::FormFactorEngine& engine,
+                        double* pointwise, const std::vector<KernelSamples>* stored) {
     if (h.basisDegree() > 0) {
         if (pointwise) *pointwise = std::numeric_limits<double>::quiet_NaN();
         return std::numeric_limits<double>::quiet_NaN();
     }
-    const LinksByReceiver by(h, recv, links);
+    const LinksByReceiver by(h, recv, links, stored);
     struct Sums {
         double avg = 0.0, point = 0.0;
     };
@@ -385,7 +414,7 @@ double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
             for (uint32_t L = range.begin(); L != range.end(); ++L) {
                 if (h.isCluster(L) || !h.isLeaf(L)) continue;
                 const LeafError le =
-                    leafError(h, by, links, samples, L, true, [](uint32_t, const RGB&) {});
+                    leafError(h, by, links, engine, L, true, [](uint32_t, const RGB&) {}, stored);
                 const RGB rho = h.rho(L);
                 acc.avg += h.area(L) * std::fabs(luminance(rho * le.e));
                 double p = 0.0;
@@ -405,8 +434,9 @@ double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
 }
 
 std::vector<uint8_t> leafBudgetMarks(const Hierarchy& h, const std::vector<uint32_t>& recv,
-                                     const std::vector<Link>& links, const SampleFn& samples,
-                                     double budget, double* total) {
+                                     const std::vector<Link>& links,
+                                     const transport::FormFactorEngine& engine, double budget,
+                                     double* total) {
     const uint32_t n = h.numElements();
     const LinksByReceiver by(h, recv, links);
     // Per leaf: its error and each ancestor's part in it, gathered per chunk
@@ -427,7 +457,7 @@ std::vector<uint8_t> leafBudgetMarks(const Hierarchy& h, const std::vector<uint3
             const RGB rho = h.rho(L);
             const double area = h.area(L);
             const LeafError le =
-                leafError(h, by, links, samples, L, false, [&](uint32_t A, const RGB& eA) {
+                leafError(h, by, links, engine, L, false, [&](uint32_t A, const RGB& eA) {
                     if (h.canSubdivide(A))
                         out.push_back({A, area * std::fabs(luminance(rho * eA))});
                 });

@@ -185,9 +185,13 @@ namespace hrad::hr {
 /// interreflection of the error. NaN for a polynomial basis. Parallel over
 /// leaves, deterministic. papers/README.md, "Estimates that let the levels
 /// cancel", measures both against full-matrix and Monte Carlo references.
+/// `stored`, when given and not empty, holds the kernel samples of the links
+/// that storesKernelSamples(), in link order (Hierarchy::kernelSamples):
+/// the leaves' own links read theirs from it instead of computing them.
 double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
-                        const std::vector<Link>& links, const SampleFn& samples,
-                        double* pointwise = nullptr);
+                        const std::vector<Link>& links, const transport::FormFactorEngine& engine,
+                        double* pointwise = nullptr,
+                        const std::vector<KernelSamples>* stored = nullptr);
 
 }  // namespace hrad::hr
 
@@ -205,7 +209,8 @@ namespace hrad::hr {
 /// compensate each other). Returns one flag per element (empty when the total
 /// is within the budget) and the total in `total`.
 std::vector<uint8_t> leafBudgetMarks(const Hierarchy& h, const std::vector<uint32_t>& recv,
-                                     const std::vector<Link>& links, const SampleFn& samples,
-                                     double budget, double* total = nullptr);
+                                     const std::vector<Link>& links,
+                                     const transport::FormFactorEngine& engine, double budget,
+                                     double* total = nullptr);
 
 }  // namespace hrad::hr

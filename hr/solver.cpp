@@ -160,6 +160,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
         s.receiverEps = p.getDouble("hr.receiver_eps", 0.0, 0.0, 1.0);
     s.senderTotal = p.getBool("hr.sender_total", s.senderTotal);
     s.leafBudget = p.getBool("hr.leaf_budget", s.leafBudget);
+    s.leafEstimates = p.getBool("hr.leaf_estimates", s.leafEstimates);
     s.extrapolate = p.getBool("hr.extrapolate", s.extrapolate);
     s.relaxShare = p.getDouble("hr.relax_share", s.relaxShare, 0.0, 1.0);
     s.relaxFraction = p.getDouble("hr.relax_fraction", s.relaxFraction, 0.0, 1.0);
@@ -608,10 +609,7 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
                               std::max(maxComponent(emitted), 1e-300);
         if (budget > 0.0) {
             double total = 0.0;
-            push = leafBudgetMarks(
-                h, recv, pending,
-                [&](uint32_t r, uint32_t s) { return linkKernelSamples(h, engine_, r, s); },
-                budget, &total);
+            push = leafBudgetMarks(h, recv, pending, engine_, budget, &total);
             spdlog::debug("leaf budget: estimated leaf error {:.4g} against {:.4g}, {} pushed",
                           total, budget, std::count(push.begin(), push.end(), uint8_t(1)));
         }
@@ -1363,12 +1361,12 @@ HrResult HrSolver::solve(bool progress) {
             "rule missed the exact form factors by more than hr.basis_check = {})",
             coupling_->fallbacks(), s_.basisCheck);
     res.errorEstimate = estimateError(h);
-    {
+    if (s_.leafEstimates) {
         const std::vector<uint32_t> recv = h.linkReceivers();
         res.errorEstimateLeaves =
-            leafAverageError(h, recv, h.links(), [&](uint32_t r, uint32_t s) {
-                return linkKernelSamples(h, engine_, r, s);
-            }, &res.errorEstimatePoints);
+            leafAverageError(
+                h, recv, h.links(), engine_, &res.errorEstimatePoints,
+                h.hasKernelSamples() && h.basisDegree() == 0 ? &h.kernelSamples() : nullptr);
     }
     res.errorEstimateSeconds = te.seconds();
     {

@@ -84,6 +84,14 @@
 //                                       it the constant basis stalls on the perpendicular
 //                                       plates at L2 0.016 from eps 1e-5 to 1e-6 (receivers
 //                                       along the emitter's bright edge each accept its mean)
+//   hr.leaf_estimates  bool    true    after the solve, estimate the error of the leaves'
+//                                       averages and at their points with every ancestor's
+//                                       links pushed to every leaf (summary
+//                                       error_estimate_leaves, error_estimate_points;
+//                                       hr/receiver_error.h leafAverageError). It costs point
+//                                       form factors for every (leaf, ancestor link) pair:
+//                                       3.5 s of the bathroom's 60 s wall (1.1 M links), 0.2 s
+//                                       of Lost Empire's 10 s; false leaves both null
 //   hr.leaf_budget     bool    false   hold the error of the leaves' averages, summed over
 //                                       the leaves, within the check's eps of the emitted power
 //                                       (bfa, error, kv: eps; ff: F_eps / 100): each judging
@@ -386,6 +394,9 @@ struct HrSettings {
     /// hr.sender_total: error and kv also bound the sender-side error summed
     /// per sender over all its receivers (hr/receiver_error.h SenderTotal).
     bool senderTotal = true;
+    /// hr.leaf_estimates: compute error_estimate_leaves / _points after the
+    /// solve (hr/receiver_error.h leafAverageError).
+    bool leafEstimates = true;
     /// hr.leaf_budget: push ancestors' links down while the leaves' error
     /// (hr/receiver_error.h leafBudgetMarks) exceeds the check's eps.
     bool leafBudget = false;

@@ -528,7 +528,12 @@ int FormFactorEngine::kernelSamples(const ElementRef& r, const ElementRef& s,
                                     double out[kMaxKernelSamples]) const {
     Vec3 x[kMaxKernelSamples];
     int m = kernelSamplePoints(r, x);
-    const scene::Patch& pr = scene_->patches[r.patch];
+    kernelSamplesAt(x, m, scene_->patches[r.patch].normal, s, out);
+    return m;
+}
+
+void FormFactorEngine::kernelSamplesAt(const Vec3* x, int m, const Vec3& n, const ElementRef& s,
+                                       double* out) const {
     const scene::Patch& ps = scene_->patches[s.patch];
     Vec3 cs[4];
     int ns = scene::elementCorners(ps, s.dom, cs);
@@ -536,9 +541,7 @@ int FormFactorEngine::kernelSamples(const ElementRef& r, const ElementRef& s,
     for (int i = 0; i < ns; ++i) sc += cs[i];
     sc /= double(ns);
     for (int k = 0; k < m; ++k)
-        out[k] = glm::dot(x[k] - sc, ps.normal) <= 0.0 ? 0.0
-                                                       : pointToPolygon(x[k], pr.normal, cs, ns);
-    return m;
+        out[k] = glm::dot(x[k] - sc, ps.normal) <= 0.0 ? 0.0 : pointToPolygon(x[k], n, cs, ns);
 }
 
 double FormFactorEngine::estimate(const ElementRef& r, const ElementRef& s) const {

@@ -144,6 +144,10 @@ class FormFactorEngine {
     /// integral; 0 where x_k is behind s's plane). Returns the count.
     int kernelSamples(const ElementRef& r, const ElementRef& s,
                       double out[kMaxKernelSamples]) const;
+    /// The same at m given points x of a receiver plane with normal n (the
+    /// points of kernelSamplePoints, computed once for many senders).
+    void kernelSamplesAt(const Vec3* x, int m, const Vec3& n, const ElementRef& s,
+                         double* out) const;
 
     /// Cheap estimate of F_rs (centroid point-to-disc, no visibility).
     double estimate(const ElementRef& r, const ElementRef& s) const;
