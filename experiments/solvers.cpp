@@ -53,12 +53,9 @@ class HrEntry final : public Solver {
             json{{"of", res->epsReflected ? "reflected" : "emitted"}, {"value", res->epsPower}};
         sm["min_area"] = res->minArea;
         sm["error_estimate"] = res->errorEstimate;
-        sm["error_estimate_leaves"] = std::isfinite(res->errorEstimateLeaves)
-                                          ? json(res->errorEstimateLeaves)
-                                          : json(nullptr);
-        sm["error_estimate_points"] = std::isfinite(res->errorEstimatePoints)
-                                          ? json(res->errorEstimatePoints)
-                                          : json(nullptr);
+        auto orNull = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+        sm["error_estimate_leaves"] = orNull(res->errorEstimateLeaves);
+        sm["error_estimate_points"] = orNull(res->errorEstimatePoints);
         sm["stand_in_power_share"] = res->standInPowerShare;
         {
             const hr::SolverNoise& n = res->noise;

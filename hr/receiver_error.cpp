@@ -288,10 +288,6 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
     });
 }
 
-}  // namespace hrad::hr
-
-namespace hrad::hr {
-
 namespace {
 
 /// The surface links of `links` by receiver (CSR): items[offset[r] ..
@@ -341,8 +337,8 @@ struct LeafError {
 };
 template <class Part>
 LeafError leafError(const Hierarchy& h, const LinksByReceiver& by, const std::vector<Link>& links,
-                    const transport::FormFactorEngine& engine, uint32_t L, bool points,
-                    Part&& part, const std::vector<KernelSamples>* stored = nullptr) {
+                    const transport::FormFactorEngine& engine, uint32_t L, bool points, Part&& part,
+                    const std::vector<KernelSamples>* stored = nullptr) {
     LeafError out;
     const scene::Patch& P = h.scene().patches[h.patch(L)];
     const bool quad = P.kind == scene::PatchKind::Quad;
@@ -374,8 +370,7 @@ LeafError leafError(const Hierarchy& h, const LinksByReceiver& by, const std::ve
                 for (int k = 0; k < m; ++k) F[k] = ks[k];
             } else {
                 const uint32_t s = l.sender;
-                engine.kernelSamplesAt(x, m, P.normal, {h.patch(s), h.domain(s), h.stableId(s)},
-                                       F);
+                engine.kernelSamplesAt(x, m, P.normal, {h.patch(s), h.domain(s), h.stableId(s)}, F);
             }
             // K = v F_l, v the visibility K carries.
             const double v = h.carriedVisibility(l), K = double(l.K);
@@ -413,8 +408,8 @@ double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
         [&](const auto& range, Sums acc) {
             for (uint32_t L = range.begin(); L != range.end(); ++L) {
                 if (h.isCluster(L) || !h.isLeaf(L)) continue;
-                const LeafError le =
-                    leafError(h, by, links, engine, L, true, [](uint32_t, const RGB&) {}, stored);
+                const LeafError le = leafError(
+                    h, by, links, engine, L, true, [](uint32_t, const RGB&) {}, stored);
                 const RGB rho = h.rho(L);
                 acc.avg += h.area(L) * std::fabs(luminance(rho * le.e));
                 double p = 0.0;

@@ -147,9 +147,6 @@ KernelSamples linkKernelSamples(const Hierarchy& h, const transport::FormFactorE
 KernelSamples linkResidualSamples(const Hierarchy& h, const transport::CouplingEngine& coupling,
                                   uint32_t r, uint32_t s);
 
-}  // namespace hrad::hr
-
-namespace hrad::hr {
 
 /// A posteriori estimates of the solve's error that let the levels cancel
 /// (summary error_estimate_leaves and error_estimate_points).
@@ -193,9 +190,6 @@ double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
                         double* pointwise = nullptr,
                         const std::vector<KernelSamples>* stored = nullptr);
 
-}  // namespace hrad::hr
-
-namespace hrad::hr {
 
 /// The leaf budget (hr.leaf_budget): the receivers whose surface links are
 /// pushed one level down so that the leaves' error estimated by

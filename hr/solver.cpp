@@ -531,8 +531,7 @@ std::vector<KernelSamples> HrSolver::computeKernelSamples(const Hierarchy& h,
     return out;
 }
 
-double HrSolver::estimateError(const Hierarchy& h) const {
-    std::vector<uint32_t> recv = h.linkReceivers();
+double HrSolver::estimateError(const Hierarchy& h, const std::vector<uint32_t>& recv) const {
     const std::vector<Link>& links = h.links();
     // The cached samples where h holds them (made with the links), the
     // others computed receiver by receiver (those of receivers that cannot
@@ -1360,11 +1359,11 @@ HrResult HrSolver::solve(bool progress) {
             "coupling: {} link evaluations kept only the sender's mean (the point-to-point "
             "rule missed the exact form factors by more than hr.basis_check = {})",
             coupling_->fallbacks(), s_.basisCheck);
-    res.errorEstimate = estimateError(h);
-    if (s_.leafEstimates) {
+    {
         const std::vector<uint32_t> recv = h.linkReceivers();
-        res.errorEstimateLeaves =
-            leafAverageError(
+        res.errorEstimate = estimateError(h, recv);
+        if (s_.leafEstimates)
+            res.errorEstimateLeaves = leafAverageError(
                 h, recv, h.links(), engine_, &res.errorEstimatePoints,
                 h.hasKernelSamples() && h.basisDegree() == 0 ? &h.kernelSamples() : nullptr);
     }

@@ -605,7 +605,9 @@ class HrSolver {
     /// max channel. What it omits: the error of leaf senders' unresolved
     /// variation, of visibility within partially visible links beyond the
     /// unsigned term, of cluster links, and of the form factors themselves.
-    double estimateError(const Hierarchy& h) const;
+    double estimateError(const Hierarchy& h) const { return estimateError(h, h.linkReceivers()); }
+    /// The same with the links' receivers already at hand (h.linkReceivers()).
+    double estimateError(const Hierarchy& h, const std::vector<uint32_t>& recv) const;
 
   private:
     struct Pending;

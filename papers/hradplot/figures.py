@@ -188,8 +188,9 @@ def estimate_vs(store, stem, x="l1_reflected_lum", ys=("error_estimate",), group
         ax.plot(t, t, color="0.3", lw=0.8, zorder=1)
         for f in (1 / 3, 3):
             ax.plot(t, f * t, color="0.3", lw=0.6, ls=":", zorder=1)
-        _logscale(ax, d[x].tolist() + d[y].tolist() if len(d) else [lo, hi], "x")
-        _logscale(ax, d[x].tolist() + d[y].tolist() if len(d) else [lo, hi], "y")
+        values = d[x].tolist() + d[y].tolist() if len(d) else [lo, hi]
+        _logscale(ax, values, "x")
+        _logscale(ax, values, "y")
         ax.set_ylabel(LABELS.get(y, y))
         side["panels"][y] = panel
     axes[-1].set_xlabel(LABELS.get(x, x))

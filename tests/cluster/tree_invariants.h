@@ -44,6 +44,8 @@ inline void expectTreeInvariants(const scene::Scene& s, const cluster::ClusterTr
         }
         for (uint32_t i = n.patchBegin; i < n.patchEnd; ++i) {
             const auto& p = s.patches[t.patchAt(i)];
+            // Nodes no longer store a box (it was read only to make the
+            // sphere); the sphere, which the solver reads, must hold them.
             for (int v = 0; v < p.numVertices(); ++v) {
                 EXPECT_LE(glm::length(p.v[v] - n.centroid), n.radius * (1 + 1e-12));
             }
