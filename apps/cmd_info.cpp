@@ -6,11 +6,12 @@
 #include "core/memory.h"
 #include "scene/coplanar.h"
 #include "scene/loader.h"
+#include "transport/reachability.h"
 
 namespace hrad::app {
 
 int runInfo(const std::string& spec, Params& params) {
-    scene::Scene s = scene::loadScene(spec, params);
+    scene::Scene s = transport::loadScene(spec, params);
     params.reportUnused();
     const auto& st = s.stats;
     scene::Bounds3 b = s.bounds();

@@ -13,6 +13,7 @@
 #include "render/image.h"
 #include "render/render.h"
 #include "scene/loader.h"
+#include "transport/reachability.h"
 #include "transport/visibility.h"
 
 namespace hrad::app {
@@ -21,7 +22,7 @@ namespace fs = std::filesystem;
 
 int runRender(const RenderCliOptions& opt, Params& params) {
     Timer t;
-    scene::Scene sc = scene::loadScene(opt.scene, params);
+    scene::Scene sc = transport::loadScene(opt.scene, params);
     render::RenderSettings rs = render::RenderSettings::fromParams(params, "render");
     rs.adoptFilm(sc);  // the scene's film size where --width/--height are unset
     rs.showProgress = true;  // final gather / path tracing take a while

@@ -24,6 +24,7 @@
 #include "render/render.h"
 #include "render/residual.h"
 #include "scene/loader.h"
+#include "transport/reachability.h"
 #include "transport/visibility.h"
 
 namespace hrad::experiments {
@@ -295,7 +296,7 @@ json prepareReference(const PointSpec& p, const RunContext& ctx) {
     json out = json::object();
     if (r.refKind == "none") return out;
     Timer t;
-    scene::Scene sc = scene::loadScene(p.scene, p.settings);
+    scene::Scene sc = transport::loadScene(p.scene, p.settings);
     requireSolvable(sc, p.settings);
     transport::Visibility vis(sc);
     Reference ref = computeReference(sc, vis, r, ctx);
@@ -351,7 +352,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     // ---- settings: read and validate everything before any work ----------------
     Resolved r = resolve(p);
     Timer tLoad;
-    scene::Scene sc = scene::loadScene(p.scene, p.settings);
+    scene::Scene sc = transport::loadScene(p.scene, p.settings);
     requireSolvable(sc, p.settings);
     double loadSeconds = tLoad.seconds();
     // The scene's film (Mitsuba sensor) sets the image size the user left

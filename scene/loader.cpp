@@ -2,8 +2,12 @@
 #include "scene/loader.h"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <filesystem>
+#include <stdexcept>
+#include <cstdlib>
+#include <variant>
 
 #include "core/error.h"
 #include "core/log.h"
@@ -114,14 +118,112 @@ const std::vector<SceneFormat>& sceneFormats() {
     return formats;
 }
 
-Scene loadScene(const std::string& spec, const Params& params) {
+namespace {
+
+enum class SplitMode { Off, All, Unreachable };
+
+/// split_intersections: false, true, or "unreachable".
+SplitMode readSplitMode(const Params& params) {
+    if (!params.has("split_intersections")) return SplitMode::Off;
+    const auto& v = params.entries().at("split_intersections").value;
+    if (std::holds_alternative<bool>(v))
+        return params.getBool("split_intersections", false) ? SplitMode::All : SplitMode::Off;
+    const auto* text = std::get_if<std::string>(&v);
+    params.markUsed("split_intersections");
+    if (!text || *text != "unreachable")
+        throwInputError(params.where("split_intersections"),
+                        "setting 'split_intersections' = '{}' must be true, false or "
+                        "\"unreachable\"",
+                        Params::valueToString(v));
+    return SplitMode::Unreachable;
+}
+
+}  // namespace
+
+// split_intersections = "unreachable" (loader.h says which cuts are kept).
+SplitStats splitWhereDark(Scene& scene, int rays, const std::function<void(Scene&)>& makeSides,
+                          const ReachabilityFn& reach) {
+    Scene cut = scene;
+    std::vector<uint32_t> origin;
+    SplitStats st = splitIntersections(cut, &origin, /*touching=*/true);
+    st.candidates = st.splitPatches;
+    if (st.splitPatches == 0) return st;
+    const size_t nCut = cut.patches.size();
+    Scene probe = cut;
+    makeSides(probe);
+    const LightPaths paths = reach(probe, rays);
+    if (paths.reachable.size() != probe.patches.size())
+        throw std::logic_error("split_intersections: reachability of the wrong size");
+    const std::vector<uint8_t>& lit = paths.reachable;
+    // Input patch and side (0 front, 1 back) of each probe patch.
+    auto inputOf = [&](uint32_t k) -> std::pair<uint32_t, int> {
+        if (k < nCut) return {origin[k], 0};
+        return {origin[probe.patches[k].twin], 1};
+    };
+    const size_t n = scene.patches.size();
+    std::vector<uint8_t> isCut(n, 0);
+    for (size_t k = 0; k + 1 < nCut; ++k)
+        if (origin[k + 1] == origin[k]) isCut[origin[k]] = 1;
+    // reached[i] bit `side`: a piece of that side of input patch i is
+    // reachable (whole, that side is lit).
+    std::vector<uint8_t> reached(n, 0);
+    for (uint32_t k = 0; k < uint32_t(probe.patches.size()); ++k)
+        if (lit[k]) {
+            const auto [i, side] = inputOf(k);
+            reached[i] |= uint8_t(1 << side);
+        }
+    // A cut is kept where a dark piece s of a side that is lit elsewhere is
+    // seen by a patch r that stays dark: r's own side has no reachable piece,
+    // or r's patch keeps its cut. Keeping a cut can make another necessary
+    // (the stub of a leg under a floor sees other stubs, which are dark only
+    // if their legs stay cut), so the rule runs to its fixed point; it only
+    // adds cuts, so it ends.
+    std::vector<uint8_t> keep(n, 0);
+    for (bool changed = true; changed;) {
+        changed = false;
+        for (const auto& [s, r] : paths.darkEdges) {
+            const auto [i, side] = inputOf(s);
+            if (!isCut[i] || keep[i] || !(reached[i] & (1 << side))) continue;
+            const auto [j, rside] = inputOf(r);
+            if (j == i) continue;
+            if (!(reached[j] & (1 << rside)) || keep[j]) {
+                keep[i] = 1;
+                changed = true;
+            }
+        }
+    }
+    std::vector<Patch> out;
+    uint64_t kept = 0, pieces = 0;
+    out.reserve(n);
+    size_t k = 0;
+    for (uint32_t i = 0; i < uint32_t(n); ++i) {
+        const size_t first = k;
+        while (k < nCut && origin[k] == i) ++k;
+        if (first < k && keep[i]) {
+            ++kept;
+            for (size_t j = first; j < k; ++j) {
+                out.push_back(cut.patches[j]);
+                ++pieces;
+            }
+        } else {
+            out.push_back(scene.patches[i]);
+        }
+    }
+    scene.patches = std::move(out);
+    st.splitPatches = kept;
+    st.pieces = pieces;
+    return st;
+}
+
+Scene loadScene(const std::string& spec, const Params& params, const ReachabilityFn& reach) {
     Timer timer;
     // Every key is read up front, whether or not it applies to this format,
     // so that the caller's reportUnused() only flags misspellings.
     for (const SceneFormat& f : sceneFormats()) f.readSettings(params);
     const std::string twoSided = params.getEnum("two_sided", "auto", {"auto", "all", "none"});
     bool validate = params.getBool("validate", true);
-    const bool split = params.getBool("split_intersections", false);
+    const SplitMode split = readSplitMode(params);
+    const int splitRays = int(params.getInt("split_reach_rays", 256, 1, 1 << 20));
     const double uniformRho =
         params.has("uniform_rho") ? params.getDouble("uniform_rho", 0.5, 0.0, 0.999999) : -1.0;
 
@@ -157,27 +259,41 @@ Scene loadScene(const std::string& spec, const Params& params) {
         scene = format->load(spec, params);
         scene.name = spec;
     }
+    // Two-sided materials become front/back patch pairs (scene.h, Patch::twin).
+    auto makeSides = [&](Scene& s) {
+        if (twoSided == "none") {
+            for (Material& m : s.materials) m.twoSided = false;
+        } else {
+            s.addBackSides(twoSided == "all");
+        }
+    };
     // Patches that pass through one another are cut along the intersection
     // (before back sides are made, so both sides get the same pieces).
-    if (split) {
+    if (split == SplitMode::Unreachable && !reach)
+        throwInputError(params.where("split_intersections"),
+                        "split_intersections = \"unreachable\" needs the ray tracer; this "
+                        "command loads scenes without it");
+    if (split != SplitMode::Off) {
         Timer ts;
-        SplitStats st = splitIntersections(scene);
+        const SplitStats st = split == SplitMode::All
+                                  ? splitIntersections(scene)
+                                  : splitWhereDark(scene, splitRays, makeSides, reach);
         scene.stats.splitPatches = st.splitPatches;
         scene.stats.splitPieces = st.pieces;
-        if (st.splitPatches > 0)
+        if (split == SplitMode::All && st.splitPatches > 0)
             spdlog::info(
-                "split {} patches that pass through others into {} triangles ({} "
-                "crossings, {} pieces thinner than the tolerance left out, {:.3g} in area; "
-                "{:.2f} s)",
+                "split {} patches that pass through others into {} triangles ({} crossings, "
+                "{} pieces thinner than the tolerance left out, {:.3g} in area; {:.2f} s)",
                 st.splitPatches, st.pieces, st.crossings, st.thinPieces, st.thinArea,
                 ts.seconds());
+        if (split == SplitMode::Unreachable && st.candidates > 0)
+            spdlog::info(
+                "split {} of the {} patches that pass through or touch others, those whose "
+                "dark pieces light would otherwise reach, into {} triangles ({} rays per "
+                "piece; {:.2f} s)",
+                st.splitPatches, st.candidates, st.pieces, splitRays, ts.seconds());
     }
-    // Two-sided materials become front/back patch pairs (scene.h, Patch::twin).
-    if (twoSided == "none") {
-        for (Material& m : scene.materials) m.twoSided = false;
-    } else {
-        scene.addBackSides(twoSided == "all");
-    }
+    makeSides(scene);
     if (uniformRho >= 0.0) {
         for (Material& m : scene.materials) m.rho = RGB(uniformRho);
         for (Patch& p : scene.patches) p.rho = RGB(uniformRho);

@@ -39,24 +39,35 @@
 //                                  reflected power of two solvers differs only by what
 //                                  their transfers lose or gain (in a closed scene it
 //                                  is P_e rho / (1 - rho) exactly)
-//   split_intersections bool false split patches that pass through one another
-//                                  along their intersection lines, so parts inside
-//                                  another object become patches of their own
-//                                  (scene/triangulate.h splitIntersections). Off by
-//                                  default: real scenes cross a lot (classroom.mgf
-//                                  5,826 -> 11,817 patches, graz.mgf 13,948 ->
-//                                  62,245, the bathroom 734 k -> 1.76 M with its
-//                                  back sides) and its effect on their error is not
-//                                  measured yet
+//   split_intersections      false  false, true or "unreachable". true splits patches
+//                                  that pass through one another along their
+//                                  intersection lines, so parts inside another object
+//                                  become patches of their own (scene/triangulate.h
+//                                  splitIntersections); real scenes cross a lot
+//                                  (classroom.mgf 5,826 -> 11,720 patches, graz.mgf
+//                                  13,948 -> 58,511, the bathroom 734 k -> 1.63 M with
+//                                  its back sides). "unreachable" also cuts along
+//                                  edges that lie inside other patches (a box's walls
+//                                  standing on a floor), then keeps only the cuts
+//                                  whose dark pieces light would otherwise reach
+//                                  (splitWhereDark below; graz.mgf 556 of 4,491
+//                                  patches, classroom.mgf none); it needs the ray
+//                                  tracer, which the caller hands in
+//                                  (transport::loadScene)
+//   split_reach_rays int    256    rays per piece of that reachability pass
 //
 // Every key is read whatever the format, so callers may reportUnused().
 #pragma once
 
+#include <cstdint>
+#include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/params.h"
 #include "scene/scene.h"
+#include "scene/triangulate.h"
 
 namespace hrad::scene {
 
@@ -74,9 +85,42 @@ struct SceneFormat {
 /// The registry of file formats, in the order they are listed to users.
 const std::vector<SceneFormat>& sceneFormats();
 
+/// Which patches of a scene light can reach, and where light would go next
+/// from those it cannot (transport/reachability.h).
+struct LightPaths {
+    std::vector<uint8_t> reachable;  ///< per patch: 1 when light can reach it
+    /// (s, r): r is unreachable and sees the front of s (also unreachable).
+    std::vector<std::pair<uint32_t, uint32_t>> darkEdges;
+};
+/// Finds them with `rays` rays per patch. The loader casts no rays (scene/
+/// sits below transport/); callers that can hand one in
+/// (transport::loadScene) for split_intersections = "unreachable".
+using ReachabilityFn = std::function<LightPaths(const Scene&, int rays)>;
+
+/// split_intersections = "unreachable" (before back sides are made): every
+/// crossing or touched patch is cut (splitIntersections with touching), a copy of the cut scene gets
+/// its back sides (`makeSides`) and `reach` with `rays` rays per patch, and
+/// a patch keeps its cut only where, kept whole, it would bring light to a
+/// patch light cannot reach: a side of it has a reachable piece, and one of
+/// its unreachable pieces is seen by a patch that stays dark (its own side
+/// reaches nowhere, or its patch keeps its cut; to the fixed point, since
+/// one kept cut can call for another). Whole, such a patch is lit and shines
+/// into the closed space its piece lies in (graz.mgf: a binder's cover
+/// through a paper block lights the inside of the block; the binder's floor,
+/// on which the inward-facing faces of a paper block stand, lights them).
+/// Every other
+/// crossing stays whole: a chair leg through a lit floor hides a piece of the
+/// floor that only the backs of the leg's one-sided walls see, and the stubs
+/// of legs under a floor see only one another. Returns the kept cuts
+/// (splitPatches, pieces) and the crossing patches (candidates).
+SplitStats splitWhereDark(Scene& scene, int rays, const std::function<void(Scene&)>& makeSides,
+                          const ReachabilityFn& reach);
+
 /// Loads a built-in scene by name or a file by extension; throws InputError
 /// with file:line on malformed input. Fills scene.stats (incl. load time).
-Scene loadScene(const std::string& spec, const Params& params = {});
+/// `reach` is needed only by split_intersections = "unreachable".
+Scene loadScene(const std::string& spec, const Params& params = {},
+                const ReachabilityFn& reach = {});
 
 /// True when spec names a built-in scene rather than a file.
 bool isBuiltinName(const std::string& spec);

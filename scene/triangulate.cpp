@@ -391,9 +391,13 @@ bool splitPatch(const Patch& p, const std::vector<std::pair<Vec3, Vec3>>& segmen
 
 }  // namespace
 
-SplitStats splitIntersections(Scene& scene) {
+SplitStats splitIntersections(Scene& scene, std::vector<uint32_t>* origin, bool touching) {
     SplitStats st;
     const uint32_t np = uint32_t(scene.patches.size());
+    if (origin) {
+        origin->resize(np);
+        for (uint32_t i = 0; i < np; ++i) (*origin)[i] = i;
+    }
     if (np < 2) return st;
     const double diag = scene.bounds().diagonal();
     const double tol = 1e-7 * diag;
@@ -430,9 +434,14 @@ SplitStats splitIntersections(Scene& scene) {
                 if (!crossSegment(tp[a], tq[b], tol, s0, s1)) continue;
                 // Touching (an edge of one lying on the other, a box standing
                 // on a floor) lets no light through; only a crossing does.
-                if (alongBoundary(P, s0, s1, tol) || alongBoundary(Q, s0, s1, tol)) continue;
-                cuts[i].emplace_back(s0, s1);
-                cuts[j].emplace_back(s0, s1);
+                const bool onP = alongBoundary(P, s0, s1, tol);
+                const bool onQ = alongBoundary(Q, s0, s1, tol);
+                if (onP && onQ) continue;  // shared edges
+                if (!touching && (onP || onQ)) continue;
+                // With `touching`, an edge of one lying inside the other cuts
+                // the other only.
+                if (!onP) cuts[i].emplace_back(s0, s1);
+                if (!onQ) cuts[j].emplace_back(s0, s1);
                 ++st.crossings;
             }
         }
@@ -442,12 +451,17 @@ SplitStats splitIntersections(Scene& scene) {
     std::vector<Patch> old = std::move(scene.patches);
     scene.patches.clear();
     scene.patches.reserve(old.size() + 4 * cuts.size());
+    if (origin) {
+        origin->clear();
+        origin->reserve(old.size() + 4 * cuts.size());
+    }
     std::vector<std::array<Vec3, 3>> tris;
     for (uint32_t i = 0; i < uint32_t(old.size()); ++i) {
         auto it = cuts.find(i);
         tris.clear();
         if (it == cuts.end() || !splitPatch(old[i], it->second, tol, tris)) {
             scene.patches.push_back(old[i]);
+            if (origin) origin->push_back(i);
             continue;
         }
         ++st.splitPatches;
@@ -470,6 +484,7 @@ SplitStats splitIntersections(Scene& scene) {
             Patch& added = scene.patches.back();
             added.rho = old[i].rho;
             added.emission = old[i].emission;
+            if (origin) origin->push_back(i);
             ++st.pieces;
         }
     }

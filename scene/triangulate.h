@@ -54,6 +54,7 @@ bool triangulatePolygon(const std::vector<Vec3>& vertices,
 struct SplitStats {
     uint64_t crossings = 0;     ///< triangle pairs that cross (one segment each)
     uint64_t splitPatches = 0;  ///< patches replaced by their pieces
+    uint64_t candidates = 0;    ///< splitWhereDark: the patches that cross (kept cut or not)
     uint64_t pieces = 0;        ///< triangles that replaced them
     uint64_t thinPieces = 0;    ///< pieces thinner than the tolerance, left out
     double thinArea = 0.0;      ///< their area
@@ -85,6 +86,14 @@ struct SplitStats {
 /// nothing; parallel patches (coplanar overlaps, scene/coplanar.h) are left
 /// alone. Pieces keep the patch's material, reflectance and emission, so
 /// areas and emitted power are unchanged. Call before addBackSides().
-SplitStats splitIntersections(Scene& scene);
+/// `origin`, when given, receives for each patch of the result the index of
+/// the input patch it is (or is a piece of); a patch's pieces are adjacent.
+/// `touching` also cuts a patch along an edge of another that lies inside it
+/// (the walls of a box standing on a floor cut the floor around the box's
+/// footprint; a shared edge cuts nothing): splitWhereDark (loader.h) keeps
+/// such a cut where the footprint closes a dark space, as a paper block
+/// whose faces stand on a binder's floor.
+SplitStats splitIntersections(Scene& scene, std::vector<uint32_t>* origin = nullptr,
+                              bool touching = false);
 
 }  // namespace hrad::scene

@@ -121,8 +121,23 @@ Reachability reachablePatches(const scene::Scene& scene, const Visibility& vis, 
         out.rays += uint64_t(retry.size()) * uint64_t(retryRays);
         search();
     }
+    for (uint32_t p = 0; p < n; ++p)
+        if (!out.reachable[p])
+            for (uint32_t s : sources[p]) out.darkEdges.emplace_back(s, p);
     out.seconds = timer.seconds();
     return out;
+}
+
+scene::ReachabilityFn lightPathsFn(uint64_t seed) {
+    return [seed](const scene::Scene& s, int rays) {
+        Visibility vis(s);
+        Reachability r = reachablePatches(s, vis, rays, seed);
+        return scene::LightPaths{std::move(r.reachable), std::move(r.darkEdges)};
+    };
+}
+
+scene::Scene loadScene(const std::string& spec, const Params& params) {
+    return scene::loadScene(spec, params, lightPathsFn());
 }
 
 }  // namespace hrad::transport

@@ -38,8 +38,13 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
+#include <string>
+
+#include "core/params.h"
+#include "scene/loader.h"
 #include "scene/scene.h"
 #include "transport/visibility.h"
 
@@ -49,6 +54,10 @@ struct Reachability {
     /// reachable[p] = 1 when light can reach patch p (emitters included).
     std::vector<uint8_t> reachable;
     uint32_t unreachable = 0;  ///< patches with reachable[p] == 0
+    /// (s, r) for every unreachable patch r and each patch s whose front r's
+    /// rays hit first (s is then unreachable too): where light would go if s
+    /// had any.
+    std::vector<std::pair<uint32_t, uint32_t>> darkEdges;
     uint64_t rays = 0;         ///< rays cast
     double seconds = 0.0;
 };
@@ -60,5 +69,16 @@ struct Reachability {
 /// casts all its rays; the reachable set is the same either way).
 Reachability reachablePatches(const scene::Scene& scene, const Visibility& vis, int rays,
                               uint64_t seed = 1, int retryRays = 0, int firstStage = 4);
+
+/// The reachability pass above as the loader's scene::ReachabilityFn: its own
+/// Visibility of the scene it is given, `seed`, staged rays.
+scene::ReachabilityFn lightPathsFn(uint64_t seed = 1);
+
+/// scene::loadScene handed the reachability pass above (its own Visibility
+/// of the scene it is given, seed 1), which split_intersections =
+/// "unreachable" uses to keep only the cuts that separate pieces light
+/// reaches from pieces it does not (scene/loader.h). Every command that
+/// solves, references or renders a scene loads it through this.
+scene::Scene loadScene(const std::string& spec, const Params& params = {});
 
 }  // namespace hrad::transport

@@ -13,6 +13,7 @@
 #include "scene/triangulate.h"
 #include "tests/scenes.h"
 #include "tests/test_util.h"
+#include "transport/reachability.h"
 #include "transport/visibility.h"
 
 namespace hrad {
@@ -38,9 +39,10 @@ scene::Scene sunkPlate() {
     return s;
 }
 
-/// Solves, returns the reflected power on patches inside the box (centroid
-/// strictly inside, or a back side of the box).
-double powerInside(const scene::Scene& s) {
+/// Solves (uniform level 2, no clusters); the power max(B) A summed over
+/// the patches `count` picks.
+template <class Pick>
+double powerWhere(const scene::Scene& s, const Pick& count) {
     transport::Visibility vis(s);
     Params p;
     p.set("hr.oracle", std::string("uniform"));
@@ -50,15 +52,21 @@ double powerInside(const scene::Scene& s) {
     p.reportUnused();
     hr::HrResult r = hr::HrSolver(s, vis, settings).solve();
     EXPECT_TRUE(r.converged);
-    double inside = 0.0;
-    for (uint32_t i = 0; i < s.patches.size(); ++i) {
-        const Vec3 c = s.patches[i].centroid();
+    double power = 0.0;
+    for (uint32_t i = 0; i < s.patches.size(); ++i)
+        if (count(s.patches[i])) power += s.patches[i].area * maxComponent(r.hierarchy->B(i));
+    return power;
+}
+
+/// The reflected power on patches inside the box (centroid strictly inside,
+/// or a back side of the box).
+double powerInside(const scene::Scene& s) {
+    return powerWhere(s, [](const scene::Patch& P) {
+        const Vec3 c = P.centroid();
         const bool in = c.x > 0.3 + 1e-9 && c.x < 0.6 - 1e-9 && c.y > 0.3 + 1e-9 &&
                         c.y < 0.6 - 1e-9 && c.z > 0.3 + 1e-9 && c.z < 0.6 - 1e-9;
-        const bool boxBack = s.patches[i].backSide;
-        if (in || boxBack) inside += s.patches[i].area * maxComponent(r.hierarchy->B(i));
-    }
-    return inside;
+        return in || P.backSide;
+    });
 }
 
 TEST(SplitIntersections, CutsTheSunkPlateAlongTheWall) {
@@ -115,6 +123,130 @@ TEST(SplitIntersections, TheInsideOfTheBoxStaysDark) {
     scene::splitIntersections(cut);
     cut.addBackSides();
     EXPECT_EQ(powerInside(cut), 0.0);
+}
+
+// split_intersections = "unreachable" (scene/loader.h splitWhereDark): the
+// cuts kept are those whose dark pieces light would otherwise reach.
+TEST(SplitWhereDark, KeepsTheCutOfTheSunkPlateAndNotOfTheWall) {
+    scene::Scene s = sunkPlate();
+    const size_t before = s.patches.size();
+    scene::SplitStats st = scene::splitWhereDark(
+        s, 256, [](scene::Scene& x) { x.addBackSides(); }, transport::lightPathsFn());
+    // Both the plate and the box's +x wall cross. Whole, the plate's inner
+    // half would light the box's inside: its cut stays. The wall's outer
+    // side is lit on both pieces and its inner side on neither: it stays
+    // whole.
+    EXPECT_EQ(st.candidates, 2u);
+    EXPECT_EQ(st.splitPatches, 1u);
+    EXPECT_EQ(s.patches.size(), before - 1 + st.pieces);
+    for (const scene::Patch& p : s.patches) {
+        if (p.kind == scene::PatchKind::Triangle) {
+            EXPECT_EQ(s.materials[p.material].name, "plate");
+        }
+    }
+    s.addBackSides();
+    EXPECT_EQ(powerInside(s), 0.0);
+}
+
+/// Room [0,1]^3 (inward, ceiling emitting) with two one-sided closed legs
+/// through its floor into the space below, 0.1 apart: the floor's pieces
+/// inside the legs see only the backs of the legs' walls, and the stubs
+/// under the floor see one another.
+scene::Scene legsThroughTheFloor() {
+    scene::Scene s;
+    const uint32_t wall = s.addMaterial({"wall", RGB(0.5), RGB(0.0)});
+    const uint32_t lamp = s.addMaterial({"lamp", RGB(0.5), RGB(1.0)});
+    const uint32_t leg = s.addMaterial({"leg", RGB(0.7), RGB(0.0)});
+    test::addBox(s, Vec3(0), Vec3(1), {wall, wall, wall, wall, wall, lamp}, true);
+    test::addBox(s, Vec3(0.3, 0.4, -0.2), Vec3(0.4, 0.5, 0.3), {leg, leg, leg, leg, leg, leg},
+                 false);
+    test::addBox(s, Vec3(0.5, 0.4, -0.2), Vec3(0.6, 0.5, 0.3), {leg, leg, leg, leg, leg, leg},
+                 false);
+    s.applyMaterials();
+    return s;
+}
+
+TEST(SplitWhereDark, LeavesLegsThroughALitFloorWhole) {
+    // Cut everywhere, the floor and the legs' walls each have pieces light
+    // reaches and pieces it does not, and the stubs see one another: a rule
+    // that kept every cut with a dark piece, or every dark piece another
+    // dark piece sees, would cut them all.
+    scene::Scene all = legsThroughTheFloor();
+    scene::splitIntersections(all);
+    {
+        transport::Visibility vis(all);
+        transport::Reachability r = transport::reachablePatches(all, vis, 256);
+        EXPECT_GT(r.unreachable, 0u);
+        EXPECT_FALSE(r.darkEdges.empty());
+    }
+    scene::Scene s = legsThroughTheFloor();
+    const size_t before = s.patches.size();
+    scene::SplitStats st = scene::splitWhereDark(
+        s, 256, [](scene::Scene& x) { x.addBackSides(); }, transport::lightPathsFn());
+    EXPECT_EQ(st.candidates, 9u);  // the floor and each leg's four walls
+    EXPECT_EQ(st.splitPatches, 0u);
+    EXPECT_EQ(s.patches.size(), before);
+}
+
+/// Room [0,1]^3 (inward, ceiling emitting) with a block that has no bottom
+/// and faces inwards standing on the floor, [0.3,0.6]^2 x [0,0.2] (as graz's
+/// paper blocks stand in their binders): its faces see only one another and
+/// the floor inside their footprint, where no light arrives.
+scene::Scene blockOnTheFloor() {
+    scene::Scene s;
+    const uint32_t wall = s.addMaterial({"wall", RGB(0.5), RGB(0.0)});
+    const uint32_t lamp = s.addMaterial({"lamp", RGB(0.5), RGB(1.0)});
+    const uint32_t block = s.addMaterial({"block", RGB(0.8), RGB(0.0)});
+    test::addBox(s, Vec3(0), Vec3(1), {wall, wall, wall, wall, wall, lamp}, true);
+    const size_t before = s.patches.size();
+    test::addBox(s, Vec3(0.3, 0.3, 0.0), Vec3(0.6, 0.6, 0.2),
+                 {block, block, block, block, block, block}, true);
+    // No bottom: the -z face of the block (the fifth added) goes.
+    s.patches.erase(s.patches.begin() + std::ptrdiff_t(before + 4));
+    s.applyMaterials();
+    return s;
+}
+
+/// The reflected power on the block's faces and on floor pieces within its
+/// footprint.
+double powerInBlock(const scene::Scene& s) {
+    return powerWhere(s, [&](const scene::Patch& P) {
+        const Vec3 c = P.centroid();
+        const bool footprint = c.z < 1e-9 && c.x > 0.3 && c.x < 0.6 && c.y > 0.3 && c.y < 0.6;
+        return s.materials[P.material].name == "block" || footprint;
+    });
+}
+
+TEST(SplitWhereDark, CutsTheFloorUnderABlockThatClosesIt) {
+    // Whole, the lit floor lights the block's inside; cutting only where
+    // patches cross (split_intersections = true) cuts nothing here.
+    scene::Scene whole = blockOnTheFloor();
+    EXPECT_GT(powerInBlock(whole), 1e-3);
+    scene::Scene crossed = blockOnTheFloor();
+    EXPECT_EQ(scene::splitIntersections(crossed).splitPatches, 0u);
+    // The block's walls stand on the floor: their bottom edges cut it
+    // around the footprint, which the block's faces see and which no light
+    // reaches, so the floor keeps its cut and the block stays dark.
+    scene::Scene s = blockOnTheFloor();
+    scene::SplitStats st = scene::splitWhereDark(
+        s, 256, [](scene::Scene& x) { x.addBackSides(); }, transport::lightPathsFn());
+    EXPECT_EQ(st.candidates, 1u);
+    EXPECT_EQ(st.splitPatches, 1u);
+    EXPECT_EQ(powerInBlock(s), 0.0);
+}
+
+TEST(SplitWhereDark, NeedsTheRayTracerAndLeavesUncrossedScenesAlone) {
+    Params p;
+    p.set("split_intersections", std::string("unreachable"));
+    EXPECT_THROW(scene::loadScene("cornell", p), InputError);
+    Params q;
+    q.set("split_intersections", std::string("unreachable"));
+    const scene::Scene withCut = transport::loadScene("cornell", q);
+    const scene::Scene plain = scene::loadScene("cornell");
+    EXPECT_EQ(withCut.patches.size(), plain.patches.size());
+    Params bad;
+    bad.set("split_intersections", std::string("some"));
+    EXPECT_THROW(transport::loadScene("cornell", bad), InputError);
 }
 
 TEST(SplitIntersections, NoPieceOfGrazIsThinnerThanTheToleranceOrOutshinesItsLamps) {
