@@ -28,8 +28,14 @@ int runInfo(const std::string& spec, Params& params) {
     fmt::print("input faces    {}\n", st.inputFaces);
     fmt::print("triangulated   {} faces\n", st.triangulatedFaces);
     fmt::print("dropped        {} degenerate faces\n", st.droppedDegenerate);
-    fmt::print("split          {} patches passing through others, into {} triangles\n",
-               st.splitPatches, st.splitPieces);
+    if (st.splitCandidates > 0)
+        fmt::print(
+            "split          {} of the {} patches passing through or touching others, where "
+            "light would leak, into {} triangles\n",
+            st.splitPatches, st.splitCandidates, st.splitPieces);
+    else
+        fmt::print("split          {} patches passing through others, into {} triangles\n",
+                   st.splitPatches, st.splitPieces);
     if (st.defaultMaterialFaces)
         fmt::print("default mat.   {} faces had no material\n", st.defaultMaterialFaces);
     if (st.ignoredStatements) fmt::print("ignored        {} statements\n", st.ignoredStatements);

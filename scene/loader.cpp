@@ -280,6 +280,7 @@ Scene loadScene(const std::string& spec, const Params& params, const Reachabilit
                                   : splitWhereDark(scene, splitRays, makeSides, reach);
         scene.stats.splitPatches = st.splitPatches;
         scene.stats.splitPieces = st.pieces;
+        scene.stats.splitCandidates = st.candidates;
         if (split == SplitMode::All && st.splitPatches > 0)
             spdlog::info(
                 "split {} patches that pass through others into {} triangles ({} crossings, "

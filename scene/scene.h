@@ -123,6 +123,9 @@ struct LoadStats {
     uint64_t ignoredStatements = 0;  ///< e.g. MGF rs/ts
     uint64_t splitPatches = 0;       ///< patches cut where others pass through them
     uint64_t splitPieces = 0;        ///< the triangles that replaced them
+    /// split_intersections = "unreachable": the patches that cross or touch
+    /// others, of which splitPatches kept their cut (loader.h splitWhereDark)
+    uint64_t splitCandidates = 0;
     double loadSeconds = 0.0;
     std::vector<std::string> warnings;
 };
