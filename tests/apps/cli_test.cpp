@@ -473,3 +473,41 @@ TEST(Cli, ReferencePrintsItsReflectedPower) {
     EXPECT_NEAR(v, 6.0, 4.0 * e);
     std::filesystem::remove_all(dir);
 }
+
+TEST(Cli, SplitWhereLightWouldLeakCutsTheFloorUnderABlock) {
+    // A room lit from its ceiling and, standing on its floor, a block with
+    // no bottom whose faces look inwards (as graz.mgf's paper blocks stand
+    // in their binders). Whole, the floor is lit and so reaches the block's
+    // inside; split_intersections = "unreachable" cuts the floor around the
+    // block's footprint, and the footprint and the block's five faces are
+    // then out of light's reach.
+    auto dir = hrad::test::tempDir("cli_split_dark");
+    hrad::test::writeFile(dir / "block.mtl",
+                          "newmtl wall\nKd 0.5 0.5 0.5\nnewmtl lamp\nKd 0.5 0.5 0.5\nKe 1 1 1\n"
+                          "newmtl block\nKd 0.8 0.8 0.8\n");
+    const std::string obj =
+        "mtllib block.mtl\nv 0 0 0\nv 0 1 0\nv 0 1 1\nv 0 0 1\nv 1 0 0\nv 1 0 1\nv 1 1 1\nv 1 1 "
+        "0\nv 0 0 0\nv 0 0 1\nv 1 0 1\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 1 1 1\nv 0 1 1\nv 0 0 0\nv 1 "
+        "0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 0 1 1\nv 1 1 1\nv 1 0 1\nv 0.3 0.3 0\nv 0.3 0.6 0\nv "
+        "0.3 0.6 0.2\nv 0.3 0.3 0.2\nv 0.6 0.3 0\nv 0.6 0.3 0.2\nv 0.6 0.6 0.2\nv 0.6 0.6 0\nv 0.3 "
+        "0.3 0\nv 0.3 0.3 0.2\nv 0.6 0.3 0.2\nv 0.6 0.3 0\nv 0.3 0.6 0\nv 0.6 0.6 0\nv 0.6 0.6 "
+        "0.2\nv 0.3 0.6 0.2\nv 0.3 0.3 0.2\nv 0.3 0.6 0.2\nv 0.6 0.6 0.2\nv 0.6 0.3 0.2\nusemtl "
+        "wall\nf 1 2 3 4\nf 5 6 7 8\nf 9 10 11 12\nf 13 14 15 16\nf 17 18 19 20\nusemtl lamp\nf 21 "
+        "22 23 24\nusemtl block\nf 25 26 27 28\nf 29 30 31 32\nf 33 34 35 36\nf 37 38 39 40\nf 41 "
+        "42 43 44\n";
+    const std::string scene = hrad::test::writeFile(dir / "block.obj", obj).string();
+    auto unreachable = [&](const std::string& extra, const std::string& out) {
+        Result r = run("solve " + scene + " --eps 1e-2 --no-images --no-ply --no-solution -o " +
+                       (dir / out).string() + extra);
+        EXPECT_EQ(r.code, 0) << r.output;
+        nlohmann::json s;
+        std::ifstream(dir / out / "summary.json") >> s;
+        return s["counts"]["unreachable_patches"].get<int>();
+    };
+    EXPECT_EQ(unreachable("", "whole"), 0);
+    EXPECT_GE(unreachable(" --set split_intersections=unreachable", "cut"), 6);
+    Result info = run("info " + scene + " --set split_intersections=unreachable");
+    EXPECT_EQ(info.code, 0) << info.output;
+    EXPECT_NE(info.output.find("split          1 of the 1 patches"), std::string::npos)
+        << info.output;
+}
