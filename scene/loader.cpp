@@ -2,11 +2,9 @@
 #include "scene/loader.h"
 
 #include <algorithm>
-#include <array>
 #include <cctype>
 #include <filesystem>
 #include <stdexcept>
-#include <cstdlib>
 #include <variant>
 
 #include "core/error.h"
@@ -143,13 +141,14 @@ SplitMode readSplitMode(const Params& params) {
 // split_intersections = "unreachable" (loader.h says which cuts are kept).
 SplitStats splitWhereDark(Scene& scene, int rays, const std::function<void(Scene&)>& makeSides,
                           const ReachabilityFn& reach) {
-    Scene cut = scene;
+    // One copy: cut, then given its back sides (appended after the fronts,
+    // so the first nCut patches stay the cut scene's pieces).
+    Scene probe = scene;
     std::vector<uint32_t> origin;
-    SplitStats st = splitIntersections(cut, &origin, /*touching=*/true);
+    SplitStats st = splitIntersections(probe, &origin, /*touching=*/true);
     st.candidates = st.splitPatches;
     if (st.splitPatches == 0) return st;
-    const size_t nCut = cut.patches.size();
-    Scene probe = cut;
+    const size_t nCut = probe.patches.size();
     makeSides(probe);
     const LightPaths paths = reach(probe, rays);
     if (paths.reachable.size() != probe.patches.size())
@@ -202,7 +201,8 @@ SplitStats splitWhereDark(Scene& scene, int rays, const std::function<void(Scene
         if (first < k && keep[i]) {
             ++kept;
             for (size_t j = first; j < k; ++j) {
-                out.push_back(cut.patches[j]);
+                out.push_back(probe.patches[j]);
+                out.back().twin = UINT32_MAX;  // the loader makes the sides again
                 ++pieces;
             }
         } else {

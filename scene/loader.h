@@ -98,21 +98,21 @@ struct LightPaths {
 using ReachabilityFn = std::function<LightPaths(const Scene&, int rays)>;
 
 /// split_intersections = "unreachable" (before back sides are made): every
-/// crossing or touched patch is cut (splitIntersections with touching), a copy of the cut scene gets
-/// its back sides (`makeSides`) and `reach` with `rays` rays per patch, and
-/// a patch keeps its cut only where, kept whole, it would bring light to a
-/// patch light cannot reach: a side of it has a reachable piece, and one of
-/// its unreachable pieces is seen by a patch that stays dark (its own side
-/// reaches nowhere, or its patch keeps its cut; to the fixed point, since
-/// one kept cut can call for another). Whole, such a patch is lit and shines
-/// into the closed space its piece lies in (graz.mgf: a binder's cover
-/// through a paper block lights the inside of the block; the binder's floor,
-/// on which the inward-facing faces of a paper block stand, lights them).
-/// Every other
-/// crossing stays whole: a chair leg through a lit floor hides a piece of the
-/// floor that only the backs of the leg's one-sided walls see, and the stubs
-/// of legs under a floor see only one another. Returns the kept cuts
-/// (splitPatches, pieces) and the crossing patches (candidates).
+/// crossing or touched patch is cut (splitIntersections with touching), a
+/// copy of the cut scene gets its back sides (`makeSides`) and `reach` with
+/// `rays` rays per patch, and a patch keeps its cut only where, kept whole,
+/// it would bring light to a patch light cannot reach: a side of it has a
+/// reachable piece, and one of its unreachable pieces is seen by a patch
+/// that stays dark (its own side reaches nowhere, or its patch keeps its
+/// cut; to the fixed point, since one kept cut can call for another).
+/// Whole, such a patch is lit and shines into the closed space its piece
+/// lies in (graz.mgf: a binder's cover through a paper block lights the
+/// inside of the block; the binder's floor, on which the inward-facing faces
+/// of a paper block stand, lights them). Every other crossing stays whole: a
+/// chair leg through a lit floor hides a piece of the floor that only the
+/// backs of the leg's one-sided walls see, and the stubs of legs under a
+/// floor see only one another. Returns the kept cuts (splitPatches, pieces)
+/// and the crossing or touched patches (candidates).
 SplitStats splitWhereDark(Scene& scene, int rays, const std::function<void(Scene&)>& makeSides,
                           const ReachabilityFn& reach);
 

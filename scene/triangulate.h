@@ -54,7 +54,7 @@ bool triangulatePolygon(const std::vector<Vec3>& vertices,
 struct SplitStats {
     uint64_t crossings = 0;     ///< triangle pairs that cross (one segment each)
     uint64_t splitPatches = 0;  ///< patches replaced by their pieces
-    uint64_t candidates = 0;    ///< splitWhereDark: the patches that cross (kept cut or not)
+    uint64_t candidates = 0;    ///< splitWhereDark: patches that cross or touch (cut kept or not)
     uint64_t pieces = 0;        ///< triangles that replaced them
     uint64_t thinPieces = 0;    ///< pieces thinner than the tolerance, left out
     double thinArea = 0.0;      ///< their area

@@ -13,7 +13,7 @@
 namespace hrad::transport {
 
 Reachability reachablePatches(const scene::Scene& scene, const Visibility& vis, int rays,
-                              uint64_t seed, int retryRays, int firstStage) {
+                              uint64_t seed, int retryRays, int firstStage, bool darkEdges) {
     Timer timer;
     const uint32_t n = uint32_t(scene.patches.size());
     const int m = std::max(1, rays);
@@ -121,9 +121,10 @@ Reachability reachablePatches(const scene::Scene& scene, const Visibility& vis, 
         out.rays += uint64_t(retry.size()) * uint64_t(retryRays);
         search();
     }
-    for (uint32_t p = 0; p < n; ++p)
-        if (!out.reachable[p])
-            for (uint32_t s : sources[p]) out.darkEdges.emplace_back(s, p);
+    if (darkEdges)
+        for (uint32_t p = 0; p < n; ++p)
+            if (!out.reachable[p])
+                for (uint32_t s : sources[p]) out.darkEdges.emplace_back(s, p);
     out.seconds = timer.seconds();
     return out;
 }
@@ -131,7 +132,7 @@ Reachability reachablePatches(const scene::Scene& scene, const Visibility& vis, 
 scene::ReachabilityFn lightPathsFn(uint64_t seed) {
     return [seed](const scene::Scene& s, int rays) {
         Visibility vis(s);
-        Reachability r = reachablePatches(s, vis, rays, seed);
+        Reachability r = reachablePatches(s, vis, rays, seed, 0, 4, /*darkEdges=*/true);
         return scene::LightPaths{std::move(r.reachable), std::move(r.darkEdges)};
     };
 }

@@ -38,10 +38,9 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <utility>
 #include <vector>
-
-#include <string>
 
 #include "core/params.h"
 #include "scene/loader.h"
@@ -54,9 +53,9 @@ struct Reachability {
     /// reachable[p] = 1 when light can reach patch p (emitters included).
     std::vector<uint8_t> reachable;
     uint32_t unreachable = 0;  ///< patches with reachable[p] == 0
-    /// (s, r) for every unreachable patch r and each patch s whose front r's
-    /// rays hit first (s is then unreachable too): where light would go if s
-    /// had any.
+    /// With `darkEdges` asked for: (s, r) for every unreachable patch r and
+    /// each patch s whose front r's rays hit first (s is then unreachable
+    /// too): where light would go if s had any.
     std::vector<std::pair<uint32_t, uint32_t>> darkEdges;
     uint64_t rays = 0;         ///< rays cast
     double seconds = 0.0;
@@ -68,7 +67,8 @@ struct Reachability {
 /// the rays per patch of the first stage (>= rays: one stage, every patch
 /// casts all its rays; the reachable set is the same either way).
 Reachability reachablePatches(const scene::Scene& scene, const Visibility& vis, int rays,
-                              uint64_t seed = 1, int retryRays = 0, int firstStage = 4);
+                              uint64_t seed = 1, int retryRays = 0, int firstStage = 4,
+                              bool darkEdges = false);
 
 /// The reachability pass above as the loader's scene::ReachabilityFn: its own
 /// Visibility of the scene it is given, `seed`, staged rays.

@@ -19,19 +19,25 @@
 namespace hrad {
 namespace {
 
+/// Adds the room [0,1]^3 (faces inwards, reflectance 0.5, the ceiling
+/// emitting 1) that the scenes below stand in.
+void addLitRoom(scene::Scene& s) {
+    const uint32_t wall = s.addMaterial({"wall", RGB(0.5), RGB(0.0)});
+    const uint32_t lamp = s.addMaterial({"lamp", RGB(0.5), RGB(1.0)});
+    test::addBox(s, Vec3(0), Vec3(1), {wall, wall, wall, wall, wall, lamp}, true);
+}
+
 /// Room [0,1]^3 (inward, 0.5, ceiling emitting), a closed box [0.3,0.6]^3
 /// whose faces are two-sided (0.9), and a plate at z = 0.45 over x in
 /// [0.5, 0.8], y in [0.35, 0.55], facing up: x < 0.6 is inside the box.
 scene::Scene sunkPlate() {
     scene::Scene s;
     s.name = "sunk-plate";
-    const uint32_t wall = s.addMaterial({"wall", RGB(0.5), RGB(0.0)});
-    const uint32_t lamp = s.addMaterial({"lamp", RGB(0.5), RGB(1.0)});
+    addLitRoom(s);
     scene::Material boxMat{"box", RGB(0.9), RGB(0.0)};
     boxMat.twoSided = true;
     const uint32_t box = s.addMaterial(boxMat);
     const uint32_t plate = s.addMaterial({"plate", RGB(0.8), RGB(0.0)});
-    test::addBox(s, Vec3(0), Vec3(1), {wall, wall, wall, wall, wall, lamp}, true);
     test::addBox(s, Vec3(0.3), Vec3(0.6), {box, box, box, box, box, box}, false);
     test::addQuadFacing(s, Vec3(0.5, 0.35, 0.45), Vec3(0.8, 0.35, 0.45), Vec3(0.8, 0.55, 0.45),
                         Vec3(0.5, 0.55, 0.45), plate, Vec3(0.65, 0.45, 1.0));
@@ -154,10 +160,8 @@ TEST(SplitWhereDark, KeepsTheCutOfTheSunkPlateAndNotOfTheWall) {
 /// under the floor see one another.
 scene::Scene legsThroughTheFloor() {
     scene::Scene s;
-    const uint32_t wall = s.addMaterial({"wall", RGB(0.5), RGB(0.0)});
-    const uint32_t lamp = s.addMaterial({"lamp", RGB(0.5), RGB(1.0)});
+    addLitRoom(s);
     const uint32_t leg = s.addMaterial({"leg", RGB(0.7), RGB(0.0)});
-    test::addBox(s, Vec3(0), Vec3(1), {wall, wall, wall, wall, wall, lamp}, true);
     test::addBox(s, Vec3(0.3, 0.4, -0.2), Vec3(0.4, 0.5, 0.3), {leg, leg, leg, leg, leg, leg},
                  false);
     test::addBox(s, Vec3(0.5, 0.4, -0.2), Vec3(0.6, 0.5, 0.3), {leg, leg, leg, leg, leg, leg},
@@ -175,7 +179,7 @@ TEST(SplitWhereDark, LeavesLegsThroughALitFloorWhole) {
     scene::splitIntersections(all);
     {
         transport::Visibility vis(all);
-        transport::Reachability r = transport::reachablePatches(all, vis, 256);
+        transport::Reachability r = transport::reachablePatches(all, vis, 256, 1, 0, 4, true);
         EXPECT_GT(r.unreachable, 0u);
         EXPECT_FALSE(r.darkEdges.empty());
     }
@@ -194,10 +198,8 @@ TEST(SplitWhereDark, LeavesLegsThroughALitFloorWhole) {
 /// the floor inside their footprint, where no light arrives.
 scene::Scene blockOnTheFloor() {
     scene::Scene s;
-    const uint32_t wall = s.addMaterial({"wall", RGB(0.5), RGB(0.0)});
-    const uint32_t lamp = s.addMaterial({"lamp", RGB(0.5), RGB(1.0)});
+    addLitRoom(s);
     const uint32_t block = s.addMaterial({"block", RGB(0.8), RGB(0.0)});
-    test::addBox(s, Vec3(0), Vec3(1), {wall, wall, wall, wall, wall, lamp}, true);
     const size_t before = s.patches.size();
     test::addBox(s, Vec3(0.3, 0.3, 0.0), Vec3(0.6, 0.6, 0.2),
                  {block, block, block, block, block, block}, true);
