@@ -56,6 +56,7 @@ class HrEntry final : public Solver {
         auto orNull = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
         sm["error_estimate_leaves"] = orNull(res->errorEstimateLeaves);
         sm["error_estimate_points"] = orNull(res->errorEstimatePoints);
+        sm["error_estimate_uncovered_share"] = orNull(res->errorEstimateUncovered);
         sm["stand_in_power_share"] = res->standInPowerShare;
         {
             const hr::SolverNoise& n = res->noise;

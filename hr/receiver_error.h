@@ -191,6 +191,12 @@ double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
                         const std::vector<KernelSamples>* stored = nullptr);
 
 
+/// What leafAverageError leaves out, as a share: the reflected power
+/// (luminance, Hierarchy::linkLight) delivered by links with a cluster at
+/// either end, over that of every link. 0 without clusters.
+double uncoveredLightShare(const Hierarchy& h, const std::vector<uint32_t>& recv);
+
+
 /// The leaf budget (hr.leaf_budget): the receivers whose surface links are
 /// pushed one level down so that the leaves' error estimated by
 /// leafAverageError (the sum over leaves of A_L |luminance(e_L)|, power) comes

@@ -560,7 +560,7 @@ double HrSolver::estimateError(const Hierarchy& h, const std::vector<uint32_t>& 
     return reflected > 0 ? sum / reflected : 0.0;
 }
 
-uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double eps, HrResult& res,
+uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
                           IterationRecord& rec) {
     // memory.budget_mb (below): what the process holds besides the links and
     // elements (the scene, Embree, the clusters, the libraries, and whatever
@@ -584,9 +584,14 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, double ep
     std::vector<uint8_t> decision;
     std::vector<uint8_t> mark;
     const bool bounds = oracle.needsBounds();
-    // The eps of the checks added to the oracle's decisions (the stage's eps
-    // when the schedule sets one, else the oracle's own).
-    const double checkEps = std::isnan(eps) ? oracle.powerEps() : eps;
+    // The eps of the checks added to the oracle's decisions, a fraction of
+    // the emitted power: the (stage's) oracle's eps mapped to one
+    // (Oracle::receiverCheckEps: bfa, error, kv their eps; ff F_eps / 100).
+    // ff's F_eps itself is a form factor: taken as a power fraction it let
+    // every stand-in and partially visible cluster link misplace a tenth of
+    // the emitted power at F_eps 0.1 (papers/README.md, "ff's clustered
+    // solves were dark").
+    const double checkEps = oracle.receiverCheckEps();
     // The receiver check for oracles that do not judge the aggregate
     // themselves (guardEps > 0).
     double guardEps = 0.0;
@@ -1218,7 +1223,7 @@ HrResult HrSolver::solve(bool progress) {
             if (rec.judged) {
                 epsPower_ = powerNow;
                 res.epsPower = epsPower_;
-                rec.refinedLinks = refine(h, *oracle, stages[stage], res, rec);
+                rec.refinedLinks = refine(h, *oracle, res, rec);
                 if (lazy) judgedB = h.allB();
             }
             rec.refineSeconds = tr.seconds();
@@ -1366,6 +1371,8 @@ HrResult HrSolver::solve(bool progress) {
             res.errorEstimateLeaves = leafAverageError(
                 h, recv, h.links(), engine_, &res.errorEstimatePoints,
                 h.hasKernelSamples() && h.basisDegree() == 0 ? &h.kernelSamples() : nullptr);
+        if (s_.leafEstimates && std::isfinite(res.errorEstimateLeaves))
+            res.errorEstimateUncovered = uncoveredLightShare(h, recv);
     }
     res.errorEstimateSeconds = te.seconds();
     {

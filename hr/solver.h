@@ -190,8 +190,8 @@
 //                                       the oracle's eps share of the emitted power, and so
 //                                       must the sum over the links into one cluster (links
 //                                       with at least an even share refined), else the
-//                                       receiving cluster is opened (Oracle::powerEps; ff and
-//                                       uniform have none). graz.mgf one-sided, bfa 1e-3: the
+//                                       receiving cluster is opened (Oracle::receiverCheckEps:
+//                                       ff's F_eps / 100; uniform has none). graz.mgf one-sided, bfa 1e-3: the
 //                                       reflected power on patches Monte Carlo has dark falls
 //                                       from 63 % to 42 % of the total for 0.06 % more links
 //   cluster.builder, cluster.leaf_size, cluster.max_depth, cluster.faces,
@@ -557,6 +557,11 @@ struct HrResult {
     /// NaN for a polynomial basis.
     double errorEstimateLeaves = std::numeric_limits<double>::quiet_NaN();
     double errorEstimatePoints = std::numeric_limits<double>::quiet_NaN();
+    /// The share of the reflected power (luminance) that links the two leaf
+    /// estimates leave out deliver: links with a cluster at either end
+    /// (hr/receiver_error.h uncoveredLightShare). Where it is large the
+    /// estimates see only part of the transport. NaN when they are not computed.
+    double errorEstimateUncovered = std::numeric_limits<double>::quiet_NaN();
     double errorEstimateSeconds = 0.0;
     /// The solve's own Monte Carlo noise, estimated from its links
     /// (hr/noise.h), and the time it took.
@@ -622,9 +627,11 @@ class HrSolver {
     KernelSamples linkSamples(const Hierarchy& h, uint32_t r, uint32_t s) const;
     void initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vector<Link>& links,
                       HrResult& res, bool progress);
-    /// One refinement pass; `eps` is the stage's oracle eps (NaN: none),
-    /// against which sampled near cluster links' errors are checked.
-    uint64_t refine(Hierarchy& h, const oracles::Oracle& oracle, double eps, HrResult& res,
+    /// One refinement pass with the stage's oracle; the checks added to its
+    /// decisions (sampled near cluster links' errors, light a cluster link
+    /// may misplace, the receiver check) take its eps as a power fraction
+    /// (Oracle::receiverCheckEps).
+    uint64_t refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
                     IterationRecord& rec);
     /// What a judging pass over `links` links (`samples` of them with kernel
     /// samples) and `elements` elements allocates at its peak, besides the

@@ -114,14 +114,16 @@ class Oracle {
     /// receiver judged.
     virtual bool needsReceiverError() const { return false; }
     virtual std::string name() const = 0;
-    /// The fraction of the emitted power this oracle's eps stands for, for
-    /// the checks the solver adds to every oracle's decision (power a near
-    /// sampled link or a partially visible cluster link may misplace); NaN
-    /// for an oracle without a power threshold (ff, uniform).
+    /// The fraction of the emitted power this oracle's eps is, where eps is
+    /// a power threshold; NaN for an oracle whose eps is something else (ff:
+    /// a form factor) or that has none (uniform).
     virtual double powerEps() const { return std::numeric_limits<double>::quiet_NaN(); }
-    /// The fraction of the emitted power the solver's receiver check uses
-    /// under hr.receiver_eps = auto (hr/solver.h): powerEps() where eps is a
-    /// power fraction; an oracle with another eps maps it (ff); NaN: no check.
+    /// The fraction of the emitted power the checks the solver adds to every
+    /// oracle's decision use: the receiver check under hr.receiver_eps = auto,
+    /// the power a sampled near link or a partially visible cluster link may
+    /// misplace, the leaf budget (hr/solver.h). powerEps() where eps is a
+    /// power fraction; an oracle with another eps maps it (ff: F_eps / 100);
+    /// NaN: no checks.
     virtual double receiverCheckEps() const { return powerEps(); }
     /// One line with every setting, written next to each result.
     virtual std::string describe() const = 0;

@@ -107,6 +107,68 @@ TEST_P(ClusterModels, PushPullConservesPowerThroughClusters) {
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(rootAvg[c], got[c], 1e-9 * got[c]);
 }
 
+// The share of the light the leaf estimates do not see
+// (uncoveredLightShare): what the links into clusters deliver, over what
+// every link delivers, each computed here from the transfer of the test
+// above (surface receiver: A rho K B; cluster: its surfaces' A rho K w B).
+TEST_P(ClusterModels, UncoveredShareIsTheLightOfTheClusterLinks) {
+    scene::Scene s = scene::loadScene("office:1");
+    cluster::ClusterTree tree(s, cluster::ClusterSettings{});
+    const auto model = cluster::parseClusterModel(GetParam());
+    Hierarchy h(s, &tree, model);
+    uint32_t emitter = 0;
+    while (!s.patches[emitter].isEmitter()) ++emitter;
+    std::vector<uint32_t> recv;
+    std::vector<Link> links;
+    auto add = [&](uint32_t r, double K) {
+        Link l;
+        l.sender = emitter;
+        l.K = float(K);
+        l.setVis(1.0);
+        recv.push_back(r);
+        links.push_back(l);
+    };
+    // Surface links only: nothing is left out.
+    for (uint32_t p = 0; p < h.numPatches(); p += 7)
+        if (!s.patches[p].isEmitter()) add(p, 0.02);
+    const std::vector<uint32_t> surfaceRecv = recv;
+    const std::vector<Link> surfaceLinks = links;
+    h.setLinks(recv, std::vector<Link>(links));
+    h.gather();
+    h.pushPull();
+    EXPECT_EQ(uncoveredLightShare(h, h.linkReceivers()), 0.0);
+    // Then clusters too.
+    for (uint32_t c = h.rootCluster() + 1; c < h.rootCluster() + h.numClusters(); c += 5)
+        add(c, 0.01);
+    h.setLinks(recv, std::vector<Link>(links));
+    h.gather();
+    h.pushPull();
+    const RGB Be = h.B(emitter);
+    double surface = 0.0, clustered = 0.0;
+    for (size_t i = 0; i < recv.size(); ++i) {
+        const double K = links[i].K;
+        if (!h.isCluster(recv[i])) {
+            const auto& p = s.patches[recv[i]];
+            surface += p.area * K * luminance(p.rho * Be);
+            continue;
+        }
+        const auto& node = tree.node(h.clusterIndex(recv[i]));
+        const Vec3 u = glm::normalize(h.center(emitter) - node.centroid);
+        for (uint32_t k = node.patchBegin; k < node.patchEnd; ++k) {
+            const auto& p = s.patches[tree.patchAt(k)];
+            const double w = GetParam() == "isotropic"
+                                 ? 1.0
+                                 : std::max(0.0, double(glm::dot(glm::vec3(p.normal), glm::vec3(u))));
+            clustered += p.area * K * w * luminance(p.rho * Be);
+        }
+    }
+    ASSERT_GT(clustered, 0.0);
+    ASSERT_GT(surface, 0.0);
+    const double share = uncoveredLightShare(h, h.linkReceivers());
+    std::cout << GetParam() << ": share of the light through cluster links " << share << "\n";
+    EXPECT_NEAR(share, clustered / (clustered + surface), 1e-5);
+}
+
 INSTANTIATE_TEST_SUITE_P(Cluster, ClusterModels, ::testing::Values("isotropic", "oriented"));
 
 // The oriented hand-over with the openness table (cluster.handover = visible,
@@ -498,6 +560,38 @@ TEST(ClusterTransfer, ClassroomKeepsMoreThan98PercentOfTheUnclusteredLight) {
               << 100 * (reflected / none - 1) << " %)\n";
     EXPECT_GT(reflected, 0.98 * none);
     EXPECT_LT(reflected, 1.01 * none);
+}
+
+// ff with clusters. The checks the solver adds to the oracle's decisions
+// (the light a stand-in or a partially visible cluster link may put on the
+// wrong surfaces, a sampled link's error) hold a power to a fraction of the
+// emitted power; they took ff's F_eps, a form factor, as that fraction, so
+// at F_eps 0.1 each such link could misplace a tenth of the emitted power.
+// Measured at F_eps 0.1, reflected power (green): unclustered 1114.8;
+// oriented 1026.9 (-7.9 %, 17 % of the light through stand-ins) with
+// F_eps, 1080.2 (-3.1 %, 0.5 %) with F_eps / 100, ff's receiver check's
+// mapping (oracles/oracle.h receiverCheckEps; papers/README.md, "ff's
+// clustered solves were dark"). The remaining loss is ff's own: it accepts
+// cluster links by form factor, whatever the sender's radiosity.
+TEST(ClusterTransfer, FfHoldsWhatClusterLinksMisplaceToItsPowerEps) {
+    auto dir = test::sharedScenesDir();
+    if (!dir) GTEST_SKIP() << "../shared/scenes absent";
+    scene::Scene s = scene::loadScene((*dir / "renderpark-mgf/salon/classroom.mgf").string());
+    transport::Visibility vis(s);
+    Params p;
+    p.set("cluster.model", "oriented");
+    p.set("hr.oracle", "ff");
+    p.set("oracle.eps", 0.1);
+    HrResult r = HrSolver(s, vis, HrSettings::fromParams(p)).solve();
+    EXPECT_TRUE(r.converged);
+    const double reflected = r.hierarchy->radiosityPower().g - s.emittedPower().g;
+    const double none = 1114.80;  // cluster.model = none, ff 0.1, reflected power, green
+    std::cout << "ff 0.1, reflected power (green): oriented " << reflected << ", none " << none
+              << " (" << 100 * (reflected / none - 1) << " %), stand-in share "
+              << r.standInPowerShare << "\n";
+    EXPECT_GT(reflected, 0.95 * none);
+    EXPECT_LT(reflected, 1.01 * none);
+    EXPECT_LT(r.standInPowerShare, 0.02);
 }
 
 // No leaks: light does not reach surfaces that no path from an emitter
