@@ -442,7 +442,8 @@ TEST(Store, ErrorColumnsAndOlderStores) {
                        "SELECT printf('%d', l1_reflected_lum > 0 AND l2_nonemitter_lum > 0 AND "
                        "mean_ratio_nonemitter > 0 AND error_estimate >= 0 AND residual >= 0 AND "
                        "noise_estimate >= 0 AND noise_l2_nonemitter >= 0 AND "
-                       "error_estimate_leaves >= 0 AND error_estimate_points >= 0) "
+                       "error_estimate_leaves >= 0 AND error_estimate_points >= 0 AND "
+                       "json_extract(summary, '$.error_estimate_uncovered_share') = 0) "
                        "FROM runs WHERE scene LIKE 'plates%'");
     EXPECT_EQ(rows, std::set<std::string>{"1"});
     // An older store: the same file without the added columns.
