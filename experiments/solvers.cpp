@@ -62,6 +62,13 @@ class HrEntry final : public Solver {
             const hr::SolverNoise& n = res->noise;
             auto rgb = [](const RGB& v) { return json::array({v.r, v.g, v.b}); };
             sm["noise_estimate"] = n.relative;
+            if (settings_.noiseTarget > 0)
+                sm["noise_control"] = json{{"target", settings_.noiseTarget},
+                                           {"met", n.relative <= settings_.noiseTarget},
+                                           {"rounds", res->noiseRounds},
+                                           {"ray_factor", res->noiseRayFactor},
+                                           {"first_noise", res->noiseFirst},
+                                           {"seconds", res->noiseRoundsSeconds}};
             sm["noise"] = json{{"reflected_power_sd", rgb(n.powerSd)},
                                {"direct_sd", rgb(n.direct)},
                                {"amplification", rgb(n.amplification)},

@@ -174,6 +174,9 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.reachRays = int(p.getInt("hr.reach_rays", s.reachRays, 0, 1 << 20));
     s.reachRetryRays = int(p.getInt("hr.reach_retry_rays", s.reachRetryRays, 0, 1 << 20));
     s.seed = uint64_t(p.getInt("hr.seed", int64_t(s.seed), 0, int64_t(1) << 62));
+    s.noiseTarget = p.getDouble("hr.noise_target", s.noiseTarget, 0.0, 1.0);
+    s.noiseRounds = int(p.getInt("hr.noise_rounds", s.noiseRounds, 0, 16));
+    s.noiseMaxFactor = p.getDouble("hr.noise_max_factor", s.noiseMaxFactor, 1.0, 1e6);
     s.gaussSeidel = p.getEnum("hr.iteration", s.gaussSeidel ? "gauss-seidel" : "jacobi",
                               {"jacobi", "gauss-seidel"}) == "gauss-seidel";
     s.gsBlocks = int(p.getInt("hr.gs_blocks", s.gsBlocks, 0, 1 << 30));
@@ -214,7 +217,10 @@ std::string HrSettings::describe() const {
                               scene::basisName(basisDegree),
                               basisPoints > 0 ? basisPoints : basisDegree + 2, basisNearLevels,
                               basisCheck)
-                : std::string());
+                : std::string()) +
+           (noiseTarget > 0 ? fmt::format(" noise_target={} noise_rounds={} noise_max_factor={}",
+                                          noiseTarget, noiseRounds, noiseMaxFactor)
+                            : std::string());
 }
 
 HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visibility,
@@ -1099,6 +1105,64 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
 }
 
 HrResult HrSolver::solve(bool progress) {
+    Timer all;
+    HrResult res = solveOnce(progress);
+    if (!(s_.noiseTarget > 0.0)) return res;
+    const double first = res.noise.relative;
+    // The noise is taken to fall as rays^-a: a = 1/2 (each link's variance
+    // as 1 / rays) until two solves measure it; a round multiplies the rays
+    // by at most kStep, so that a first estimate far off costs one round,
+    // not the whole budget.
+    constexpr double kStep = 8.0;
+    double factor = 1.0, a = 0.5, prevFactor = 0.0, prevNoise = 0.0;
+    int rounds = 0;
+    while (res.noise.relative > s_.noiseTarget && rounds < s_.noiseRounds) {
+        const double noise = res.noise.relative;
+        if (prevFactor > 0.0 && prevNoise > noise && noise > 0.0)
+            a = std::clamp(std::log(prevNoise / noise) / std::log(factor / prevFactor), 0.25, 2.0);
+        const double want = std::pow(noise / s_.noiseTarget, 1.0 / a) * 1.1;
+        const double next =
+            std::min(s_.noiseMaxFactor, std::ceil(factor * std::min(kStep, want)));
+        if (!(next > factor)) {
+            spdlog::warn("hr.noise_target {}: the rays may grow by hr.noise_max_factor = {} "
+                         "at most, and have",
+                         s_.noiseTarget, s_.noiseMaxFactor);
+            break;
+        }
+        if (s_.maxSeconds > 0 && all.seconds() >= s_.maxSeconds) break;
+        HrSettings t = s_;
+        t.noiseTarget = 0.0;
+        if (s_.maxSeconds > 0) t.maxSeconds = std::max(1e-3, s_.maxSeconds - all.seconds());
+        auto scaled = [&](int n) { return int(std::min(double(1 << 20), std::ceil(n * next))); };
+        t.ff.visRays = scaled(s_.ff.visRays);
+        t.clusterLink.visRays = scaled(s_.clusterLink.visRays);
+        t.clusterLink.nearRays = scaled(s_.clusterLink.nearRays);
+        t.clusterLink.standInRays = scaled(s_.clusterLink.standInRays);
+        spdlog::info(
+            "hr.noise_target {}: the solve's noise is {:.3g}; solving again with {}x the rays "
+            "(ff.vis_rays {}, cluster.vis_rays {})",
+            s_.noiseTarget, noise, next, t.ff.visRays, t.clusterLink.visRays);
+        res = HrResult{};  // one hierarchy in memory at a time
+        HrSolver again(*scene_, *vis_, std::move(t));
+        again.setIterationHook(hook_);
+        res = again.solveOnce(progress);
+        prevFactor = factor;
+        prevNoise = noise;
+        factor = next;
+        ++rounds;
+    }
+    if (res.noise.relative > s_.noiseTarget)
+        spdlog::warn("hr.noise_target {} not reached: the solve's noise is {:.3g} after {} "
+                     "re-solve(s) with {}x the rays",
+                     s_.noiseTarget, res.noise.relative, rounds, factor);
+    res.noiseRounds = rounds;
+    res.noiseRayFactor = factor;
+    res.noiseFirst = first;
+    res.noiseRoundsSeconds = all.seconds();
+    return res;
+}
+
+HrResult HrSolver::solveOnce(bool progress) {
     progress_ = progress;
     solveTimer_.reset();
     epsPower_ = emittedPower_;

@@ -142,6 +142,14 @@
 //                                       independent streams, so solves repeated with seeds
 //                                       1..n measure the solver's own Monte Carlo noise
 //                                       (tests/hr/stand_in_audit_test.cpp)
+//   hr.noise_target    double  0       the solve's own noise (noise_estimate: one standard
+//                                       deviation of the reflected power from its rays,
+//                                       relative; hr/noise.h) to reach: a solve above it is
+//                                       solved again with every ray count multiplied by up
+//                                       to (noise / target)^2, at most 8x per round
+//                                       (HrSolver::solve). 0: off
+//   hr.noise_rounds    int     3       the re-solves hr.noise_target may make
+//   hr.noise_max_factor double 64      how far it may multiply the ray counts, in all
 //   hr.eps_power       string  "emitted"  emitted | reflected: the power eps is a fraction
 //                                       of, for every oracle and every check the solver adds
 //                                       (LinkEstimate::emittedPower). emitted: the scene's
@@ -424,6 +432,11 @@ struct HrSettings {
     int reachRetryRays = 0;
     /// hr.seed: 0 keeps the fixed seeding of every ray the solve casts.
     uint64_t seed = 0;
+    /// hr.noise_target: the solve's own noise (SolverNoise::relative) it
+    /// must reach, re-solving with more rays (HrSolver::solve); 0: off.
+    double noiseTarget = 0.0;
+    int noiseRounds = 3;          ///< hr.noise_rounds: re-solves at most
+    double noiseMaxFactor = 64.0; ///< hr.noise_max_factor: rays' growth at most, in all
     bool openPartialReceivers = true;  ///< cluster.partial_receivers
     bool gaussSeidel = false;          ///< hr.iteration
     int gsBlocks = 0;                  ///< hr.gs_blocks (0: one block per root patch)
@@ -567,6 +580,13 @@ struct HrResult {
     /// (hr/noise.h), and the time it took.
     SolverNoise noise;
     double noiseSeconds = 0.0;
+    /// hr.noise_target: the re-solves made (0: the first solve met it, or
+    /// off), the factor every ray count was multiplied by in the one
+    /// returned, and the first solve's noise. The phase timings and counts
+    /// above are the returned solve's; noiseRoundsSeconds is all the solves'
+    /// wall time.
+    int noiseRounds = 0;
+    double noiseRayFactor = 1.0, noiseFirst = 0.0, noiseRoundsSeconds = 0.0;
     MemoryCounters memory;
 };
 
@@ -576,6 +596,15 @@ class HrSolver {
              HrSettings settings);
 
     /// Runs the whole solve. `progress` enables progress lines on stderr.
+    /// With hr.noise_target, a solve whose own noise estimate (hr/noise.h)
+    /// is above the target is solved again with every ray count (ff.vis_rays,
+    /// cluster.vis_rays, cluster.near_rays, cluster.stand_in_rays)
+    /// multiplied by (noise / target)^(1/a) x 1.1, at most 8x per round:
+    /// a = 1/2 at first (each link's variance falls as 1 / rays), then the
+    /// exponent the last two solves measured (the noise falls faster where
+    /// more rays also resolve which links are partially visible). At most
+    /// hr.noise_rounds times, and with the rays' growth at most
+    /// hr.noise_max_factor in all; the last solve is returned.
     HrResult solve(bool progress = false);
 
     /// Called after every iteration's push-pull with the hierarchy and that
@@ -615,6 +644,8 @@ class HrSolver {
     double estimateError(const Hierarchy& h, const std::vector<uint32_t>& recv) const;
 
   private:
+    /// One solve with the settings as they are (solve() without the noise target).
+    HrResult solveOnce(bool progress);
     struct Pending;
     /// Kernel samples of `links` (receivers `recv`): one entry per link that
     /// stores them (Hierarchy::storesKernelSamples), in link order.
