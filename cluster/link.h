@@ -123,6 +123,7 @@
 // again (judged, carried); the judged one's error bound (two standard
 // errors) travels with the link (Link::uncertainty), and refinement opens
 // the link when the power it may carry wrongly exceeds the oracle's eps
+// (as a power fraction, oracles::Oracle::receiverCheckEps: ff's F_eps / 100)
 // times the emitted power. Estimates the model cannot use are opened
 // instead (sampledLink: light arriving on receiver surfaces that face away
 // from the sender's centroid, a transfer above 1, an error bound above the

@@ -1117,6 +1117,9 @@ HrResult HrSolver::solve(bool progress) {
     double factor = 1.0, a = 0.5, prevFactor = 0.0, prevNoise = 0.0;
     int rounds = 0;
     while (res.noise.relative > s_.noiseTarget && rounds < s_.noiseRounds) {
+        // A solve stopped early is not solved again: more rays would only
+        // stop it earlier.
+        if (res.timeLimitHit || res.linkCapHit || res.memoryBudgetHit) break;
         const double noise = res.noise.relative;
         if (prevFactor > 0.0 && prevNoise > noise && noise > 0.0)
             a = std::clamp(std::log(prevNoise / noise) / std::log(factor / prevFactor), 0.25, 2.0);

@@ -604,7 +604,9 @@ class HrSolver {
     /// exponent the last two solves measured (the noise falls faster where
     /// more rays also resolve which links are partially visible). At most
     /// hr.noise_rounds times, and with the rays' growth at most
-    /// hr.noise_max_factor in all; the last solve is returned.
+    /// hr.noise_max_factor in all; a solve stopped early (hr.max_links,
+    /// memory.budget_mb, hr.max_seconds) is not solved again. The last
+    /// solve is returned.
     HrResult solve(bool progress = false);
 
     /// Called after every iteration's push-pull with the hierarchy and that

@@ -181,4 +181,13 @@ TEST(SolverNoise, TargetSolvesAgainWithMoreRaysUntilMet) {
     EXPECT_EQ(c.noiseRounds, 1);
     EXPECT_EQ(c.noiseRayFactor, 2.0);
     EXPECT_GT(c.noise.relative, noise / 100);
+
+    // A solve stopped early (here by hr.max_links) is not solved again.
+    Params stopped = capped;
+    stopped.set("hr.noise_max_factor", 64.0);
+    stopped.set("hr.max_links", int64_t(2000));
+    HrResult t = HrSolver(sc, vis, settings(stopped)).solve();
+    EXPECT_TRUE(t.linkCapHit);
+    EXPECT_GT(t.noise.relative, noise / 100);
+    EXPECT_EQ(t.noiseRounds, 0);
 }
