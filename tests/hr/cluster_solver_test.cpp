@@ -571,8 +571,8 @@ TEST(ClusterTransfer, ClassroomKeepsMoreThan98PercentOfTheUnclusteredLight) {
 // oriented 1026.9 (-7.9 %, 17 % of the light through stand-ins) with
 // F_eps, 1080.2 (-3.1 %, 0.5 %) with F_eps / 100, ff's receiver check's
 // mapping (oracles/oracle.h receiverCheckEps; papers/README.md, "ff's
-// clustered solves were dark"). The remaining loss is ff's own: it accepts
-// cluster links by form factor, whatever the sender's radiosity.
+// clustered solves were dark"). The remaining loss is not traced (without
+// ff's receiver check the clustered solve is brighter than the unclustered).
 TEST(ClusterTransfer, FfHoldsWhatClusterLinksMisplaceToItsPowerEps) {
     auto dir = test::sharedScenesDir();
     if (!dir) GTEST_SKIP() << "../shared/scenes absent";
