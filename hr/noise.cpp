@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "cluster/tree.h"
 
@@ -33,7 +34,7 @@ std::vector<float> linkRelativeErrors(const Hierarchy& h, const NoiseRays& rays)
     return rel;
 }
 
-SolverNoise estimateNoise(const Hierarchy& h, const NoiseRays& rays) {
+SolverNoise estimateNoise(const Hierarchy& h, const NoiseRays& rays, std::vector<RGB>* light) {
     SolverNoise out;
     const std::vector<float> rel = linkRelativeErrors(h, rays);
     std::vector<RGB> reflected, patchVar;
@@ -100,6 +101,7 @@ SolverNoise estimateNoise(const Hierarchy& h, const NoiseRays& rays) {
         den += P.area * y * y;
     }
     out.l2NonEmitter = den > 0.0 ? std::sqrt(num / den) : 0.0;
+    if (light) *light = std::move(reflected);
     return out;
 }
 

@@ -72,6 +72,9 @@ struct SolverNoise {
 /// Per link, the relative standard error of its transfer (header).
 std::vector<float> linkRelativeErrors(const Hierarchy& h, const NoiseRays& rays);
 
-SolverNoise estimateNoise(const Hierarchy& h, const NoiseRays& rays);
+/// `light`, when given, receives the light of each link
+/// (Hierarchy::linkLight, link order), which the estimate computes anyway.
+SolverNoise estimateNoise(const Hierarchy& h, const NoiseRays& rays,
+                          std::vector<RGB>* light = nullptr);
 
 }  // namespace hrad::hr

@@ -428,14 +428,13 @@ double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
     return reflected > 0 ? sum.avg / reflected : 0.0;
 }
 
-double uncoveredLightShare(const Hierarchy& h, const std::vector<uint32_t>& recv) {
-    std::vector<RGB> reflected;
-    h.linkLight(reflected);
+double uncoveredLightShare(const Hierarchy& h, const std::vector<uint32_t>& recv,
+                           const std::vector<RGB>& light) {
     const std::vector<Link>& links = h.links();
-    HRAD_CHECK(reflected.size() == links.size() && recv.size() == links.size());
+    HRAD_CHECK(light.size() == links.size() && recv.size() == links.size());
     double all = 0.0, out = 0.0;
     for (size_t i = 0; i < links.size(); ++i) {
-        const double p = std::fabs(luminance(reflected[i]));
+        const double p = std::fabs(luminance(light[i]));
         all += p;
         const uint32_t s = links[i].sender;
         if (h.isCluster(recv[i]) || (s != kNone && h.isCluster(s))) out += p;

@@ -192,9 +192,11 @@ double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
 
 
 /// What leafAverageError leaves out, as a share: the reflected power
-/// (luminance, Hierarchy::linkLight) delivered by links with a cluster at
-/// either end, over that of every link. 0 without clusters.
-double uncoveredLightShare(const Hierarchy& h, const std::vector<uint32_t>& recv);
+/// (luminance) delivered by links with a cluster at either end, over that of
+/// every link. `light` is Hierarchy::linkLight of h (link order; the noise
+/// estimate computes it: hr/noise.h). 0 without clusters.
+double uncoveredLightShare(const Hierarchy& h, const std::vector<uint32_t>& recv,
+                           const std::vector<RGB>& light);
 
 
 /// The leaf budget (hr.leaf_budget): the receivers whose surface links are

@@ -1431,23 +1431,24 @@ HrResult HrSolver::solveOnce(bool progress) {
             "coupling: {} link evaluations kept only the sender's mean (the point-to-point "
             "rule missed the exact form factors by more than hr.basis_check = {})",
             coupling_->fallbacks(), s_.basisCheck);
-    {
-        const std::vector<uint32_t> recv = h.linkReceivers();
-        res.errorEstimate = estimateError(h, recv);
-        if (s_.leafEstimates)
-            res.errorEstimateLeaves = leafAverageError(
-                h, recv, h.links(), engine_, &res.errorEstimatePoints,
-                h.hasKernelSamples() && h.basisDegree() == 0 ? &h.kernelSamples() : nullptr);
-        if (s_.leafEstimates && std::isfinite(res.errorEstimateLeaves))
-            res.errorEstimateUncovered = uncoveredLightShare(h, recv);
-    }
+    const std::vector<uint32_t> recv = h.linkReceivers();
+    res.errorEstimate = estimateError(h, recv);
+    if (s_.leafEstimates)
+        res.errorEstimateLeaves = leafAverageError(
+            h, recv, h.links(), engine_, &res.errorEstimatePoints,
+            h.hasKernelSamples() && h.basisDegree() == 0 ? &h.kernelSamples() : nullptr);
     res.errorEstimateSeconds = te.seconds();
     {
         Timer tn;
         NoiseRays rays;
         rays.surface = s_.ff.visRays;
         rays.cluster = linker_ ? linker_->settings().visRays : 0;
-        res.noise = estimateNoise(h, rays);
+        // The light of each link, which the noise estimate computes anyway,
+        // also gives the share of it that the leaf estimates do not see.
+        const bool uncovered = s_.leafEstimates && std::isfinite(res.errorEstimateLeaves);
+        std::vector<RGB> light;
+        res.noise = estimateNoise(h, rays, uncovered ? &light : nullptr);
+        if (uncovered) res.errorEstimateUncovered = uncoveredLightShare(h, recv, light);
         res.noiseSeconds = tn.seconds();
         spdlog::info(
             "the solve's own ray noise: reflected power +-{:.2f} % (1 sd, {} noisy links, "

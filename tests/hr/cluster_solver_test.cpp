@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <iostream>
+#include <optional>
 
 #include "cluster/openness.h"
 #include "core/rng.h"
@@ -136,7 +138,12 @@ TEST_P(ClusterModels, UncoveredShareIsTheLightOfTheClusterLinks) {
     h.setLinks(recv, std::vector<Link>(links));
     h.gather();
     h.pushPull();
-    EXPECT_EQ(uncoveredLightShare(h, h.linkReceivers()), 0.0);
+    auto share = [&h] {
+        std::vector<RGB> light;
+        h.linkLight(light);
+        return uncoveredLightShare(h, h.linkReceivers(), light);
+    };
+    EXPECT_EQ(share(), 0.0);
     // Then clusters too.
     for (uint32_t c = h.rootCluster() + 1; c < h.rootCluster() + h.numClusters(); c += 5)
         add(c, 0.01);
@@ -164,9 +171,9 @@ TEST_P(ClusterModels, UncoveredShareIsTheLightOfTheClusterLinks) {
     }
     ASSERT_GT(clustered, 0.0);
     ASSERT_GT(surface, 0.0);
-    const double share = uncoveredLightShare(h, h.linkReceivers());
-    std::cout << GetParam() << ": share of the light through cluster links " << share << "\n";
-    EXPECT_NEAR(share, clustered / (clustered + surface), 1e-5);
+    const double got = share();
+    std::cout << GetParam() << ": share of the light through cluster links " << got << "\n";
+    EXPECT_NEAR(got, clustered / (clustered + surface), 1e-5);
 }
 
 INSTANTIATE_TEST_SUITE_P(Cluster, ClusterModels, ::testing::Values("isotropic", "oriented"));
@@ -532,6 +539,29 @@ TEST(ClusterTransfer, DeferredLinksAreComputedOnceTheirSenderIsLit) {
     EXPECT_LT(deferred.history[0].rays, eager.history[0].rays);
 }
 
+namespace {
+// RenderPark's classroom solved with oriented clusters and the settings
+// `set` adds: the result and its reflected power (green). nullopt without
+// ../shared/scenes.
+struct ClassroomSolve {
+    HrResult result;
+    double reflected = 0.0;
+};
+std::optional<ClassroomSolve> solveClassroom(const std::function<void(Params&)>& set) {
+    auto dir = test::sharedScenesDir();
+    if (!dir) return std::nullopt;
+    scene::Scene s = scene::loadScene((*dir / "renderpark-mgf/salon/classroom.mgf").string());
+    transport::Visibility vis(s);
+    Params p;
+    p.set("cluster.model", "oriented");
+    set(p);
+    ClassroomSolve out{HrSolver(s, vis, HrSettings::fromParams(p)).solve()};
+    EXPECT_TRUE(out.result.converged);
+    out.reflected = out.result.hierarchy->radiosityPower().g - s.emittedPower().g;
+    return out;
+}
+}  // namespace
+
 // RenderPark's classroom lost 6.7 % of its reflected light (green) with
 // oriented clustering against the unclustered solve (bfa, eps 1e-3; the
 // unclustered reflected power, 1,147.75, is stored here: a 100 s solve,
@@ -545,16 +575,9 @@ TEST(ClusterTransfer, DeferredLinksAreComputedOnceTheirSenderIsLit) {
 // cluster/openness.h: 1.4 % left). The tolerance of 2 % fails either
 // earlier state (papers/README.md, "Clustering accuracy").
 TEST(ClusterTransfer, ClassroomKeepsMoreThan98PercentOfTheUnclusteredLight) {
-    auto dir = test::sharedScenesDir();
-    if (!dir) GTEST_SKIP() << "../shared/scenes absent";
-    scene::Scene s = scene::loadScene((*dir / "renderpark-mgf/salon/classroom.mgf").string());
-    transport::Visibility vis(s);
-    Params p;
-    p.set("cluster.model", "oriented");
-    p.set("oracle.eps", 1e-3);
-    HrResult r = HrSolver(s, vis, HrSettings::fromParams(p)).solve();
-    EXPECT_TRUE(r.converged);
-    const double reflected = r.hierarchy->radiosityPower().g - s.emittedPower().g;
+    auto c = solveClassroom([](Params& p) { p.set("oracle.eps", 1e-3); });
+    if (!c) GTEST_SKIP() << "../shared/scenes absent";
+    const double reflected = c->reflected;
     const double none = 1147.75;  // cluster.model = none, reflected power, green
     std::cout << "reflected power (green): oriented " << reflected << ", none " << none << " ("
               << 100 * (reflected / none - 1) << " %)\n";
@@ -574,17 +597,13 @@ TEST(ClusterTransfer, ClassroomKeepsMoreThan98PercentOfTheUnclusteredLight) {
 // clustered solves were dark"). The remaining loss is not traced (without
 // ff's receiver check the clustered solve is brighter than the unclustered).
 TEST(ClusterTransfer, FfHoldsWhatClusterLinksMisplaceToItsPowerEps) {
-    auto dir = test::sharedScenesDir();
-    if (!dir) GTEST_SKIP() << "../shared/scenes absent";
-    scene::Scene s = scene::loadScene((*dir / "renderpark-mgf/salon/classroom.mgf").string());
-    transport::Visibility vis(s);
-    Params p;
-    p.set("cluster.model", "oriented");
-    p.set("hr.oracle", "ff");
-    p.set("oracle.eps", 0.1);
-    HrResult r = HrSolver(s, vis, HrSettings::fromParams(p)).solve();
-    EXPECT_TRUE(r.converged);
-    const double reflected = r.hierarchy->radiosityPower().g - s.emittedPower().g;
+    auto c = solveClassroom([](Params& p) {
+        p.set("hr.oracle", "ff");
+        p.set("oracle.eps", 0.1);
+    });
+    if (!c) GTEST_SKIP() << "../shared/scenes absent";
+    const HrResult& r = c->result;
+    const double reflected = c->reflected;
     const double none = 1114.80;  // cluster.model = none, ff 0.1, reflected power, green
     std::cout << "ff 0.1, reflected power (green): oriented " << reflected << ", none " << none
               << " (" << 100 * (reflected / none - 1) << " %), stand-in share "
