@@ -2,12 +2,13 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <unordered_map>
+#include <utility>
 
 namespace hrad::hr {
 
@@ -392,6 +393,56 @@ LeafError leafError(const Hierarchy& h, const LinksByReceiver& by, const std::ve
 
 }  // namespace
 
+LeafErrorTotals leafErrorTotals(const Hierarchy& h, const std::vector<uint32_t>& recv,
+                                const std::vector<Link>& links,
+                                const transport::FormFactorEngine& engine, bool points,
+                                const std::vector<KernelSamples>* stored,
+                                std::vector<double>* shares) {
+    const LinksByReceiver by(h, recv, links, points ? stored : nullptr);
+    // Per chunk of elements, added in chunk order (deterministic); a chunk's
+    // leaves share most of their ancestors, whose shares it sums first.
+    const uint32_t n = h.numElements(), chunk = 256;
+    const uint32_t chunks = (n + chunk - 1) / chunk;
+    std::vector<double> avg(chunks, 0.0), point(chunks, 0.0);
+    std::vector<std::vector<std::pair<uint32_t, double>>> parts(shares ? chunks : 0);
+    tbb::parallel_for(uint32_t(0), chunks, [&](uint32_t c) {
+        std::unordered_map<uint32_t, double> local;
+        for (uint32_t L = c * chunk; L < std::min(n, (c + 1) * chunk); ++L) {
+            if (h.isCluster(L) || !h.isLeaf(L)) continue;
+            const RGB rho = h.rho(L);
+            const double area = h.area(L);
+            const LeafError le = leafError(
+                h, by, links, engine, L, points,
+                [&](uint32_t A, const RGB& eA) {
+                    if (shares && h.canSubdivide(A))
+                        local[A] += area * std::fabs(luminance(rho * eA));
+                },
+                points ? stored : nullptr);
+            avg[c] += area * std::fabs(luminance(rho * le.e));
+            if (points) {
+                double p = 0.0;
+                for (int k = 0; k < le.m; ++k) p += le.w[k] * std::fabs(luminance(rho * le.D[k]));
+                point[c] += area * p;
+            }
+        }
+        if (shares) {
+            parts[c].assign(local.begin(), local.end());
+            std::sort(parts[c].begin(), parts[c].end());
+        }
+    });
+    LeafErrorTotals t;
+    for (uint32_t c = 0; c < chunks; ++c) {
+        t.leaves += avg[c];
+        t.points += point[c];
+    }
+    if (shares) {
+        shares->assign(n, 0.0);
+        for (const auto& p : parts)
+            for (const auto& [A, v] : p) (*shares)[A] += v;
+    }
+    return t;
+}
+
 double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
                         const std::vector<Link>& links, const transport::FormFactorEngine& engine,
                         double* pointwise, const std::vector<KernelSamples>* stored) {
@@ -399,33 +450,10 @@ double leafAverageError(const Hierarchy& h, const std::vector<uint32_t>& recv,
         if (pointwise) *pointwise = std::numeric_limits<double>::quiet_NaN();
         return std::numeric_limits<double>::quiet_NaN();
     }
-    const LinksByReceiver by(h, recv, links, stored);
-    struct Sums {
-        double avg = 0.0, point = 0.0;
-    };
-    const Sums sum = tbb::parallel_deterministic_reduce(
-        tbb::blocked_range<uint32_t>(0, h.numElements(), 64), Sums{},
-        [&](const auto& range, Sums acc) {
-            for (uint32_t L = range.begin(); L != range.end(); ++L) {
-                if (h.isCluster(L) || !h.isLeaf(L)) continue;
-                const LeafError le = leafError(
-                    h, by, links, engine, L, true, [](uint32_t, const RGB&) {}, stored);
-                const RGB rho = h.rho(L);
-                acc.avg += h.area(L) * std::fabs(luminance(rho * le.e));
-                double p = 0.0;
-                for (int k = 0; k < le.m; ++k) p += le.w[k] * std::fabs(luminance(rho * le.D[k]));
-                acc.point += h.area(L) * p;
-            }
-            return acc;
-        },
-        [](Sums a, const Sums& b) {
-            a.avg += b.avg;
-            a.point += b.point;
-            return a;
-        });
+    const LeafErrorTotals t = leafErrorTotals(h, recv, links, engine, true, stored);
     const double reflected = luminance(h.reflectedPower());
-    if (pointwise) *pointwise = reflected > 0 ? sum.point / reflected : 0.0;
-    return reflected > 0 ? sum.avg / reflected : 0.0;
+    if (pointwise) *pointwise = reflected > 0 ? t.points / reflected : 0.0;
+    return reflected > 0 ? t.leaves / reflected : 0.0;
 }
 
 double uncoveredLightShare(const Hierarchy& h, const std::vector<uint32_t>& recv,
@@ -442,57 +470,21 @@ double uncoveredLightShare(const Hierarchy& h, const std::vector<uint32_t>& recv
     return all > 0 ? out / all : 0.0;
 }
 
-std::vector<uint8_t> leafBudgetMarks(const Hierarchy& h, const std::vector<uint32_t>& recv,
-                                     const std::vector<Link>& links,
-                                     const transport::FormFactorEngine& engine, double budget,
-                                     double* total) {
-    const uint32_t n = h.numElements();
-    const LinksByReceiver by(h, recv, links);
-    // Per leaf: its error and each ancestor's part in it, gathered per chunk
-    // of elements and added in chunk order (deterministic).
-    struct Part {
-        uint32_t A;
-        double share;
-    };
-    const uint32_t chunk = 256;
-    const uint32_t chunks = (n + chunk - 1) / chunk;
-    std::vector<std::vector<Part>> parts(chunks);
-    std::vector<double> leafErr(chunks, 0.0);
-    tbb::parallel_for(uint32_t(0), chunks, [&](uint32_t c) {
-        std::vector<Part>& out = parts[c];
-        double err = 0.0;
-        for (uint32_t L = c * chunk; L < std::min(n, (c + 1) * chunk); ++L) {
-            if (h.isCluster(L) || !h.isLeaf(L)) continue;
-            const RGB rho = h.rho(L);
-            const double area = h.area(L);
-            const LeafError le =
-                leafError(h, by, links, engine, L, false, [&](uint32_t A, const RGB& eA) {
-                    if (h.canSubdivide(A))
-                        out.push_back({A, area * std::fabs(luminance(rho * eA))});
-                });
-            err += area * std::fabs(luminance(rho * le.e));
-        }
-        leafErr[c] = err;
-    });
-    double sum = 0.0;
-    for (double v : leafErr) sum += v;
-    if (total) *total = sum;
-    if (!(sum > budget)) return {};
-    std::vector<double> share(n, 0.0);
-    for (const auto& p : parts)
-        for (const Part& q : p) share[q.A] += q.share;
+std::vector<uint8_t> leafBudgetMarks(const std::vector<double>& shares, double excess) {
+    if (!(excess > 0.0)) return {};
+    const uint32_t n = uint32_t(shares.size());
     std::vector<uint32_t> order;
     for (uint32_t A = 0; A < n; ++A)
-        if (share[A] > 0) order.push_back(A);
+        if (shares[A] > 0) order.push_back(A);
     std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-        return share[a] != share[b] ? share[a] > share[b] : a < b;
+        return shares[a] != shares[b] ? shares[a] > shares[b] : a < b;
     });
     std::vector<uint8_t> marks(n, 0);
     double covered = 0.0;
     for (uint32_t A : order) {
-        if (covered >= sum - budget) break;
+        if (covered >= excess) break;
         marks[A] = 1;
-        covered += share[A];
+        covered += shares[A];
     }
     return marks;
 }

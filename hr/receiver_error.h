@@ -51,6 +51,7 @@
 // that the basis represents is not refined.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -199,20 +200,42 @@ double uncoveredLightShare(const Hierarchy& h, const std::vector<uint32_t>& recv
                            const std::vector<RGB>& light);
 
 
+/// The sums behind leafAverageError, in power (luminance, not divided by
+/// the reflected power): `leaves`, sum over leaves of A_L |luminance(e_L)|;
+/// with `points`, `points`, the Simpson-weighted |D(x_k)| summed the same
+/// way (0 without). `shares`, when given, receives per element A the
+/// leaf budget's share of A (leafBudgetMarks; 0 for elements that cannot
+/// subdivide). Deterministic.
+struct LeafErrorTotals {
+    double leaves = 0.0, points = 0.0;
+    /// The error inside the leaves that their averages do not carry:
+    /// points - leaves (>= 0 up to rounding: |mean of D| <= mean of |D|).
+    double inside() const { return std::max(0.0, points - leaves); }
+};
+LeafErrorTotals leafErrorTotals(const Hierarchy& h, const std::vector<uint32_t>& recv,
+                                const std::vector<Link>& links,
+                                const transport::FormFactorEngine& engine, bool points,
+                                const std::vector<KernelSamples>* stored = nullptr,
+                                std::vector<double>* shares = nullptr);
+
 /// The leaf budget (hr.leaf_budget): the receivers whose surface links are
-/// pushed one level down so that the leaves' error estimated by
-/// leafAverageError (the sum over leaves of A_L |luminance(e_L)|, power) comes
-/// within `budget`. Each strict surface ancestor A of a leaf owns the part
-/// of e_L that its own links make, e_L^A; its share is
-/// sum over its leaves of A_L |luminance(e_L^A)|. While the total is over the
-/// budget, the receivers that can subdivide are marked in decreasing order
-/// of their share until the marked shares cover the excess (greedy; a share
-/// is at least the error its push removes where the leaves' parts do not
-/// compensate each other). Returns one flag per element (empty when the total
-/// is within the budget) and the total in `total`.
-std::vector<uint8_t> leafBudgetMarks(const Hierarchy& h, const std::vector<uint32_t>& recv,
-                                     const std::vector<Link>& links,
-                                     const transport::FormFactorEngine& engine, double budget,
-                                     double* total = nullptr);
+/// pushed one level down so that the leaves' error (LeafErrorTotals::leaves)
+/// loses `excess`, its amount over the budget. Each strict surface ancestor
+/// A of a leaf owns the part of e_L that its own links make, e_L^A; its
+/// share (leafErrorTotals `shares`) is sum over its leaves of
+/// A_L |luminance(e_L^A)|. The receivers that can subdivide are marked in decreasing order of their share until
+/// the marked shares cover the excess (greedy; a share is at least the
+/// error its push removes where the leaves' parts do not compensate each
+/// other). Returns one flag per element (empty for excess <= 0).
+///
+/// What the budget is (hr/solver.h, hr.leaf_budget): full, the check's eps
+/// of the power eps refers to; balanced (the default), that eps beyond
+/// LeafErrorTotals::inside(). A constant leaf is wrong by its average's error
+/// plus the variation it cannot follow; pushing the first far below the
+/// second buys little per link (the rooms of papers/README.md, "The leaf
+/// budget"), while where the exact irradiance is flat over the leaves (the
+/// furnace: the point form factors to all senders sum to one at every point)
+/// the inside part vanishes and the budget holds the sum to eps.
+std::vector<uint8_t> leafBudgetMarks(const std::vector<double>& shares, double excess);
 
 }  // namespace hrad::hr

@@ -159,7 +159,17 @@ HrSettings HrSettings::fromParams(const Params& p) {
     else if (p.has("hr.receiver_eps"))
         s.receiverEps = p.getDouble("hr.receiver_eps", 0.0, 0.0, 1.0);
     s.senderTotal = p.getBool("hr.sender_total", s.senderTotal);
-    s.leafBudget = p.getBool("hr.leaf_budget", s.leafBudget);
+    // true / "full", false / "off", or "balanced" (the default).
+    if (auto it = p.entries().find("hr.leaf_budget");
+        it != p.entries().end() && std::holds_alternative<std::string>(it->second.value)) {
+        const std::string v = p.getEnum("hr.leaf_budget", "balanced", {"balanced", "full", "off"});
+        s.leafBudget = v == "full"  ? HrSettings::LeafBudget::Full
+                       : v == "off" ? HrSettings::LeafBudget::Off
+                                    : HrSettings::LeafBudget::Balanced;
+    } else if (p.has("hr.leaf_budget")) {
+        s.leafBudget = p.getBool("hr.leaf_budget", false) ? HrSettings::LeafBudget::Full
+                                                           : HrSettings::LeafBudget::Off;
+    }
     s.leafEstimates = p.getBool("hr.leaf_estimates", s.leafEstimates);
     s.extrapolate = p.getBool("hr.extrapolate", s.extrapolate);
     s.relaxShare = p.getDouble("hr.relax_share", s.relaxShare, 0.0, 1.0);
@@ -566,6 +576,46 @@ double HrSolver::estimateError(const Hierarchy& h, const std::vector<uint32_t>& 
     return reflected > 0 ? sum / reflected : 0.0;
 }
 
+double HrSolver::leafBudgetPower(const oracles::Oracle& oracle) const {
+    // The receiver check's eps (hr.receiver_eps, or the oracle's own mapping
+    // of its eps to a power fraction: Oracle::receiverCheckEps) of the power
+    // eps refers to (hr.eps_power), in luminance like the estimate.
+    double leafEps = oracle.receiverCheckEps();
+    if (!oracle.needsReceiverError() && s_.receiverEps > 0.0) leafEps = s_.receiverEps;
+    if (!(leafEps > 0.0) || s_.oracle == "uniform") return 0.0;
+    const RGB emitted = scene_->emittedPower();
+    return leafEps * epsPower_ * luminance(emitted) / std::max(maxComponent(emitted), 1e-300);
+}
+
+bool HrSolver::leafBudgetCheck(Hierarchy& h, const oracles::Oracle& oracle) {
+    budgetTotalsValid_ = false;
+    if (s_.leafBudget != HrSettings::LeafBudget::Balanced || h.basisDegree() != 0) return false;
+    // The default budget sums the receiver check's errors: with the check
+    // off (hr.receiver_eps = off: bfa and ff as published) it is off too.
+    if (!oracle.needsReceiverError() && s_.receiverEps == 0.0) return false;
+    const double budget = leafBudgetPower(oracle);
+    if (!(budget > 0.0)) return false;
+    Timer t0;
+    const std::vector<uint32_t> recv = h.linkReceivers();
+    std::vector<double> shares;
+    budgetTotals_ = leafErrorTotals(h, recv, h.links(), engine_, true,
+                                    h.hasKernelSamples() ? &h.kernelSamples() : nullptr, &shares);
+    // The leaves' averages may be wrong by eps beyond the error inside them.
+    const double allowed = budget + budgetTotals_.inside();
+    spdlog::debug("leaf budget: leaves {:.4g}, inside {:.4g}, eps {:.4g} ({:.2f} s)",
+                  budgetTotals_.leaves, budgetTotals_.inside(), budget, t0.seconds());
+    if (budgetTotals_.leaves > allowed) {
+        // Pushes aim at half the budget beyond the inside error: a push
+        // removes only part of a receiver's share, and aiming at the limit
+        // itself crept towards it one receiver per pass.
+        budgetPush_ = leafBudgetMarks(shares, budgetTotals_.leaves - allowed + 0.5 * budget);
+        if (std::count(budgetPush_.begin(), budgetPush_.end(), uint8_t(1)) > 0) return true;
+        budgetPush_.clear();
+    }
+    budgetTotalsValid_ = true;
+    return false;
+}
+
 uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
                           IterationRecord& rec) {
     // memory.budget_mb (below): what the process holds besides the links and
@@ -608,22 +658,6 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
             guardEps = oracle.receiverCheckEps();  // auto: the (stage's) oracle maps its eps
     }
     const bool aggregate = oracle.needsReceiverError() || guardEps > 0.0;
-    // hr.leaf_budget: receivers whose links are pushed down this pass. The
-    // budget is the check's eps of the power eps refers to (hr.eps_power),
-    // in luminance like the estimate.
-    std::vector<uint8_t> push;
-    if (s_.leafBudget && h.basisDegree() == 0) {
-        const double leafEps = guardEps > 0.0 ? guardEps : checkEps;
-        const RGB emitted = scene_->emittedPower();
-        const double budget = leafEps * epsPower_ * luminance(emitted) /
-                              std::max(maxComponent(emitted), 1e-300);
-        if (budget > 0.0) {
-            double total = 0.0;
-            push = leafBudgetMarks(h, recv, pending, engine_, budget, &total);
-            spdlog::debug("leaf budget: estimated leaf error {:.4g} against {:.4g}, {} pushed",
-                          total, budget, std::count(push.begin(), push.end(), uint8_t(1)));
-        }
-    }
     std::vector<ReceiverError> rerr;
     // Kernel samples travel with their links (geometry: computed once, when
     // the link is made; the initial links get theirs here). Each array holds
@@ -636,6 +670,24 @@ uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult&
         pendingS =
             h.hasKernelSamples() ? h.takeKernelSamples() : computeKernelSamples(h, recv, pending);
         finalS.reserve(pendingS.size());
+    }
+    // hr.leaf_budget: receivers whose links are pushed down this pass. The
+    // full budget judges the leaves' error in every pass; the balanced one
+    // hands in the marks of its check at convergence (leafBudgetCheck).
+    std::vector<uint8_t> push;
+    if (s_.leafBudget == HrSettings::LeafBudget::Full && h.basisDegree() == 0) {
+        const double budget = leafBudgetPower(oracle);
+        if (budget > 0.0) {
+            std::vector<double> shares;
+            const LeafErrorTotals t =
+                leafErrorTotals(h, recv, pending, engine_, false, nullptr, &shares);
+            push = leafBudgetMarks(shares, t.leaves - budget);
+            spdlog::debug("leaf budget: leaves {:.4g} against {:.4g}, {} pushed", t.leaves,
+                          budget, std::count(push.begin(), push.end(), uint8_t(1)));
+        }
+    } else if (!budgetPush_.empty()) {
+        push = std::move(budgetPush_);
+        budgetPush_.clear();
     }
     // Moves pending link i (visited in increasing order from i = 0, with
     // cursor k over pendingS) to the final links.
@@ -1271,7 +1323,11 @@ HrResult HrSolver::solveOnce(bool progress) {
         // The radiosities of the last judging pass (lazy refinement); a new
         // stage (a new eps) always judges.
         std::vector<RGB> judgedB;
-        const bool lazy = s_.refineGrowth > 0.0 && h.basisSize() == 1 && !s_.leafBudget;
+        // The full leaf budget judges every iteration; the balanced one keeps
+        // lazy refinement (its check runs where the stage would converge).
+        const bool lazy = s_.refineGrowth > 0.0 && h.basisSize() == 1 &&
+                          s_.leafBudget != HrSettings::LeafBudget::Full;
+        budgetPush_.clear();
         for (int it = 0; it < s_.maxIterations; ++it) {
             IterationRecord rec;
             rec.iteration = ++iteration;
@@ -1284,7 +1340,9 @@ HrResult HrSolver::solveOnce(bool progress) {
             const double reflectedNow = maxComponent(lastReflected);
             const double powerNow =
                 s_.epsReflected && reflectedNow > 0.0 ? reflectedNow : emittedPower_;
-            rec.judged = !lazy || judgedB.empty() ||
+            const bool budgetPass = !budgetPush_.empty();
+            budgetTotalsValid_ = false;
+            rec.judged = !lazy || judgedB.empty() || budgetPass ||
                          grownSince(h.allB(), judgedB, s_.refineGrowth) ||
                          powerNow * (1.0 + s_.refineGrowth) < epsPower_;
             if (rec.judged) {
@@ -1408,9 +1466,23 @@ HrResult HrSolver::solveOnce(bool progress) {
             res.history.push_back(rec);
             if (rec.refinedLinks == 0 && it + 1 >= s_.minIterations &&
                 rec.residual < s_.tolerance && rec.iterationError < s_.tolerance) {
+                // The balanced leaf budget: where the stage would converge,
+                // the leaves' error is held to its budget; a pass that pushes
+                // links follows (unless the last push refined nothing, or a
+                // cap or the clock has stopped refinement).
+                if (!budgetPass && !res.linkCapHit && !res.memoryBudgetHit && !outOfTime() &&
+                    leafBudgetCheck(h, *oracle))
+                    continue;
                 stageConverged = true;
                 break;
             }
+            // Once the budget has pushed links, it checks again right after
+            // the next gather rather than at the next convergence (the
+            // estimate is linear in B, which a push changes little): one
+            // round of pushes follows another until the budget holds.
+            if (budgetPass && rec.refinedLinks > 0 && !res.linkCapHit && !res.memoryBudgetHit &&
+                !outOfTime())
+                leafBudgetCheck(h, *oracle);
             if (outOfTime()) {
                 if (!res.timeLimitHit)
                     spdlog::warn(
@@ -1433,10 +1505,16 @@ HrResult HrSolver::solveOnce(bool progress) {
             coupling_->fallbacks(), s_.basisCheck);
     const std::vector<uint32_t> recv = h.linkReceivers();
     res.errorEstimate = estimateError(h, recv);
-    if (s_.leafEstimates)
+    if (s_.leafEstimates && budgetTotalsValid_) {
+        // The balanced leaf budget's last check saw this very state.
+        const double reflected = luminance(h.reflectedPower());
+        res.errorEstimateLeaves = reflected > 0 ? budgetTotals_.leaves / reflected : 0.0;
+        res.errorEstimatePoints = reflected > 0 ? budgetTotals_.points / reflected : 0.0;
+    } else if (s_.leafEstimates) {
         res.errorEstimateLeaves = leafAverageError(
             h, recv, h.links(), engine_, &res.errorEstimatePoints,
             h.hasKernelSamples() && h.basisDegree() == 0 ? &h.kernelSamples() : nullptr);
+    }
     res.errorEstimateSeconds = te.seconds();
     {
         Timer tn;

@@ -92,21 +92,29 @@
 //                                       form factors for every (leaf, ancestor link) pair:
 //                                       3.5 s of the bathroom's 60 s wall (1.1 M links), 0.2 s
 //                                       of Lost Empire's 10 s; false leaves both null
-//   hr.leaf_budget     bool    false   hold the error of the leaves' averages, summed over
-//                                       the leaves, within the check's eps of the emitted power
-//                                       (bfa, error, kv: eps; ff: F_eps / 100): each judging
-//                                       pass estimates it (hr/receiver_error.h leafBudgetMarks:
-//                                       every ancestor link's push to every leaf, signed, so
-//                                       that a leaf's own links and its ancestors' cancel) and
-//                                       pushes the links of the receivers with the largest
-//                                       parts one level down until the parts cover the excess.
-//                                       The check above bounds each receiver, not their sum:
-//                                       the furnace at bfa 1e-2 is 1.3 % off with it alone,
-//                                       0.98 % with the budget. Judges every iteration (no lazy
-//                                       refinement). Costs links where leaves' averages are not
-//                                       the error: cornell bfa 1e-3 53 k links instead of 23 k
-//                                       for reflected L1 4.2 % instead of 5.1 %
-//                                       (papers/README.md, "The leaf budget")
+//   hr.leaf_budget     string  "balanced"  balanced | true (full) | false (off): hold the
+//                                       error of the leaves' averages, summed over the leaves
+//                                       (every ancestor link's push to every leaf, signed, so
+//                                       that a leaf's own links and its ancestors' cancel:
+//                                       hr/receiver_error.h leafErrorTotals), to the receiver
+//                                       check's eps of the power eps refers to (bfa, error,
+//                                       kv: eps; ff: F_eps / 100), pushing the links of the
+//                                       receivers with the largest parts one level down
+//                                       (leafBudgetMarks). The check bounds each receiver, not
+//                                       their sum: the furnace at bfa 1e-2 is 1.3 % off with it
+//                                       alone. full: the sum within eps, judged in every pass
+//                                       (no lazy refinement). balanced: the sum within eps
+//                                       beyond the error inside the leaves (the pointwise
+//                                       estimate less the averages'), judged where a stage
+//                                       would converge and, after a pass that pushed links,
+//                                       after the next gather; pushes aim at half the eps
+//                                       beyond it. Where the exact irradiance is flat over the
+//                                       leaves (the furnace) it is the full budget; where the
+//                                       variation inside the leaves dominates (bfa, error, kv
+//                                       in the rooms measured) it does not fire and its one
+//                                       pass is the final error_estimate_leaves/_points. Off
+//                                       with hr.receiver_eps = off for bfa and ff (the
+//                                       published oracles). papers/README.md, "The leaf budget"
 //   hr.extrapolate     bool    true    Aitken extrapolation of the gather iteration's tail
 //                                       (below)
 //   hr.relax_share     double  0.8     relaxation (below): after an iteration that refined
@@ -375,6 +383,7 @@
 #include "hr/hierarchy.h"
 #include "hr/link_builder.h"
 #include "hr/noise.h"
+#include "hr/receiver_error.h"
 #include "oracles/oracle.h"
 #include "scene/scene.h"
 #include "transport/coupling.h"
@@ -406,8 +415,10 @@ struct HrSettings {
     /// solve (hr/receiver_error.h leafAverageError).
     bool leafEstimates = true;
     /// hr.leaf_budget: push ancestors' links down while the leaves' error
-    /// (hr/receiver_error.h leafBudgetMarks) exceeds the check's eps.
-    bool leafBudget = false;
+    /// (hr/receiver_error.h leafBudgetMarks) exceeds the check's eps (Full)
+    /// or that eps beyond the error inside the leaves (Balanced).
+    enum class LeafBudget { Off, Full, Balanced };
+    LeafBudget leafBudget = LeafBudget::Balanced;
     /// hr.receiver_eps: the receiver-aggregate check for oracles that do not
     /// judge it themselves (see the header): negative = auto, 0 = off.
     double receiverEps = -1.0;
@@ -666,6 +677,13 @@ class HrSolver {
     /// (Oracle::receiverCheckEps).
     uint64_t refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
                     IterationRecord& rec);
+    /// The leaf budget in power (luminance): the receiver check's eps of the
+    /// power eps refers to; 0 where there is none (uniform).
+    double leafBudgetPower(const oracles::Oracle& oracle) const;
+    /// The balanced leaf budget's check: true when the leaves' error exceeds
+    /// the budget beyond the error inside the leaves, with the receivers to
+    /// push in budgetPush_.
+    bool leafBudgetCheck(Hierarchy& h, const oracles::Oracle& oracle);
     /// What a judging pass over `links` links (`samples` of them with kernel
     /// samples) and `elements` elements allocates at its peak, besides the
     /// elements themselves (memory.budget_mb).
@@ -702,6 +720,13 @@ class HrSolver {
     /// The power eps is a fraction of in the current judging pass
     /// (hr.eps_power; LinkEstimate::emittedPower).
     double epsPower_ = 1.0;
+    /// The balanced leaf budget (hr.leaf_budget): the marks its check at
+    /// convergence hands to the next judging pass, and the totals of its last
+    /// check, valid while the hierarchy is the one it checked (the final
+    /// estimate reuses them).
+    std::vector<uint8_t> budgetPush_;
+    LeafErrorTotals budgetTotals_;
+    bool budgetTotalsValid_ = false;
     double emittedRadiosity_ = 1.0;  ///< largest max-channel emission of any patch
     IterationHook hook_;
     bool progress_ = false;  ///< progress bars on stderr (solve's argument)

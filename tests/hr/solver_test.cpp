@@ -9,6 +9,7 @@
 #include <iostream>
 
 #include "core/memory.h"
+#include "scene/builtin.h"
 #include "scene/loader.h"
 #include "tests/hr/settings.h"
 #include "tests/scenes.h"
@@ -42,7 +43,10 @@ class FurnaceAllOracles : public ::testing::TestWithParam<std::string> {};
 // radiosity wrong at eps 1e-3 and 8.7 % at 1e-4, and ff diverges at rho 0.9.
 // With the receiver check (hr.receiver_eps = auto, the default) both are
 // held by the receivers' aggregate error too: bfa within 1 % of the
-// reflected radiosity at eps 1e-3 and 1e-4, ff converges at rho 0.9.
+// reflected radiosity at eps 1e-3 and 1e-4, ff converges at rho 0.9. The
+// check holds each receiver, not the sum over the leaves; the balanced leaf
+// budget (hr.leaf_budget, the default) holds the sum too, which brings bfa
+// at eps 1e-2 and ff at F_eps 0.1 within 1 % (issue 10, item 2).
 // The error is over the reflected radiosity B - E, per leaf.
 namespace {
 struct FurnaceRun {
@@ -50,8 +54,9 @@ struct FurnaceRun {
     uint64_t links = 0, elements = 0, patches = 0;
     double estimateLeaves = 0, estimatePoints = 0, estimate = 0;
 };
+using LeafBudget = HrSettings::LeafBudget;
 FurnaceRun runFurnace(const std::string& oracle, double eps, double rho, double receiverEps = -1,
-                      bool leafBudget = false) {
+                      LeafBudget leafBudget = HrSettings{}.leafBudget) {
     scene::Scene s = test::furnaceBox(1.0, rho);
     transport::Visibility vis(s);
     HrSettings st = settingsFor(oracle, eps);
@@ -83,7 +88,11 @@ FurnaceRun runFurnace(const std::string& oracle, double eps, double rho, double 
     out.elements = h.numElements();
     out.patches = h.numPatches();
     std::cout << oracle << " eps " << eps << " rho " << rho << " receiver_eps " << receiverEps
-              << (leafBudget ? " leaf budget" : "") << ": elements " << out.elements
+              << " leaf budget "
+              << (leafBudget == LeafBudget::Off    ? "off"
+                  : leafBudget == LeafBudget::Full ? "full"
+                                                   : "balanced")
+              << ": elements " << out.elements
               << ", links " << out.links
               << ", worst relative error " << out.worst << ", L1 " << out.l1
               << ", estimates: leaves " << out.estimateLeaves << ", points " << out.estimatePoints
@@ -108,34 +117,36 @@ TEST_P(FurnaceAllOracles, RadiosityIsEOverOneMinusRho) {
         return;
     }
     if (oracle == "bfa") {
-        // Measured, reflected L1 per leaf: rho 0.5 0.99 % (19,200 links) and
-        // 0.72 % (165 k) at eps 1e-3 and 1e-4; rho 0.9 at eps 1e-3 0.41 %
-        // (91 k); off, rho 0.5, eps 1e-3: 11.3 % (2,208).
-        FurnaceRun c = runFurnace(oracle, 1e-3, 0.5), f = runFurnace(oracle, 1e-4, 0.5);
-        EXPECT_GT(c.elements, c.patches) << "the oracle refined nothing";
-        EXPECT_LT(c.l1, 0.01);
-        EXPECT_LT(f.l1, c.l1);
+        // At the defaults (receiver check and balanced leaf budget), measured
+        // reflected L1 per leaf, rho 0.5: 0.98 % (1,650 links) and 0.098 %
+        // (27 k) at eps 1e-2 and 1e-3; rho 0.9, eps 1e-3: 0.017 % (130 k).
+        // Without the budget: 1.30 % and 0.99 % (19 k); link by link as
+        // published (hr.receiver_eps = off), eps 1e-3: 11.3 % (2,208).
+        for (double eps : {1e-2, 1e-3}) {
+            FurnaceRun c = runFurnace(oracle, eps, 0.5);
+            EXPECT_GT(c.elements, c.patches) << "the oracle refined nothing";
+            EXPECT_LT(c.l1, std::min(0.01, 2.0 * eps)) << "eps " << eps;
+        }
         EXPECT_LT(runFurnace(oracle, 1e-3, 0.9).l1, 0.01);
+        // The receiver check alone leaves eps 1e-2 above 1 %.
+        EXPECT_GT(runFurnace(oracle, 1e-2, 0.5, -1, LeafBudget::Off).l1, 0.01);
         // As published, link by link: several per cent (the check's reason).
-        EXPECT_GT(runFurnace(oracle, 1e-3, 0.5, 0.0).l1, 0.05);
+        EXPECT_GT(runFurnace(oracle, 1e-3, 0.5, 0.0, LeafBudget::Off).l1, 0.05);
         return;
     }
     // ff: its eps is a form factor; the check's follows it (F_eps / 100 of
-    // the emitted power), so the error falls with ff's eps, and it keeps the
+    // the emitted power), and so does the leaf budget, which keeps the
     // gather from diverging at rho 0.9 (as published: reflected power 90
     // times the exact value at the 100-iteration cap). Measured per leaf
-    // (minimum area 1e-4 of the box): rho 0.5 3.5 % at F_eps 0.1 and 1.2 % at
-    // 0.02 (with the check fixed at 1e-3 of the emitted power, 0.02 was worse
-    // than 0.1), rho 0.9 1.1 % at 0.1.
+    // (minimum area 1e-4 of the box) at the defaults: F_eps 0.1, rho 0.5
+    // 0.11 % (134 k links), rho 0.9 0.016 % (282 k); with the receiver
+    // check alone, rho 0.5: 3.5 % (31 k).
     for (double rho : {0.5, 0.9}) {
         FurnaceRun f = runFurnace(oracle, 0.1, rho);
         EXPECT_GT(f.elements, f.patches) << "the oracle refined nothing";
-        EXPECT_LT(f.l1, 0.05) << "rho " << rho;
-        if (rho == 0.5) {
-            FurnaceRun g = runFurnace(oracle, 0.02, rho);
-            EXPECT_LT(g.l1, 0.5 * f.l1);
-        }
+        EXPECT_LT(f.l1, 0.01) << "rho " << rho;
     }
+    EXPECT_GT(runFurnace(oracle, 0.1, 0.5, -1, LeafBudget::Off).l1, 0.01);
 }
 
 INSTANTIATE_TEST_SUITE_P(Oracles, FurnaceAllOracles,
@@ -157,9 +168,10 @@ INSTANTIATE_TEST_SUITE_P(Oracles, FurnaceAllOracles,
 // within the check's eps of the emitted power (bfa: eps; ff: F_eps / 100),
 // which in the furnace (rho 0.5: emitted = reflected power) is the one-bounce
 // reflected L1; the solution's error may be up to 1 / (1 - rho) of it.
-// Measured per leaf: bfa 1e-2 0.98 % (1,650 links; without the budget 1.30 %,
-// 1,560), bfa 1e-3 0.097 % (29 k; 0.99 %, 19 k), ff 0.1 0.12 % (108 k; 3.5 %,
-// 31 k): issue 10's "within 1 % for every adaptive oracle" at every eps.
+// Measured per leaf, full / balanced: bfa 1e-2 0.98 % / 0.98 % (1,650 links
+// each; without the budget 1.30 %, 1,560), bfa 1e-3 0.097 % / 0.098 % (29 k /
+// 27 k; 0.99 %, 19 k), ff 0.1 0.12 % / 0.11 % (108 k / 134 k; 3.5 %, 31 k):
+// issue 10's "within 1 % for every adaptive oracle" at every eps.
 TEST(HrSolver, LeafBudgetHoldsTheFurnaceWithinEps) {
     struct Case {
         std::string oracle;
@@ -168,20 +180,72 @@ TEST(HrSolver, LeafBudgetHoldsTheFurnaceWithinEps) {
     };
     for (const Case& c : {Case{"bfa", 1e-2, 1e-2, true}, Case{"bfa", 1e-3, 1e-3, false},
                           Case{"ff", 0.1, 1e-3, true}}) {
-        FurnaceRun with = runFurnace(c.oracle, c.eps, 0.5, -1, true);
-        EXPECT_GT(with.elements, with.patches) << "the oracle refined nothing";
-        EXPECT_LT(with.estimateLeaves, c.leafEps) << c.oracle << " " << c.eps;
-        EXPECT_LT(with.l1, std::min(0.01, 2.0 * c.leafEps)) << c.oracle << " " << c.eps;
+        // Full: judged in every pass. Balanced (the default): judged where
+        // the solve would converge, against the larger of eps and the error
+        // inside the leaves, which in the furnace (the irradiance is flat
+        // over every leaf) is nil: it holds the same budget.
+        for (LeafBudget mode : {LeafBudget::Full, LeafBudget::Balanced}) {
+            FurnaceRun with = runFurnace(c.oracle, c.eps, 0.5, -1, mode);
+            EXPECT_GT(with.elements, with.patches) << "the oracle refined nothing";
+            EXPECT_LT(with.estimateLeaves, c.leafEps) << c.oracle << " " << c.eps;
+            EXPECT_LT(with.l1, std::min(0.01, 2.0 * c.leafEps)) << c.oracle << " " << c.eps;
+        }
         if (c.overWithout) {
-            FurnaceRun without = runFurnace(c.oracle, c.eps, 0.5, -1, false);
+            FurnaceRun without = runFurnace(c.oracle, c.eps, 0.5, -1, LeafBudget::Off);
             EXPECT_GT(without.l1, 0.01) << c.oracle << " " << c.eps << ": nothing to hold";
         }
     }
 }
 
+// The balanced leaf budget (the default) allows eps beyond the error inside
+// the leaves. On Cornell under bfa 1e-3 that inside error is most of the
+// pointwise estimate (error_estimate_leaves 0.017 against _points 0.043 at
+// the study's settings), so the budget holds without a push: the same links
+// as without it, and its last pass is the final estimate. The full budget
+// on the same solve pushes (it would fail the first expectation).
+TEST(HrSolver, BalancedLeafBudgetLeavesCornellAlone) {
+    scene::Scene s = scene::makeBuiltin("cornell");
+    transport::Visibility vis(s);
+    auto solve = [&](LeafBudget mode) {
+        HrSettings st = test::hrSettings("bfa", 1e-3, "none", 1e-4);
+        st.leafBudget = mode;
+        HrSolver solver(s, vis, st);
+        return solver.solve();
+    };
+    HrResult off = solve(LeafBudget::Off), balanced = solve(LeafBudget::Balanced),
+             full = solve(LeafBudget::Full);
+    ASSERT_GT(off.hierarchy->numLinks(), 0u);
+    EXPECT_EQ(balanced.hierarchy->numLinks(), off.hierarchy->numLinks());
+    EXPECT_GT(full.hierarchy->numLinks(), off.hierarchy->numLinks());
+    // The reused totals are the estimate computed afresh (summed in the same
+    // order: to the last bits).
+    EXPECT_DOUBLE_EQ(balanced.errorEstimateLeaves, off.errorEstimateLeaves);
+    EXPECT_DOUBLE_EQ(balanced.errorEstimatePoints, off.errorEstimatePoints);
+    EXPECT_GT(off.errorEstimatePoints, 2.0 * off.errorEstimateLeaves);
+    for (int c = 0; c < 3; ++c)
+        EXPECT_DOUBLE_EQ(balanced.hierarchy->reflectedPower()[c],
+                         off.hierarchy->reflectedPower()[c]);
+}
+
+TEST(HrSolver, LeafBudgetSettingTakesAModeOrABool) {
+    auto mode = [](auto v) {
+        Params p;
+        p.set("hr.leaf_budget", v);
+        return HrSettings::fromParams(p).leafBudget;
+    };
+    EXPECT_EQ(HrSettings{}.leafBudget, LeafBudget::Balanced);
+    EXPECT_EQ(mode(std::string("balanced")), LeafBudget::Balanced);
+    EXPECT_EQ(mode(std::string("full")), LeafBudget::Full);
+    EXPECT_EQ(mode(std::string("off")), LeafBudget::Off);
+    EXPECT_EQ(mode(true), LeafBudget::Full);
+    EXPECT_EQ(mode(false), LeafBudget::Off);
+    EXPECT_THROW(mode(std::string("maybe")), std::exception);
+    EXPECT_THROW(mode(int64_t(1)), std::exception);
+}
+
 TEST(HrSolver, LeafErrorEstimateMatchesTheFurnace) {
     for (double eps : {1e-2, 1e-3}) {
-        FurnaceRun f = runFurnace("bfa", eps, 0.5);
+        FurnaceRun f = runFurnace("bfa", eps, 0.5, -1, LeafBudget::Off);
         ASSERT_GT(f.l1, 1e-3) << "eps " << eps << ": nothing to estimate";
         EXPECT_NEAR(f.estimateLeaves / f.l1, 1.0, 0.1) << "eps " << eps;
         // Within a leaf the furnace's irradiance is constant: the pointwise
