@@ -587,7 +587,7 @@ double HrSolver::leafBudgetPower(const oracles::Oracle& oracle) const {
     return leafEps * epsPower_ * luminance(emitted) / std::max(maxComponent(emitted), 1e-300);
 }
 
-bool HrSolver::leafBudgetCheck(Hierarchy& h, const oracles::Oracle& oracle) {
+bool HrSolver::leafBudgetCheck(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res) {
     budgetTotalsValid_ = false;
     if (s_.leafBudget != HrSettings::LeafBudget::Balanced || h.basisDegree() != 0) return false;
     // The default budget sums the receiver check's errors: with the check
@@ -609,10 +609,16 @@ bool HrSolver::leafBudgetCheck(Hierarchy& h, const oracles::Oracle& oracle) {
         // removes only part of a receiver's share, and aiming at the limit
         // itself crept towards it one receiver per pass.
         budgetPush_ = leafBudgetMarks(shares, budgetTotals_.leaves - allowed + 0.5 * budget);
-        if (std::count(budgetPush_.begin(), budgetPush_.end(), uint8_t(1)) > 0) return true;
+        if (std::count(budgetPush_.begin(), budgetPush_.end(), uint8_t(1)) > 0) {
+            res.refineSeconds += t0.seconds();  // a judging pass follows
+            return true;
+        }
         budgetPush_.clear();
     }
+    // Held: the pass is the final estimate's if nothing changes after it.
     budgetTotalsValid_ = true;
+    budgetCheckSeconds_ = t0.seconds();
+    res.refineSeconds += budgetCheckSeconds_;
     return false;
 }
 
@@ -1471,7 +1477,7 @@ HrResult HrSolver::solveOnce(bool progress) {
                 // links follows (unless the last push refined nothing, or a
                 // cap or the clock has stopped refinement).
                 if (!budgetPass && !res.linkCapHit && !res.memoryBudgetHit && !outOfTime() &&
-                    leafBudgetCheck(h, *oracle))
+                    leafBudgetCheck(h, *oracle, res))
                     continue;
                 stageConverged = true;
                 break;
@@ -1482,7 +1488,7 @@ HrResult HrSolver::solveOnce(bool progress) {
             // round of pushes follows another until the budget holds.
             if (budgetPass && rec.refinedLinks > 0 && !res.linkCapHit && !res.memoryBudgetHit &&
                 !outOfTime())
-                leafBudgetCheck(h, *oracle);
+                leafBudgetCheck(h, *oracle, res);
             if (outOfTime()) {
                 if (!res.timeLimitHit)
                     spdlog::warn(
@@ -1506,7 +1512,10 @@ HrResult HrSolver::solveOnce(bool progress) {
     const std::vector<uint32_t> recv = h.linkReceivers();
     res.errorEstimate = estimateError(h, recv);
     if (s_.leafEstimates && budgetTotalsValid_) {
-        // The balanced leaf budget's last check saw this very state.
+        // The balanced leaf budget's last check saw this very state: its
+        // seconds are the estimate's, not refinement's.
+        res.refineSeconds -= budgetCheckSeconds_;
+        res.errorEstimateSeconds += budgetCheckSeconds_;
         const double reflected = luminance(h.reflectedPower());
         res.errorEstimateLeaves = reflected > 0 ? budgetTotals_.leaves / reflected : 0.0;
         res.errorEstimatePoints = reflected > 0 ? budgetTotals_.points / reflected : 0.0;
@@ -1515,7 +1524,7 @@ HrResult HrSolver::solveOnce(bool progress) {
             h, recv, h.links(), engine_, &res.errorEstimatePoints,
             h.hasKernelSamples() && h.basisDegree() == 0 ? &h.kernelSamples() : nullptr);
     }
-    res.errorEstimateSeconds = te.seconds();
+    res.errorEstimateSeconds += te.seconds();
     {
         Timer tn;
         NoiseRays rays;

@@ -683,7 +683,9 @@ class HrSolver {
     /// The balanced leaf budget's check: true when the leaves' error exceeds
     /// the budget beyond the error inside the leaves, with the receivers to
     /// push in budgetPush_.
-    bool leafBudgetCheck(Hierarchy& h, const oracles::Oracle& oracle);
+    /// Its seconds go to res.refineSeconds (to the estimate's when the
+    /// final estimate reuses its totals).
+    bool leafBudgetCheck(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res);
     /// What a judging pass over `links` links (`samples` of them with kernel
     /// samples) and `elements` elements allocates at its peak, besides the
     /// elements themselves (memory.budget_mb).
@@ -727,6 +729,7 @@ class HrSolver {
     std::vector<uint8_t> budgetPush_;
     LeafErrorTotals budgetTotals_;
     bool budgetTotalsValid_ = false;
+    double budgetCheckSeconds_ = 0.0;
     double emittedRadiosity_ = 1.0;  ///< largest max-channel emission of any patch
     IterationHook hook_;
     bool progress_ = false;  ///< progress bars on stderr (solve's argument)
