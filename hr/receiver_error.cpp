@@ -479,6 +479,7 @@ std::vector<uint8_t> leafBudgetMarks(const std::vector<double>& shares, double e
     std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
         return shares[a] != shares[b] ? shares[a] > shares[b] : a < b;
     });
+    if (order.empty()) return {};
     std::vector<uint8_t> marks(n, 0);
     double covered = 0.0;
     for (uint32_t A : order) {

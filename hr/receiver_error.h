@@ -223,10 +223,11 @@ LeafErrorTotals leafErrorTotals(const Hierarchy& h, const std::vector<uint32_t>&
 /// loses `excess`, its amount over the budget. Each strict surface ancestor
 /// A of a leaf owns the part of e_L that its own links make, e_L^A; its
 /// share (leafErrorTotals `shares`) is sum over its leaves of
-/// A_L |luminance(e_L^A)|. The receivers that can subdivide are marked in decreasing order of their share until
-/// the marked shares cover the excess (greedy; a share is at least the
-/// error its push removes where the leaves' parts do not compensate each
-/// other). Returns one flag per element (empty for excess <= 0).
+/// A_L |luminance(e_L^A)|. The receivers that can subdivide are marked in
+/// decreasing order of their share until the marked shares cover the excess
+/// (greedy; a share is at least the error its push removes where the
+/// leaves' parts do not compensate each other). Returns one flag per
+/// element, or nothing when nothing is marked (excess <= 0, or no share).
 ///
 /// What the budget is (hr/solver.h, hr.leaf_budget): full, the check's eps
 /// of the power eps refers to; balanced (the default), that eps beyond

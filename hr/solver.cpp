@@ -609,11 +609,10 @@ bool HrSolver::leafBudgetCheck(Hierarchy& h, const oracles::Oracle& oracle, HrRe
         // removes only part of a receiver's share, and aiming at the limit
         // itself crept towards it one receiver per pass.
         budgetPush_ = leafBudgetMarks(shares, budgetTotals_.leaves - allowed + 0.5 * budget);
-        if (std::count(budgetPush_.begin(), budgetPush_.end(), uint8_t(1)) > 0) {
+        if (!budgetPush_.empty()) {
             res.refineSeconds += t0.seconds();  // a judging pass follows
             return true;
         }
-        budgetPush_.clear();
     }
     // Held: the pass is the final estimate's if nothing changes after it.
     budgetTotalsValid_ = true;
@@ -1334,6 +1333,10 @@ HrResult HrSolver::solveOnce(bool progress) {
         const bool lazy = s_.refineGrowth > 0.0 && h.basisSize() == 1 &&
                           s_.leafBudget != HrSettings::LeafBudget::Full;
         budgetPush_.clear();
+        // No cap (links, memory, clock) has stopped refinement.
+        auto mayRefine = [&] {
+            return !res.linkCapHit && !res.memoryBudgetHit && !outOfTime();
+        };
         for (int it = 0; it < s_.maxIterations; ++it) {
             IterationRecord rec;
             rec.iteration = ++iteration;
@@ -1476,9 +1479,7 @@ HrResult HrSolver::solveOnce(bool progress) {
                 // the leaves' error is held to its budget; a pass that pushes
                 // links follows (unless the last push refined nothing, or a
                 // cap or the clock has stopped refinement).
-                if (!budgetPass && !res.linkCapHit && !res.memoryBudgetHit && !outOfTime() &&
-                    leafBudgetCheck(h, *oracle, res))
-                    continue;
+                if (!budgetPass && mayRefine() && leafBudgetCheck(h, *oracle, res)) continue;
                 stageConverged = true;
                 break;
             }
@@ -1486,9 +1487,7 @@ HrResult HrSolver::solveOnce(bool progress) {
             // the next gather rather than at the next convergence (the
             // estimate is linear in B, which a push changes little): one
             // round of pushes follows another until the budget holds.
-            if (budgetPass && rec.refinedLinks > 0 && !res.linkCapHit && !res.memoryBudgetHit &&
-                !outOfTime())
-                leafBudgetCheck(h, *oracle, res);
+            if (budgetPass && rec.refinedLinks > 0 && mayRefine()) leafBudgetCheck(h, *oracle, res);
             if (outOfTime()) {
                 if (!res.timeLimitHit)
                     spdlog::warn(
