@@ -50,7 +50,7 @@ class HrEntry final : public Solver {
         sm["memory_budget_hit"] = res->memoryBudgetHit;
         sm["time_limit_hit"] = res->timeLimitHit;
         sm["eps_power"] =
-            json{{"of", res->epsReflected ? "reflected" : "emitted"}, {"value", res->epsPower}};
+            json{{"of", hr::epsPowerName(res->epsPowerOf)}, {"value", res->epsPower}};
         sm["min_area"] = res->minArea;
         sm["error_estimate"] = res->errorEstimate;
         auto orNull = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };

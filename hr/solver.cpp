@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <sstream>
 #include <unordered_map>
@@ -14,6 +15,7 @@
 #include "core/memory.h"
 #include "core/rng.h"
 #include "core/timer.h"
+#include "hr/eps_power.h"
 #include "hr/iteration_tail.h"
 #include "hr/receiver_error.h"
 #include "oracles/registry.h"
@@ -129,6 +131,7 @@ double relativeChange(const RGB& now, const RGB& before) {
     if (den <= 0) return num > 0 ? 1.0 : 0.0;
     return num / den;
 }
+
 }  // namespace
 
 HrSettings HrSettings::fromParams(const Params& p) {
@@ -179,8 +182,13 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.judgeVisibility =
         p.getEnum("hr.judge_visibility", s.judgeVisibility ? "independent" : "carried",
                   {"independent", "carried"}) == "independent";
-    s.epsReflected = p.getEnum("hr.eps_power", s.epsReflected ? "reflected" : "emitted",
-                               {"emitted", "reflected"}) == "reflected";
+    {
+        const std::string v = p.getEnum("hr.eps_power", epsPowerName(s.epsPower),
+                                        {"emitted", "reflected", "smaller"});
+        s.epsPower = v == "reflected" ? HrSettings::EpsPower::Reflected
+                     : v == "smaller" ? HrSettings::EpsPower::Smaller
+                                      : HrSettings::EpsPower::Emitted;
+    }
     s.reachRays = int(p.getInt("hr.reach_rays", s.reachRays, 0, 1 << 20));
     s.reachRetryRays = int(p.getInt("hr.reach_retry_rays", s.reachRetryRays, 0, 1 << 20));
     s.seed = uint64_t(p.getInt("hr.seed", int64_t(s.seed), 0, int64_t(1) << 62));
@@ -1228,7 +1236,7 @@ HrResult HrSolver::solveOnce(bool progress) {
     epsPower_ = emittedPower_;
     HrResult res;
     res.epsPower = epsPower_;
-    res.epsReflected = s_.epsReflected;
+    res.epsPowerOf = s_.epsPower;
     res.minArea = minArea_;
     links_.resetCost();
     if (s_.clusterModel == cluster::ClusterModel::Auto) {
@@ -1303,6 +1311,9 @@ HrResult HrSolver::solveOnce(bool progress) {
     if (stages.empty()) stages.push_back(hasEps ? s_.oracleParams.getDouble("eps", NAN) : NAN);
 
     RGB lastReflected = h.reflectedPower();
+    // The power eps is a fraction of (hr.eps_power), from the reflected
+    // power after each iteration.
+    EpsPowerTracker epsPower(s_.epsPower, emittedPower_, lastReflected);
     int iteration = 0;
     // Aitken extrapolation state (hr.extrapolate): B one iteration earlier,
     // the last change of reflected power and its ratio, per channel.
@@ -1343,12 +1354,10 @@ HrResult HrSolver::solveOnce(bool progress) {
             rec.stage = int(stage);
             rec.eps = stages[stage];
             Timer tr;
-            // hr.eps_power = reflected: the reflected power so far (that of
-            // the last iteration; the emitted power until the first gather);
-            // a fall by more than the growth allowance triggers a judging pass.
-            const double reflectedNow = maxComponent(lastReflected);
-            const double powerNow =
-                s_.epsReflected && reflectedNow > 0.0 ? reflectedNow : emittedPower_;
+            // The power eps is a fraction of now (hr.eps_power); under
+            // smaller and reflected, a fall by more than the growth
+            // allowance triggers a judging pass.
+            const double powerNow = epsPower.power();
             const bool budgetPass = !budgetPush_.empty();
             budgetTotalsValid_ = false;
             rec.judged = !lazy || judgedB.empty() || budgetPass ||
@@ -1450,6 +1459,7 @@ HrResult HrSolver::solveOnce(bool progress) {
                 for (uint32_t p = 0; p < np; ++p) prevRoots[p] = h.B(p);
             }
             lastReflected = reflected;
+            epsPower.add(reflected);
             rec.links = h.numLinks();
             rec.elements = h.numElements();
             rec.leaves = h.numLeaves();

@@ -61,8 +61,9 @@
 //                                       oracle accepts is still refined on the receiver side
 //                                       while its receiver's aggregate kernel error
 //                                       (hr/receiver_error.h) carries more than this fraction
-//                                       of the emitted power (A_r * range > eps * Phi) and the
-//                                       link carries at least an even share of it; with
+//                                       of the power hr.eps_power names, Phi (A_r * range >
+//                                       eps * Phi), and the link carries at least an even
+//                                       share of it; with
 //                                       hr.sender_total, the sender side likewise (a subdivided
 //                                       sender's mean, summed over its receivers: without it
 //                                       the check's receiver-side refinement lost 0.9 % of the
@@ -158,14 +159,15 @@
 //                                       (HrSolver::solve). 0: off
 //   hr.noise_rounds    int     3       the re-solves hr.noise_target may make
 //   hr.noise_max_factor double 64      how far it may multiply the ray counts, in all
-//   hr.eps_power       string  "emitted"  emitted | reflected: the power eps is a fraction
-//                                       of, for every oracle and every check the solver adds
-//                                       (LinkEstimate::emittedPower). emitted: the scene's
-//                                       emitted power (max channel). reflected: the reflected
-//                                       power B - E of the solution so far (max channel; the
-//                                       emitted power until the first gather), so eps is a
-//                                       fraction of what the error metrics measure (below,
-//                                       "What eps is a fraction of")
+//   hr.eps_power       string  "smaller"  smaller | emitted | reflected: the power eps is
+//                                       a fraction of, for every oracle and every check the
+//                                       solver adds (LinkEstimate::emittedPower), max channel.
+//                                       smaller: the smaller of the emitted power and the
+//                                       reflected power B - E the iteration is heading to, so
+//                                       eps is at most a fraction of what the error metrics
+//                                       measure; emitted: the scene's emitted power;
+//                                       reflected: the reflected power so far (below, "What
+//                                       eps is a fraction of")
 //   hr.judge_visibility string "independent"  independent | carried: the visibility the
 //                                       oracle judges a surface-to-surface link by (below,
 //                                       "Judged visibility")
@@ -203,7 +205,7 @@
 //                                       its light to every surface of the cluster facing the
 //                                       sender, seen or not; with `open` the power it may so
 //                                       misplace, rho B F_unoccluded (1 - v) A, must be within
-//                                       the oracle's eps share of the emitted power, and so
+//                                       the oracle's eps share of the eps power, and so
 //                                       must the sum over the links into one cluster (links
 //                                       with at least an even share refined), else the
 //                                       receiving cluster is opened (Oracle::receiverCheckEps:
@@ -272,21 +274,33 @@
 // blocked").
 //
 // What eps is a fraction of (hr.eps_power). The oracles compare a power (bfa:
-// rho_r B_s F A_r; error, kv: A_r dB) with eps times a power of the scene,
-// by default its emitted power (max channel). Where the lamps' light mostly
-// leaves the scene or is absorbed, the reflected power B - E that the error
-// metrics measure is a small part of that (one-sided graz.mgf: about 1 %),
-// so at eps 1e-3 one link may carry a tenth of all the reflected light, and
-// the error of its 8-ray visibility estimate (cluster.vis_rays) moves that
-// much light: which set of ray seeds is drawn then decides whether graz
-// comes out right or 18 % too bright (papers/README.md, "What eps is a
-// fraction of"). With hr.eps_power = reflected, eps is a fraction of the
-// reflected power of the solution so far. It is not known before the first
-// gather, so the first judging pass uses the emitted power; the next pass,
-// which every radiosity that turned from dark to lit triggers, re-judges
-// with the reflected power, and a pass is also triggered when that power
-// has fallen by more than hr.refine_growth since the last (it only grows as
-// bounces add up, which makes accepted links safer).
+// rho_r B_s F A_r; error, kv: A_r dB) with eps times a power of the scene
+// (max channel). Hanrahan et al. 1991 take the emitted power. The error
+// metrics measure the reflected power B - E, and where the lamps' light
+// mostly leaves the scene or is absorbed that is a small part of the
+// emitted (one-sided graz.mgf: about 1 %): at eps 1e-3 of the emitted power
+// one link may carry a tenth of all the reflected light, and the error of
+// its 8-ray visibility estimate (cluster.vis_rays) moves that much light
+// (papers/README.md, "What eps is a fraction of").
+//   smaller (the default): the smaller of the emitted power and the
+//     reflected power the iteration is heading to, predicted from the last
+//     three iterations (hr/eps_power.h). A pass judged with a power later
+//     found too large is corrected by the pass the fall triggers (below);
+//     one judged with a power too small would keep its extra links, which
+//     is why the prediction, not the power so far, is used: after the first
+//     bounces the power so far is a fraction of the final one, and judging
+//     with it refines scenes that reflect as much as they emit (the furnace
+//     at rho 0.5: 33 k links against 18.6 k under bfa 1e-3). Scenes that
+//     reflect clearly more than they emit keep the emitted power exactly
+//     (office:2, the classroom and Lost Empire, 1.5-1.6x; the furnace: the
+//     same links); one that reflects about as much (the bathroom, 1.02x) is
+//     judged finer in the passes whose prediction still fell short of it.
+//   emitted: the emitted power.
+//   reflected: the reflected power of the solution so far (the emitted
+//     power before the first gather).
+// Under smaller and reflected a judging pass is also triggered when the
+// power has fallen by more than hr.refine_growth since the last one (a rise
+// makes the accepted links safer).
 //
 // Lazy refinement (hr.refine_growth = g). Every oracle's test is linear in
 // the sender's radiosity or does not read it: bfa's rho_r B_s F A_r, the
@@ -380,6 +394,7 @@
 #include "core/memory.h"
 #include "core/params.h"
 #include "core/timer.h"
+#include "hr/eps_power.h"
 #include "hr/hierarchy.h"
 #include "hr/link_builder.h"
 #include "hr/noise.h"
@@ -428,9 +443,12 @@ struct HrSettings {
     double relaxShare = 0.8;
     double relaxFraction = 0.01;
     int relaxSweeps = 1000;
-    /// hr.eps_power = reflected: eps is a fraction of the reflected power
-    /// so far instead of the emitted power (above).
-    bool epsReflected = false;
+    /// hr.eps_power: what eps is a fraction of (above, "What eps is a
+    /// fraction of"): the emitted power, the reflected power so far, or the
+    /// smaller of the emitted power and the reflected power the iteration is
+    /// heading to.
+    using EpsPower = hr::EpsPower;
+    EpsPower epsPower = EpsPower::Smaller;
     /// hr.judge_visibility = independent: surface-to-surface links are
     /// judged by a visibility estimate independent of the one they carry
     /// (above, "Judged visibility").
@@ -515,9 +533,10 @@ struct HrResult {
     bool memoryBudgetHit = false;  ///< refinement stopped at memory.budget_mb
     bool timeLimitHit = false;     ///< stopped at hr.max_seconds
     /// The power eps was a fraction of in the last judging pass
-    /// (hr.eps_power: the emitted power, or the reflected power so far).
+    /// (hr.eps_power: the emitted power, the reflected power so far, or the
+    /// smaller of the emitted and the predicted reflected power).
     double epsPower = 0.0;
-    bool epsReflected = false;  ///< hr.eps_power = reflected
+    HrSettings::EpsPower epsPowerOf = HrSettings::EpsPower::Emitted;  ///< hr.eps_power
     uint64_t initialLinks = 0;
     uint64_t initialPairs =
         0;  ///< node pairs evaluated by initial linking (k(k-1) without clusters)

@@ -3,8 +3,11 @@
 // Hanrahan, Salzman & Aupperle 1991, section 4 ("brightness-weighted
 // refinement"): the error a link can make is bounded by the power it carries,
 // rho_r * B_s * F_rs * A_r. A link is accepted when that power (max over RGB
-// channels) is below eps times the scene's total emitted power (max channel),
-// so eps is a fraction of the light in the scene and comparable across scenes.
+// channels) is below eps times a power of the scene: HSA91 take the total
+// emitted power; here it is the power hr.eps_power names (max channel; by
+// default the smaller of the emitted power and the reflected power the
+// iteration is heading to, hr/eps_power.h), so eps is a fraction of the
+// light the error metrics measure and comparable across scenes.
 // Otherwise the element that looks larger from the other is subdivided.
 // With importance (Smits, Arvo & Salesin 1992) the power is also multiplied by
 // the receiver's importance, which is 1 until importance is computed.
@@ -13,7 +16,7 @@
 // link's receiver then holds the Galerkin projection of the link's transfer,
 // not its average, so the power at stake is what the projection misses: the
 // rule is
-//   rho_r * B_s * R_rs * A_r <= eps * emitted power,
+//   rho_r * B_s * R_rs * A_r <= eps * P   (P: the power hr.eps_power names),
 //   R_rs = max_k |P(x_k) - F(x_k)| * visibility
 // with F(x) the point form factor from receiver point x to the sender and P
 // its projection onto the receiver's basis, over the receiver's corners, edge
@@ -33,7 +36,7 @@
 // receiver check by default"); hr.receiver_eps = off gives the rule alone.
 //
 // Settings:
-//   eps          double  1e-3   fraction of total emitted power (0, 1]
+//   eps          double  1e-3   fraction of the power hr.eps_power names (0, 1]
 //   basis_residual bool  true   higher-order bases: judge by R_rs (above)
 //   use_bound    bool    false  use the upper bound Fupper instead of F
 //   min_area     double  0      elements at or below this area are not subdivided

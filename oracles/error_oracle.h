@@ -15,7 +15,9 @@
 // times the receiver's importance (1 until importance is computed; Smits,
 // Arvo & Salesin 1992). The link is accepted when dB is within eps (see
 // ErrorNorm in oracles/oracle.h):
-//     norm = power      A_r dB <= eps * (total emitted power, max channel),
+//     norm = power      A_r dB <= eps * P (P: the power hr.eps_power names,
+//                       max channel; by default the smaller of the emitted and
+//                       the predicted reflected power, hr/eps_power.h),
 //                       the units of `bfa`, so eps values are comparable;
 //     norm = radiosity  dB <= eps * (largest emitted radiosity, max channel),
 //                       the per-radiosity criterion of the papers.
@@ -36,7 +38,7 @@
 // its surface links together (hr/receiver_error.h, LinkEstimate::
 // receiverRange / receiverDeviation), sampled at its corners, edge midpoints
 // and centroid. With norm = power the receiver's links are accepted when
-//     A_r * E_r <= eps * (total emitted power, max channel),
+//     A_r * E_r <= eps * P (P as above),
 // E_r = max_k D(x_k) - min_k D(x_k) (the range): eps bounds the power the receiver's
 // piecewise-constant irradiance misplaces, as a fraction of the light in the
 // scene. Otherwise the links carrying at least an even share of E_r are

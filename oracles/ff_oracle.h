@@ -20,7 +20,8 @@
 // link, the errors of the links a coarse receiver accepts add up, and in a
 // closed box with rho 0.9 the accepted coefficients of some leaves sum above
 // 1 / rho, so the gather diverges (papers/README.md "The receiver check by
-// default"). The check bounds a power, a fraction of the emitted power, and
+// default"). The check bounds a power, a fraction of the power hr.eps_power
+// names (by default the smaller of the emitted and the reflected power), and
 // F_eps is a form factor; under auto it takes F_eps / 100, so that the error
 // falls with F_eps (at a fixed 1e-3 the Cornell box stayed at 4.9-5.7 % for
 // F_eps 0.2 to 0.05). The factor is a choice, not a bound: F_eps / 1000
@@ -60,7 +61,7 @@ class FormFactorOracle final : public Oracle {
     Decision decide(const LinkEstimate& e) const override;
     bool needsBasisResidual() const override { return s_.basisResidual && !s_.useBound; }
     bool needsUpperBound() const override { return s_.useBound; }
-    /// The receiver check's eps under auto: F_eps / 100 of the emitted power
+    /// The receiver check's eps under auto: F_eps / 100 of the power eps refers to
     /// (above, "The receiver check").
     double receiverCheckEps() const override { return kReceiverCheckPerF * s_.eps; }
     static constexpr double kReceiverCheckPerF = 0.01;

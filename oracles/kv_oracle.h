@@ -19,7 +19,9 @@
 //     dB = max_c rho_r,c B_s,c dK                   (max over RGB channels)
 // times the receiver's importance (1 until computed). The link is accepted
 // when dB is within eps (ErrorNorm, oracles/oracle.h):
-//     norm = power      A_r dB <= eps * (total emitted power, max channel)
+//     norm = power      A_r dB <= eps * P (P: the power hr.eps_power names,
+//                       max channel; by default the smaller of the emitted and
+//                       the predicted reflected power, hr/eps_power.h)
 //                       (RenderPark's POWER_ERROR norm compares the same power
 //                       error with the largest single emitter's power; the
 //                       total is used here for the units of `bfa`);
@@ -39,7 +41,7 @@
 // its surface links together (hr/receiver_error.h, LinkEstimate::
 // receiverRange / receiverDeviation), sampled at its corners, edge midpoints
 // and centroid. With norm = power the receiver's links are accepted when
-//     A_r * E_r <= eps * (total emitted power, max channel),
+//     A_r * E_r <= eps * P (P as above),
 // E_r = max_k |D(x_k)| (the largest deviation): eps bounds the power the receiver's
 // piecewise-constant irradiance misplaces, as a fraction of the light in the
 // scene. Otherwise the links carrying at least an even share of E_r are

@@ -33,7 +33,7 @@ struct LinkEstimate {
     RGB senderB{0.0};          ///< current radiosity of the sender
     RGB receiverRho{0.0};      ///< reflectance of the receiver
     double importance = 1.0;   ///< receiver importance (Smits, Arvo & Salesin 1992); 1 when unused
-    double emittedPower = 1.0; ///< max-channel total emitted power of the scene (normaliser)
+    double emittedPower = 1.0; ///< the power eps is a fraction of (normaliser; hr.eps_power, hr/solver.h: by default the smaller of the scene's emitted power and its predicted reflected power, max channel)
     /// Max-channel largest emitted radiosity E of any patch (normaliser of
     /// radiosity-norm error oracles, like RenderPark's max self-emitted radiance).
     double emittedRadiosity = 1.0;
@@ -114,11 +114,11 @@ class Oracle {
     /// receiver judged.
     virtual bool needsReceiverError() const { return false; }
     virtual std::string name() const = 0;
-    /// The fraction of the emitted power this oracle's eps is, where eps is
-    /// a power threshold; NaN for an oracle whose eps is something else (ff:
+    /// The fraction of the power hr.eps_power names (LinkEstimate::
+    /// emittedPower) this oracle's eps is, where eps is a power threshold; NaN for an oracle whose eps is something else (ff:
     /// a form factor) or that has none (uniform).
     virtual double powerEps() const { return std::numeric_limits<double>::quiet_NaN(); }
-    /// The fraction of the emitted power the checks the solver adds to every
+    /// The fraction of that power the checks the solver adds to every
     /// oracle's decision use: the receiver check under hr.receiver_eps = auto,
     /// the power a sampled near link or a partially visible cluster link may
     /// misplace, the leaf budget (hr/solver.h). powerEps() where eps is a
@@ -132,7 +132,8 @@ class Oracle {
 /// How the error oracles (`error`, `kv`) compare the radiosity error dB a link
 /// may make at its receiver with eps:
 ///   Power      A_r dB <= eps * emittedPower: the error in power, relative to
-///              the scene's emitted power, in the units of `bfa`;
+///              the power hr.eps_power names (LinkEstimate::emittedPower), in
+///              the units of `bfa`;
 ///   Radiosity  dB <= eps * emittedRadiosity: the error in radiosity, relative
 ///              to the brightest emitter (Lischinski et al. 1993; RenderPark's
 ///              RADIANCE_ERROR norm). Does not shrink with the element, so
@@ -209,9 +210,9 @@ inline Decision senderRefinement(const LinkEstimate& e) {
 }
 
 /// Whether the sender-side error summed over all the sender's receivers
-/// (LinkEstimate::senderTotal, when given) exceeds eps of the emitted power
-/// and the link carries at least an even share of it: the link is then
-/// refined on the sender side.
+/// (LinkEstimate::senderTotal, when given) exceeds eps of the power
+/// hr.eps_power names and the link carries at least an even share of it:
+/// the link is then refined on the sender side.
 inline bool senderTotalRefines(const LinkEstimate& e, double eps) {
     return e.senderTotal >= 0.0 && e.senderTotal * e.importance > eps * e.emittedPower &&
            e.linkSenderTotal * std::max<uint32_t>(1, e.senderLinks) >= e.senderTotal;

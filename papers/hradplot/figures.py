@@ -44,6 +44,9 @@ LABELS = {
     "iteration": "iteration",
     "scene_short": "scene",
     "l2_nonemitter_denoised": "non-emitter $L_2$, reference noise removed",
+    "eps_power": "eps of",
+    "mean_ratio_nonemitter": "mean ratio to the reference, non-emitters",
+    "dark_reflected_fraction": "reflected light on dark regions",
 }
 
 # Derived column -> the store columns it is computed from (store._derive).
@@ -63,6 +66,8 @@ SOURCES = {
     "cluster_builder": ["settings"],
     "clustering": ["settings"],
     "capped": ["summary"],
+    "eps_power": ["summary"],
+    "dark_reflected_fraction": ["summary"],
     "links_per_patch": ["links", "summary"],
     "scene_short": ["scene"],
     "floor_variant": ["settings"],

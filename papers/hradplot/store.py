@@ -149,6 +149,9 @@ def _derive(runs):
                           ("l1_nonemitter_lum", ("error", "l1_nonemitter_lum")),
                           ("l2_nonemitter_lum", ("error", "l2_nonemitter_lum")),
                           ("mean_ratio_nonemitter", ("error", "mean_ratio_nonemitter")),
+                          # The share of the reflected light on regions the
+                          # reference has dark (issue 10, item 8).
+                          ("dark_reflected_fraction", ("error", "dark_reflected_fraction")),
                           ("error_estimate", ("error_estimate",)),
                           ("error_estimate_leaves", ("error_estimate_leaves",)),
                           ("error_estimate_points", ("error_estimate_points",)),
@@ -178,6 +181,15 @@ def _derive(runs):
                                                     ("memory_budget_hit", "memory"))
                             if v.get(key))
         runs["capped"] = runs["summary"].map(capped)
+
+        # What eps was a fraction of (hr.eps_power, as the summary records
+        # it; "emitted" for stores written before the summary named it).
+        def eps_power(s):
+            try:
+                return str(json.loads(s)["eps_power"]["of"])
+            except (TypeError, ValueError, KeyError):
+                return "emitted"
+        runs["eps_power"] = runs["summary"].map(eps_power)
     if "scene" in runs.columns and len(runs):
         # A file scene by its file name without folder and extension
         # ("../../../shared/scenes/renderpark-mgf/corridor.mgf" -> "corridor").
