@@ -66,6 +66,21 @@ def write_report(lines, out):
     print(text)
 
 
+def loadavg():
+    """The 1-minute load average, or '?' where /proc/loadavg is absent."""
+    try:
+        with open("/proc/loadavg") as f:
+            return f.read().split()[0]
+    except OSError:
+        return "?"
+
+
+def per_link(bpl, key):
+    """A bytes-per-link figure from the summary, or '-' where it lacks it."""
+    v = bpl.get(key)
+    return f"{v:.1f}" if isinstance(v, (int, float)) else "-"
+
+
 def fmt_bytes(b):
     return f"{b / 1048576:.1f}"
 
@@ -99,6 +114,7 @@ def main():
     else:
         print(f"note: {rp} absent; RenderPark cases skipped", file=sys.stderr)
 
+    load_start = loadavg()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for i, (label, scene, extra) in enumerate(cases):
@@ -111,6 +127,7 @@ def main():
     lines.append("# hrad hierarchical radiosity benchmark\n")
     lines.append(f"- date: {datetime.date.today().isoformat()}")
     lines.append(f"- machine: {machine()}")
+    lines.append(f"- load (1-minute average, start / end): {load_start} / {loadavg()}")
     lines.append(f"- command: `/usr/bin/python3 bench/hr_bench.py{' --quick' if args.quick else ''}`")
     lines.append("- each case: `hrad solve SCENE --eps EPS --no-images --no-ply` (bfa oracle,"
                  " default settings); times in seconds, memory in MiB\n")
@@ -130,13 +147,16 @@ def main():
         err_s = f"{s['error']['l2_lum']:.4f}" if "error" in s else "-"
         lines.append(
             f"| {label} | {s['scene_info']['patches']} | {c.get('iterations', '-')} | "
-            f"{c['elements']} | {c['links']} | {bpl.get('link_storage', 0):.1f} | "
-            f"{bpl.get('all', 0):.1f} | {t.get('linking', 0):.2f} | {t.get('refine', 0):.2f} | "
+            f"{c['elements']} | {c['links']} | {per_link(bpl, 'link_storage')} | "
+            f"{per_link(bpl, 'links_and_elements')} | {t.get('linking', 0):.2f} | "
+            f"{t.get('refine', 0):.2f} | "
             f"{t.get('gather', 0):.3f} | {t.get('push_pull', 0):.3f} | {solve_t:.2f} | "
             f"{fmt_bytes(m['peak_rss'])} | {mrays:.2f} | {err_s} |")
     lines.append("")
-    lines.append("`link B/link`: bytes of link storage (16-byte records + CSR offsets) per link;"
-                 " `all B/link`: links plus elements per link. `L2 lum vs FM`: area-weighted"
+    lines.append("`link B/link`: bytes of link storage per link (records, CSR offsets and"
+                 " what links keep besides, summary `bytes_per_link.link_storage`);"
+                 " `all B/link`: links plus elements per link (`links_and_elements`)."
+                 " `L2 lum vs FM`: area-weighted"
                  " relative L2 error of luminance against a full-matrix solve at uniform level 3"
                  " (Cornell only). `solve s`: linking + refinement + gather + push-pull, without"
                  " loading, the Embree build and the reference solve. Peak RSS is the process's,"
