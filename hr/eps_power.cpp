@@ -7,13 +7,17 @@
 
 namespace hrad::hr {
 
-const char* epsPowerName(EpsPower e) {
-    switch (e) {
-        case EpsPower::Reflected: return "reflected";
-        case EpsPower::Smaller: return "smaller";
-        case EpsPower::Emitted: break;
-    }
-    return "emitted";
+const std::vector<std::string>& epsPowerNames() {
+    static const std::vector<std::string> names{"emitted", "reflected", "smaller"};
+    return names;
+}
+
+const char* epsPowerName(EpsPower e) { return epsPowerNames()[size_t(e)].c_str(); }
+
+EpsPower epsPowerFromName(const std::string& name) {
+    const auto& names = epsPowerNames();
+    const auto it = std::find(names.begin(), names.end(), name);
+    return it == names.end() ? EpsPower::Emitted : EpsPower(it - names.begin());
 }
 
 double predictedReflected(const RGB& older, const RGB& old, const RGB& now) {

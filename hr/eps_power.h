@@ -17,14 +17,22 @@
 // bounces it is a part of the final one, and links are never coarsened.
 #pragma once
 
+#include <string>
+#include <vector>
+
 #include "core/types.h"
 
 namespace hrad::hr {
 
 enum class EpsPower { Emitted, Reflected, Smaller };
 
+/// The names of the hr.eps_power values, in the enum's order.
+const std::vector<std::string>& epsPowerNames();
 /// The name of an hr.eps_power value ("emitted", "reflected", "smaller").
 const char* epsPowerName(EpsPower e);
+/// The value of a name of epsPowerNames() (checked by the caller's
+/// Params::getEnum; anything else is Emitted).
+EpsPower epsPowerFromName(const std::string& name);
 
 /// The reflected power (max channel) a Jacobi-like iteration is heading to,
 /// from its reflected powers after three consecutive iterations (older,

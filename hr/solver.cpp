@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <limits>
 #include <optional>
 #include <sstream>
 #include <unordered_map>
@@ -131,7 +130,6 @@ double relativeChange(const RGB& now, const RGB& before) {
     if (den <= 0) return num > 0 ? 1.0 : 0.0;
     return num / den;
 }
-
 }  // namespace
 
 HrSettings HrSettings::fromParams(const Params& p) {
@@ -182,13 +180,8 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.judgeVisibility =
         p.getEnum("hr.judge_visibility", s.judgeVisibility ? "independent" : "carried",
                   {"independent", "carried"}) == "independent";
-    {
-        const std::string v = p.getEnum("hr.eps_power", epsPowerName(s.epsPower),
-                                        {"emitted", "reflected", "smaller"});
-        s.epsPower = v == "reflected" ? HrSettings::EpsPower::Reflected
-                     : v == "smaller" ? HrSettings::EpsPower::Smaller
-                                      : HrSettings::EpsPower::Emitted;
-    }
+    s.epsPower =
+        epsPowerFromName(p.getEnum("hr.eps_power", epsPowerName(s.epsPower), epsPowerNames()));
     s.reachRays = int(p.getInt("hr.reach_rays", s.reachRays, 0, 1 << 20));
     s.reachRetryRays = int(p.getInt("hr.reach_retry_rays", s.reachRetryRays, 0, 1 << 20));
     s.seed = uint64_t(p.getInt("hr.seed", int64_t(s.seed), 0, int64_t(1) << 62));

@@ -69,4 +69,6 @@ TEST(EpsPowerTracker, EmittedAndReflectedModes) {
     EXPECT_STREQ(epsPowerName(EpsPower::Smaller), "smaller");
     EXPECT_STREQ(epsPowerName(EpsPower::Emitted), "emitted");
     EXPECT_STREQ(epsPowerName(EpsPower::Reflected), "reflected");
+    for (EpsPower e : {EpsPower::Emitted, EpsPower::Reflected, EpsPower::Smaller})
+        EXPECT_EQ(epsPowerFromName(epsPowerName(e)), e);
 }
