@@ -11,6 +11,7 @@
 #include "apps/commands.h"
 #include "core/error.h"
 #include "core/log.h"
+#include "core/version.h"
 
 using namespace hrad;
 
@@ -36,7 +37,7 @@ int main(int argc, char** argv) {
     // subcommand, as users type them: `hrad solve cornell --threads 1`.
     // Subcommands created below inherit this.
     app.fallthrough();
-    app.set_version_flag("--version", HRAD_VERSION);
+    app.set_version_flag("--version", std::string(gitDescribe()));
     std::string logLevel = "info";
     app.add_option("--log", logLevel, "log level: quiet, info, debug")
         ->check(CLI::IsMember({"quiet", "info", "debug"}))

@@ -11,6 +11,7 @@
 
 #include "core/memory.h"
 #include "core/timer.h"
+#include "core/version.h"
 #include "experiments/solvers.h"
 #include "reference/cache.h"
 #include "reference/fullmatrix.h"
@@ -33,7 +34,7 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 std::string buildType() { return HRAD_BUILD_TYPE; }
-std::string codeVersion() { return HRAD_VERSION; }
+std::string codeVersion() { return gitDescribe(); }
 
 std::string hostName() {
     char buf[256] = {};
