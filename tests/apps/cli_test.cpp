@@ -36,7 +36,9 @@ Result run(const std::string& args) {
 // is the source tree's `git describe --always --dirty --tags` as of the build
 // (core/version.h). It was fixed when CMake configured, so a binary built
 // after a commit without reconfiguring recorded an older commit in its
-// stores. Skipped outside a git checkout.
+// stores. Skipped outside a git checkout. ctest does not build: after a
+// commit or an edit of a tracked file the binary's version is stale until
+// the next build, and this test says so.
 TEST(Cli, VersionIsTheTreesGitDescribeAtTheBuild) {
     std::string cmd = "git -C '" HRAD_SOURCE_DIR "' describe --always --dirty --tags 2>/dev/null";
     FILE* p = popen(cmd.c_str(), "r");
