@@ -21,14 +21,18 @@ struct Result {
     std::string output;
 };
 
-Result run(const std::string& args) {
-    std::string cmd = std::string(HRAD_BINARY) + " --log quiet " + args + " 2>&1";
+/// A shell command's exit code and standard output.
+Result shell(const std::string& cmd) {
     FILE* p = popen(cmd.c_str(), "r");
     std::string out;
     std::array<char, 4096> buf;
     while (size_t n = fread(buf.data(), 1, buf.size(), p)) out.append(buf.data(), n);
     int status = pclose(p);
     return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+Result run(const std::string& args) {
+    return shell(std::string(HRAD_BINARY) + " --log quiet " + args + " 2>&1");
 }
 }  // namespace
 
@@ -40,18 +44,13 @@ Result run(const std::string& args) {
 // commit or an edit of a tracked file the binary's version is stale until
 // the next build, and this test says so.
 TEST(Cli, VersionIsTheTreesGitDescribeAtTheBuild) {
-    std::string cmd = "git -C '" HRAD_SOURCE_DIR "' describe --always --dirty --tags 2>/dev/null";
-    FILE* p = popen(cmd.c_str(), "r");
-    std::string describe;
-    std::array<char, 256> buf;
-    while (size_t n = fread(buf.data(), 1, buf.size(), p)) describe.append(buf.data(), n);
-    const int status = pclose(p);
-    while (!describe.empty() && (describe.back() == '\n' || describe.back() == '\r'))
-        describe.pop_back();
-    if (status != 0 || describe.empty()) GTEST_SKIP() << "the source tree is not a git checkout";
+    const Result git =
+        shell("git -C '" HRAD_SOURCE_DIR "' describe --always --dirty --tags 2>/dev/null");
+    if (git.code != 0 || git.output.empty())
+        GTEST_SKIP() << "the source tree is not a git checkout";
     Result r = run("--version");
     ASSERT_EQ(r.code, 0) << r.output;
-    EXPECT_EQ(r.output, describe + "\n");
+    EXPECT_EQ(r.output, git.output);  // both end in one newline
 }
 
 TEST(Cli, MalformedSceneFilesNameFileAndLine) {
