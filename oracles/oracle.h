@@ -114,6 +114,10 @@ class Oracle {
     /// receiver judged.
     virtual bool needsReceiverError() const { return false; }
     virtual std::string name() const = 0;
+    /// False for an oracle that refines to a fixed mesh whatever the error
+    /// (uniform): it has no eps, so there are no eps stages, and none of the
+    /// checks the solver adds to the decisions (hr/checks/) applies.
+    virtual bool refinesByError() const { return true; }
     /// The fraction of the power hr.eps_power names (LinkEstimate::
     /// emittedPower) this oracle's eps is, where eps is a power threshold; NaN for an oracle whose eps is something else (ff:
     /// a form factor) or that has none (uniform).

@@ -26,6 +26,7 @@ class UniformOracle final : public Oracle {
     explicit UniformOracle(Settings s) : s_(s) {}
     Decision decide(const LinkEstimate& e) const override;
     std::string name() const override { return "uniform"; }
+    bool refinesByError() const override { return false; }
     std::string describe() const override;
 
   private:
