@@ -46,7 +46,7 @@ struct GoldenCase {
 // stand-ins); ff and error with clusters.
 const GoldenCase kCases[] = {
     {"cornell_bfa", "cornell", "hr.oracle=bfa oracle.eps=1e-3"},
-    {"cornell_ff", "cornell", "hr.oracle=ff oracle.eps=0.05"},
+    {"cornell_ff", "cornell", "hr.oracle=ff oracle.eps=0.1"},
     {"cornell_error", "cornell", "hr.oracle=error oracle.eps=3e-3"},
     {"cornell_kv", "cornell", "hr.oracle=kv oracle.eps=3e-3"},
     {"cornell_uniform", "cornell", "hr.oracle=uniform oracle.level=2"},
@@ -58,7 +58,7 @@ const GoldenCase kCases[] = {
     {"cornell_carried_emitted", "cornell",
      "hr.oracle=bfa oracle.eps=1e-3 hr.judge_visibility=carried hr.eps_power=emitted"},
     {"furnace_budget_full", "furnace", "hr.oracle=bfa oracle.eps=1e-2 hr.leaf_budget=full"},
-    {"furnace_balanced_ff", "furnace", "hr.oracle=ff oracle.eps=0.1"},
+    {"furnace_balanced_bfa", "furnace", "hr.oracle=bfa oracle.eps=1e-2"},
     {"furnace_checks_off", "furnace",
      "hr.oracle=bfa oracle.eps=1e-2 hr.receiver_eps=off hr.leaf_budget=off"},
     {"plates_sender_total", "plates:perpendicular:1:1:1",
