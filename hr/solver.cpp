@@ -17,6 +17,8 @@
 #include "hr/eps_power.h"
 #include "hr/iteration_tail.h"
 #include "hr/receiver_error.h"
+#include "hr/refiner.h"
+#include "hr/checks/registry.h"
 #include "oracles/registry.h"
 #include "transport/reachability.h"
 
@@ -25,17 +27,6 @@ namespace hrad::hr {
 using oracles::Decision;
 
 namespace {
-/// Frees v's storage (clear() keeps it).
-template <class T>
-void releaseVector(std::vector<T>& v) {
-    std::vector<T>().swap(v);
-}
-
-/// A link between two surface elements (no cluster on either side).
-bool surfacePair(const Hierarchy& h, uint32_t r, uint32_t s) {
-    return s != kNone && !h.isCluster(r) && !h.isCluster(s);
-}
-
 /// Largest rho_r |B_c - B_s| (max channel) over the children of a subdivided
 /// surface sender s; 0 for a leaf or a cluster (LinkEstimate::senderSpread).
 double senderSpread(const Hierarchy& h, uint32_t r, uint32_t s) {
@@ -128,6 +119,7 @@ HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visib
     for (const auto& patch : scene.patches)
         emittedRadiosity_ = std::max(emittedRadiosity_, maxComponent(patch.emission));
     if (!(emittedRadiosity_ > 0)) emittedRadiosity_ = 1.0;
+    checks_ = makeRefinementChecks(s_);
     if (s_.basisDegree > 0) {
         basis_ = std::make_unique<scene::BasisSet>(s_.basisDegree);
         coupling_ = std::make_unique<transport::CouplingEngine>(
@@ -135,6 +127,9 @@ HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visib
             s_.basisPoints > 0 ? s_.basisPoints : s_.basisDegree + 2, s_.basisNearLevels,
             s_.basisCheck);
     }
+    const uint64_t couplingBytes =
+        coupling_ ? sizeof(float) * uint64_t(basis_->size() * basis_->size()) : 0;
+    budget_ = std::make_unique<RefinementBudget>(s_, solveTimer_, couplingBytes);
 }
 
 struct HrSolver::PreviousCoupling {
@@ -192,31 +187,6 @@ uint64_t HrSolver::updateCoupling(Hierarchy& h, const PreviousCoupling* previous
     });
     h.setCoupling(std::move(index), std::move(data));
     return rays;
-}
-
-uint64_t HrSolver::passPeakBytes(const Hierarchy& h, uint64_t links, uint64_t samples,
-                                 uint64_t elements) const {
-    // A judging pass moves the links out of the hierarchy and keeps them,
-    // with their receivers, as pending and as kept side by side (two Links
-    // and two receiver indices per link; the kept arrays are reserved to the
-    // pending size), and their kernel samples likewise. On top of that, the
-    // larger of what the decisions hold (per link: ReceiverError and
-    // SenderTotal of the links that carry samples, the misplaced power, the
-    // decision; receiverErrors() transiently three 8-byte indices per
-    // surface link) and what the new links' round holds (two 8-byte offsets
-    // per link); per element the leaf ranges, the aggregates' offsets and
-    // totals. setLinks() (the sort into rows: one more Link per link, and
-    // the samples once more) stays below this. Polynomial bases add their
-    // coupling matrices.
-    const uint64_t coupling =
-        coupling_ ? sizeof(uint32_t) + sizeof(float) * uint64_t(h.basisSize() * h.basisSize()) : 0;
-    const uint64_t kept = 2 * (sizeof(Link) + sizeof(uint32_t) + coupling);
-    const uint64_t decisions = std::max<uint64_t>(
-        sizeof(ReceiverError) + sizeof(SenderTotal) + sizeof(double) + 1 + 3 * sizeof(uint64_t),
-        2 * sizeof(uint64_t) + 1);
-    const uint64_t perElement = 2 * sizeof(RGB) + 2 * sizeof(uint64_t) + sizeof(double) + 8;
-    return links * (kept + decisions) + 2 * samples * sizeof(KernelSamples) +
-           elements * perElement;
 }
 
 void HrSolver::standInNear(Hierarchy& h, const std::vector<uint32_t>& recv,
@@ -456,589 +426,22 @@ double HrSolver::estimateError(const Hierarchy& h, const std::vector<uint32_t>& 
     return reflected > 0 ? sum / reflected : 0.0;
 }
 
-double HrSolver::leafBudgetPower(const oracles::Oracle& oracle) const {
-    // The receiver check's eps (hr.receiver_eps, or the oracle's own mapping
-    // of its eps to a power fraction: Oracle::receiverCheckEps) of the power
-    // eps refers to (hr.eps_power), in luminance like the estimate.
-    double leafEps = oracle.receiverCheckEps();
-    if (!oracle.needsReceiverError() && s_.receiverEps > 0.0) leafEps = s_.receiverEps;
-    if (!(leafEps > 0.0) || s_.oracle == "uniform") return 0.0;
-    const RGB emitted = scene_->emittedPower();
-    return leafEps * epsPower_ * luminance(emitted) / std::max(maxComponent(emitted), 1e-300);
-}
-
-bool HrSolver::leafBudgetCheck(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res) {
-    budgetTotalsValid_ = false;
-    if (s_.leafBudget != HrSettings::LeafBudget::Balanced || h.basisDegree() != 0) return false;
-    // The default budget sums the receiver check's errors: with the check
-    // off (hr.receiver_eps = off: bfa and ff as published) it is off too.
-    if (!oracle.needsReceiverError() && s_.receiverEps == 0.0) return false;
-    const double budget = leafBudgetPower(oracle);
-    if (!(budget > 0.0)) return false;
-    Timer t0;
-    const std::vector<uint32_t> recv = h.linkReceivers();
-    std::vector<double> shares;
-    budgetTotals_ = leafErrorTotals(h, recv, h.links(), engine_, true,
-                                    h.hasKernelSamples() ? &h.kernelSamples() : nullptr, &shares);
-    // The leaves' averages may be wrong by eps beyond the error inside them.
-    const double allowed = budget + budgetTotals_.inside();
-    spdlog::debug("leaf budget: leaves {:.4g}, inside {:.4g}, eps {:.4g} ({:.2f} s)",
-                  budgetTotals_.leaves, budgetTotals_.inside(), budget, t0.seconds());
-    if (budgetTotals_.leaves > allowed) {
-        // Pushes aim at half the budget beyond the inside error: a push
-        // removes only part of a receiver's share, and aiming at the limit
-        // itself crept towards it one receiver per pass.
-        budgetPush_ = leafBudgetMarks(shares, budgetTotals_.leaves - allowed + 0.5 * budget);
-        if (!budgetPush_.empty()) {
-            res.refineSeconds += t0.seconds();  // a judging pass follows
-            return true;
-        }
-    }
-    // Held: the pass is the final estimate's if nothing changes after it.
-    budgetTotalsValid_ = true;
-    budgetCheckSeconds_ = t0.seconds();
-    res.refineSeconds += budgetCheckSeconds_;
-    return false;
-}
-
 uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
                           IterationRecord& rec) {
-    // memory.budget_mb (below): what the process holds besides the links and
-    // elements (the scene, Embree, the clusters, the libraries, and whatever
-    // the allocator kept), measured now.
-    const uint64_t rssNow = currentRssBytes(), held = h.elementBytes() + h.linkBytes();
-    const uint64_t fixedBytes = rssNow > held ? rssNow - held : 0;
-    std::vector<uint32_t> recv = h.linkReceivers();
     // The coupling matrices of the links as they are, for the links kept.
     PreviousCoupling previous;
     if (coupling_) previous = snapshotCoupling(h);
-    // Moved out, not copied: h has no links until setLinks below.
-    std::vector<Link> pending = h.takeLinks();
-    // Sending clusters' ray end points are drawn by this iteration's B.
-    if (linker_) linker_->prepareSenders(h.allB());
-    std::vector<uint32_t> finalRecv;
-    std::vector<Link> finalLinks;
-    finalRecv.reserve(pending.size());
-    finalLinks.reserve(pending.size());
-    uint64_t refined = 0;
-    int round = 0;
-    std::vector<uint8_t> decision;
-    std::vector<uint8_t> mark;
-    const bool bounds = oracle.needsBounds();
-    // The eps of the checks added to the oracle's decisions, a fraction of
-    // the emitted power: the (stage's) oracle's eps mapped to one
-    // (Oracle::receiverCheckEps: bfa, error, kv their eps; ff F_eps / 100).
-    // ff's F_eps itself is a form factor: taken as a power fraction it let
-    // every stand-in and partially visible cluster link misplace a tenth of
-    // the emitted power at F_eps 0.1 (papers/README.md, "ff's clustered
-    // solves were dark").
-    const double checkEps = oracle.receiverCheckEps();
-    // The receiver check for oracles that do not judge the aggregate
-    // themselves (guardEps > 0).
-    double guardEps = 0.0;
-    if (!oracle.needsReceiverError() && s_.oracle != "uniform") {
-        if (s_.receiverEps > 0.0)
-            guardEps = s_.receiverEps;
-        else if (s_.receiverEps < 0.0 && !std::isnan(oracle.receiverCheckEps()))
-            guardEps = oracle.receiverCheckEps();  // auto: the (stage's) oracle maps its eps
-    }
-    const bool aggregate = oracle.needsReceiverError() || guardEps > 0.0;
-    std::vector<ReceiverError> rerr;
-    // Kernel samples travel with their links (geometry: computed once, when
-    // the link is made; the initial links get theirs here). Each array holds
-    // those of the links that store samples (Hierarchy::storesKernelSamples),
-    // in the order of its link array.
-    std::vector<KernelSamples> pendingS, finalS;
-    if (aggregate) {
-        // Moved out of the hierarchy, not copied: refinement hands them
-        // back with the final links (setLinks below).
-        pendingS =
-            h.hasKernelSamples() ? h.takeKernelSamples() : computeKernelSamples(h, recv, pending);
-        finalS.reserve(pendingS.size());
-    }
-    // hr.leaf_budget: receivers whose links are pushed down this pass. The
-    // full budget judges the leaves' error in every pass; the balanced one
-    // hands in the marks of its check at convergence (leafBudgetCheck).
-    std::vector<uint8_t> push;
-    if (s_.leafBudget == HrSettings::LeafBudget::Full && h.basisDegree() == 0) {
-        const double budget = leafBudgetPower(oracle);
-        if (budget > 0.0) {
-            std::vector<double> shares;
-            const LeafErrorTotals t =
-                leafErrorTotals(h, recv, pending, engine_, false, nullptr, &shares);
-            push = leafBudgetMarks(shares, t.leaves - budget);
-            spdlog::debug("leaf budget: leaves {:.4g} against {:.4g}, {} pushed", t.leaves,
-                          budget, std::count(push.begin(), push.end(), uint8_t(1)));
-        }
-    } else if (!budgetPush_.empty()) {
-        push = std::move(budgetPush_);
-        budgetPush_.clear();
-    }
-    // Moves pending link i (visited in increasing order from i = 0, with
-    // cursor k over pendingS) to the final links.
-    auto keepPending = [&](size_t i, size_t& k) {
-        finalRecv.push_back(recv[i]);
-        finalLinks.push_back(pending[i]);
-        if (aggregate && h.storesKernelSamples(recv[i], pending[i]))
-            finalS.push_back(pendingS[k++]);
-    };
-    // Advances cursor k past pending link i's samples without keeping them.
-    auto skipPending = [&](size_t i, size_t& k) {
-        if (aggregate && h.storesKernelSamples(recv[i], pending[i])) ++k;
-    };
-
-    while (!pending.empty()) {
-        size_t n = pending.size();
-        decision.assign(n, 0);
-        // Deferred links whose sending cluster now carries light are computed
-        // before anything judges them (cluster.defer_dark).
-        if (linker_ && linker_->settings().deferDark) {
-            std::atomic<uint64_t> rays{0}, computed{0};
-            tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const auto& range) {
-                uint64_t localRays = 0, localComputed = 0;
-                for (size_t i = range.begin(); i != range.end(); ++i) {
-                    const uint32_t s = pending[i].sender;
-                    if (!(pending[i].flags & Link::kDeferred) || !(maxComponent(h.maxB(s)) > 0))
-                        continue;
-                    uint32_t nr = 0;
-                    pending[i] = links_.make(h, recv[i], s, nr);
-                    localRays += nr;
-                    ++localComputed;
-                }
-                rays += localRays;
-                computed += localComputed;
-            });
-            res.totalRays += rays;
-            rec.formFactors += computed;
-            res.deferredLinksComputed += computed;
-        }
-        if (outOfTime()) {
-            // hr.max_seconds: keep the pending links as they are.
-            if (!res.timeLimitHit)
-                spdlog::warn(
-                    "hr.max_seconds = {} reached: refinement and iteration stop; the "
-                    "solution so far is the result",
-                    s_.maxSeconds);
-            res.timeLimitHit = true;
-            for (size_t i = 0, k = 0; i < n; ++i) keepPending(i, k);
-            break;
-        }
-        // cluster.near = stand_in: pairs too close for the point
-        // approximation get a stand-in that is judged below before anything
-        // is opened (cluster/link.h "Judged stand-ins").
-        standInNear(h, recv, pending, res, rec);
-        bool capHit = finalLinks.size() + n > s_.maxLinks;
-        if (capHit && !res.linkCapHit) {
-            res.linkCapHit = true;
-            spdlog::warn("hr.max_links = {} reached: refinement stops here", s_.maxLinks);
-        }
-        std::vector<SenderTotal> stot;
-        const bool wantTotals =
-            !capHit && s_.senderTotal && (oracle.needsReceiverError() || guardEps > 0.0);
-        LeafRanges ranges;
-        if (wantTotals || (!capHit && aggregate)) leafRanges(h, ranges);
-        if (wantTotals) senderTotals(h, recv, pending, finalRecv, finalLinks, stot, &ranges);
-        if (!capHit && aggregate)
-            receiverErrors(h, recv, pending, pendingS, finalRecv, finalLinks, finalS, rerr,
-                           coupling_ != nullptr, {}, &ranges);
-        // Partially visible links into clusters (cluster.partial_receivers):
-        // the power each may hand to unseen surfaces of its receiving
-        // cluster, and their sum per receiving cluster.
-        std::vector<double> misplaced;
-        std::vector<double> clusterMisplaced;
-        std::vector<uint32_t> clusterPartial;
-        const bool nearStandIns = linker_ && linker_->settings().standInNear;
-        const bool partialCheck = !capHit && (s_.openPartialReceivers || nearStandIns) &&
-                                  checkEps > 0 && h.numClusters() > 0;
-        // Filled by the decision pass below, from the estimate it makes
-        // anyway; the sums per receiving cluster are taken after it.
-        if (partialCheck) misplaced.assign(n, 0.0);
-        if (!capHit) {
-            // rerr and stot hold the links that carry kernel samples only:
-            // each block of links starts at its first such link.
-            constexpr size_t kBlock = 1024;
-            const size_t blocks = (n + kBlock - 1) / kBlock;
-            std::vector<size_t> blockFirst(blocks + 1, 0);
-            if (aggregate) {
-                for (size_t i = 0; i < n; ++i)
-                    if (h.carriesKernelSamples(recv[i], pending[i])) ++blockFirst[i / kBlock + 1];
-                for (size_t b = 0; b < blocks; ++b) blockFirst[b + 1] += blockFirst[b];
-            }
-            const ReceiverError kNotEvaluated{};
-            tbb::parallel_for(tbb::blocked_range<size_t>(0, blocks, 1), [&](const auto& range) {
-                for (size_t blk = range.begin(); blk != range.end(); ++blk) {
-                    size_t k = blockFirst[blk];
-                    for (size_t i = blk * kBlock, iEnd = std::min(n, i + kBlock); i < iEnd; ++i) {
-                        const bool carries =
-                            aggregate && h.carriesKernelSamples(recv[i], pending[i]);
-                        const size_t si = carries ? k++ : 0;
-                        const Link& l = pending[i];
-                        uint32_t r = recv[i], s = l.sender;
-                        if (l.flags & Link::kOpen) {
-                            decision[i] = uint8_t(links_.forcedDecision(h, r, s));
-                            continue;
-                        }
-                        // A surface link neither of whose ends can subdivide
-                        // is kept whatever it is judged to be (every refusal
-                        // below goes through oracles::constrain or its like);
-                        // finely tessellated scenes have most of their links
-                        // there.
-                        if (!h.canSubdivide(r) && !h.canSubdivide(s) &&
-                            !(l.flags & Link::kSampled)) {
-                            decision[i] = uint8_t(Decision::Accept);
-                            continue;
-                        }
-                        // Surface links judged by the receiver aggregate need no
-                        // per-link form-factor range (17 contour integrals each).
-                        const bool wantBounds = bounds && !(aggregate && surfacePair(h, r, s));
-                        oracles::LinkEstimate e =
-                            linkEstimate(h, r, l, wantBounds, oracle.needsUpperBound());
-                        if (coupling_ && oracle.needsBasisResidual() && surfacePair(h, r, s) &&
-                            !(l.flags & Link::kPartial)) {
-                            // The part of the transfer the receiver's basis truncates
-                            // (oracles/oracle.h LinkEstimate::basisResidualF). Not for
-                            // partially visible links: the residual is of the unoccluded
-                            // kernel and does not see a shadow edge across the receiver
-                            // (judging them by it left cornell's shadows under-refined:
-                            // cubic, 2,090 links, L2 0.0060 against 0.0032 with 2,460
-                            // links judged by the constant rule), so they keep the
-                            // constant rule.
-                            transport::ElementRef er{h.patch(r), h.domain(r), h.stableId(r)};
-                            transport::ElementRef es{h.patch(s), h.domain(s), h.stableId(s)};
-                            e.basisResidualF = coupling_->projectionResidual(er, es) * l.vis();
-                        }
-                        if (aggregate) {
-                            const ReceiverError& re = carries ? rerr[si] : kNotEvaluated;
-                            e.receiverRange = re.range;
-                            e.receiverDeviation = re.deviation;
-                            e.linkDeviation = re.linkDeviation;
-                            e.receiverLinks = re.links;
-                            if (re.range >= 0.f) {
-                                e.senderAggregate = re.senderSum;
-                                e.linkSenderPart = re.linkSender;
-                            }
-                        }
-                        if (carries && !stot.empty() && stot[si].total >= 0.f) {
-                            e.senderTotal = stot[si].total;
-                            e.linkSenderTotal = stot[si].link;
-                            e.senderLinks = stot[si].links;
-                        }
-                        if (partialCheck && h.isCluster(r)) {
-                            if (l.byArea()) {
-                                // A stand-in whose receiving cluster takes
-                                // the light by area may put all of it on the
-                                // wrong surfaces.
-                                misplaced[i] = maxComponent(e.receiverRho * e.senderB) * e.F *
-                                               e.receiverArea;
-                            } else if (s_.openPartialReceivers &&
-                                       (l.flags & (Link::kPartial | Link::kUncertain))) {
-                                const double unseen =
-                                    (l.flags & Link::kUncertain) ? 1.0 : 1.0 - e.visibility;
-                                misplaced[i] = maxComponent(e.receiverRho * e.senderB) *
-                                               (e.visibility > 0 ? e.F / e.visibility : e.F) *
-                                               unseen * e.receiverArea;
-                            }
-                        }
-                        Decision d = oracles::constrain(oracle.decide(e), e);
-                        // Only the receiver's subdivision lowers its aggregate (the
-                        // children of a sender sum to its kernel): a receiver that
-                        // cannot subdivide keeps the link (oracles::receiverRefinement).
-                        if (d == Decision::Accept && guardEps > 0.0 && e.receiverRange >= 0.0 &&
-                            e.receiverRange * e.receiverArea > guardEps * e.emittedPower &&
-                            oracles::carriesReceiverShare(e))
-                            d = oracles::receiverRefinement(e);
-                        if (d == Decision::Accept && r < push.size() && push[r] &&
-                            !h.isCluster(r) && !h.isCluster(s) && e.receiverCanSubdivide)
-                            d = Decision::RefineReceiver;
-                        // The sender side of the same check (hr.sender_total): a
-                        // subdivided sender's average, gathered by all its
-                        // receivers, within the check's eps share of the power.
-                        if (d == Decision::Accept && guardEps > 0.0 &&
-                            oracles::senderTotalRefines(e, guardEps))
-                            d = oracles::senderRefinement(e);
-                        // A sampled near cluster link the oracle accepts must also
-                        // be known well enough: the power it may carry wrongly
-                        // (its error bound) within the oracle's eps share.
-                        if (d == Decision::Accept && (l.flags & Link::kSampled) && checkEps > 0 &&
-                            maxComponent(e.receiverRho * e.senderB) * e.F *
-                                    (l.uncertainty / 100.0) * e.receiverArea >
-                                checkEps * e.emittedPower)
-                            d = links_.forcedDecision(h, r, s);
-                        // An accepted link that may misplace light
-                        // (misplaced > 0) is checked after this pass, when
-                        // the sums per receiving cluster are known.
-                        if (d == Decision::Accept && partialCheck && misplaced[i] > 0) {
-                            decision[i] = uint8_t(d);
-                            continue;
-                        }
-                        // A refused stand-in (or sampled link that found nothing)
-                        // of a pair too close for the point approximation is
-                        // opened on the side its geometry asks for.
-                        if (d != Decision::Accept && nearStandIns && (l.flags & Link::kSampled)) {
-                            const Decision f = links_.forcedDecision(h, r, s);
-                            if (f != Decision::Accept) d = f;
-                        }
-                        decision[i] = uint8_t(d);
-                    }
-                }
-            });
-            if (partialCheck) {
-                // A partially visible (or all-blocked) link into a cluster
-                // hands its light to every surface of the cluster that faces
-                // the sender, seen or not: up to the unseen fraction of its
-                // power lands on the wrong surfaces (closed cavities, the far
-                // side of a table). That power must be within eps too, else
-                // the receiving cluster is opened (cluster.partial_receivers
-                // = open). The links into one cluster misplace light together
-                // (as a receiver's averaged senders do, hr/receiver_error.h):
-                // their sum is held to eps too, refining the links with at
-                // least an even share of it.
-                clusterMisplaced.assign(h.numClusters(), 0.0);
-                clusterPartial.assign(h.numClusters(), 0);
-                for (size_t i = 0; i < n; ++i)
-                    if (misplaced[i] > 0) {
-                        clusterMisplaced[h.clusterIndex(recv[i])] += misplaced[i];
-                        ++clusterPartial[h.clusterIndex(recv[i])];
-                    }
-                const double limit = checkEps * epsPower_;
-                tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1024), [&](const auto& range) {
-                    for (size_t i = range.begin(); i != range.end(); ++i) {
-                        if (!(misplaced[i] > 0) || Decision(decision[i]) != Decision::Accept)
-                            continue;
-                        const uint32_t r = recv[i], s = pending[i].sender;
-                        const uint32_t c = h.clusterIndex(r);
-                        if (!(misplaced[i] > limit ||
-                              (clusterMisplaced[c] > limit &&
-                               misplaced[i] * clusterPartial[c] >= clusterMisplaced[c])))
-                            continue;
-                        oracles::LinkEstimate sides;
-                        sides.receiverCanSubdivide = h.canSubdivide(r);
-                        sides.senderCanSubdivide = h.canSubdivide(s);
-                        Decision d = oracles::constrain(Decision::RefineReceiver, sides);
-                        // As for every refused sampled link above.
-                        if (d != Decision::Accept && nearStandIns &&
-                            (pending[i].flags & Link::kSampled)) {
-                            const Decision f = links_.forcedDecision(h, r, s);
-                            if (f != Decision::Accept) d = f;
-                        }
-                        decision[i] = uint8_t(d);
-                    }
-                });
-            }
-        }
-        // What the decisions needed is freed before the next round's links
-        // are made (the largest arrays of a round otherwise coexist).
-        releaseVector(rerr);
-        releaseVector(ranges.lo);
-        releaseVector(ranges.hi);
-        releaseVector(stot);
-        releaseVector(misplaced);
-        releaseVector(clusterMisplaced);
-        releaseVector(clusterPartial);
-        // Collect the elements to subdivide and subdivide them in index order.
-        mark.assign(h.numElements(), 0);
-        size_t newCount = 0;
-        std::vector<size_t> offset(n + 1, 0);
-        for (size_t i = 0, k = 0; i < n; ++i) {
-            auto d = Decision(decision[i]);
-            size_t c = 0;
-            if (d == Decision::Accept) {
-                keepPending(i, k);
-            } else {
-                skipPending(i, k);
-                bool rr = d == Decision::RefineReceiver || d == Decision::RefineBoth;
-                bool ss = d == Decision::RefineSender || d == Decision::RefineBoth;
-                uint32_t r = recv[i], s = pending[i].sender;
-                if (rr && !h.isCluster(r)) mark[r] = 1;
-                if (ss && !h.isCluster(s)) mark[s] = 1;
-                size_t nr = rr ? (h.isCluster(r) ? h.numChildren(r) : 4) : 1;
-                size_t ns = ss ? (h.isCluster(s) ? h.numChildren(s) : 4) : 1;
-                c = nr * ns;
-                ++refined;
-            }
-            offset[i + 1] = offset[i] + c;
-        }
-        newCount = offset[n];
-        if (newCount == 0) break;
-        // A stop before the round is made: the links to be refined are kept
-        // as they are (the accepted ones are already kept).
-        auto keepRefined = [&] {
-            for (size_t i = 0, k = 0; i < n; ++i) {
-                if (Decision(decision[i]) == Decision::Accept)
-                    skipPending(i, k);
-                else
-                    keepPending(i, k);
-            }
-        };
-        // The hierarchy's own limit (32-bit row offsets), checked with the
-        // round's exact count before it is made: like hr.max_links.
-        if (finalLinks.size() + n + newCount > Hierarchy::kMaxLinks) {
-            if (!res.linkCapHit)
-                spdlog::warn("{} links would pass the hierarchy's limit of {}: refinement "
-                             "stops here",
-                             finalLinks.size() + n + newCount, Hierarchy::kMaxLinks);
-            res.linkCapHit = true;
-            keepRefined();
-            break;
-        }
-        // Memory budget, checked before allocating the round: the process's
-        // peak until the next round is checked, which is the next judging
-        // pass over the links of this round and of the next one
-        // (passPeakBytes). Past it, the links still to be refined are kept
-        // as they are (a coarser solution, flagged).
-        if (s_.memoryBudget > 0) {
-            uint64_t marked = 0;
-            for (uint8_t m : mark) marked += m;
-            // Kernel samples for the new links in the share the links so far
-            // carry them.
-            const uint64_t samplesNow = finalS.size() + pendingS.size();
-            const uint64_t newSamples = samplesNow == 0
-                                            ? 0
-                                            : uint64_t(double(newCount) * double(samplesNow) /
-                                                       double(finalLinks.size() + n));
-            const uint64_t perElement = h.numElements() ? h.elementBytes() / h.numElements() : 64;
-            // This round: the kept, the pending and the new links side by
-            // side, with the pending links' two offsets; then the next pass
-            // over the links kept and made (finalLinks already holds this
-            // round's accepted ones, finalS their samples).
-            const uint64_t round =
-                (finalLinks.size() + n + newCount) * (sizeof(Link) + sizeof(uint32_t)) +
-                n * (2 * sizeof(size_t) + 1) + (samplesNow + newSamples) * sizeof(KernelSamples);
-            const uint64_t next = passPeakBytes(h, finalLinks.size() + newCount,
-                                                finalS.size() + newSamples, h.numElements() + 4 * marked);
-            const uint64_t estimate =
-                fixedBytes + h.elementBytes() + 4 * marked * perElement + std::max(round, next);
-            // A thirty-second of the budget is kept for what the estimate
-            // leaves out (the allocator's own overhead, per-thread buffers):
-            // without it the bathroom's peak passed a 700 MiB budget by
-            // 0.5-1.5 % (bench/results/large_scenes.md).
-            if (estimate > s_.memoryBudget - s_.memoryBudget / 32) {
-                if (!res.memoryBudgetHit)
-                    spdlog::warn(
-                        "memory.budget_mb = {} reached (refinement would need about {}): "
-                        "refinement stops here; the solution is coarser than the oracle asks",
-                        s_.memoryBudget >> 20, formatBytes(estimate));
-                res.memoryBudgetHit = true;
-                keepRefined();
-                break;
-            }
-        }
-        {
-            size_t marked = 0;
-            for (uint32_t e = 0; e < uint32_t(mark.size()); ++e)
-                marked += (mark[e] && h.firstChild(e) == kNone) ? 1 : 0;
-            h.reserveElements(4 * marked);
-        }
-        for (uint32_t e = 0; e < uint32_t(mark.size()); ++e)
-            if (mark[e]) h.subdivide(e);
-
-        // Links between the children, with their form factors (parallel;
-        // each slot is written by exactly one task).
-        std::vector<uint32_t> nrecv(newCount);
-        std::vector<Link> nlinks(newCount);
-        // fn(rc, sc) for each child pair that replaces refined link i, in
-        // the order of its slots offset[i] .. offset[i + 1].
-        auto forEachChildPair = [&](size_t i, auto&& fn) {
-            auto d = Decision(decision[i]);
-            uint32_t r = recv[i], s = pending[i].sender;
-            bool rr = d == Decision::RefineReceiver || d == Decision::RefineBoth;
-            bool ss = d == Decision::RefineSender || d == Decision::RefineBoth;
-            uint32_t na = rr ? h.numChildren(r) : 1, nb = ss ? h.numChildren(s) : 1;
-            for (uint32_t a = 0; a < na; ++a)
-                for (uint32_t b = 0; b < nb; ++b)
-                    fn(rr ? h.child(r, a) : r, ss ? h.child(s, b) : s);
-        };
-        // A child pair of two surface elements gets kernel samples when the
-        // receiver can subdivide (Hierarchy::storesKernelSamples); a surface
-        // self-pair makes no link (below) and none.
-        auto childSampled = [&](uint32_t rc, uint32_t sc) {
-            return rc != sc && surfacePair(h, rc, sc) && h.canSubdivide(rc);
-        };
-        // Where each refined link's children put their samples.
-        std::vector<size_t> sampleOffset(aggregate ? n + 1 : 0, 0);
-        if (aggregate) {
-            for (size_t i = 0; i < n; ++i) {
-                size_t c = 0;
-                if (offset[i + 1] > offset[i])
-                    forEachChildPair(i,
-                                     [&](uint32_t rc, uint32_t sc) { c += childSampled(rc, sc); });
-                sampleOffset[i + 1] = sampleOffset[i] + c;
-            }
-        }
-        std::vector<KernelSamples> nS(aggregate ? sampleOffset[n] : 0);
-        std::atomic<uint64_t> rays{0};
-        // Each round of a large first refinement can take minutes: its own
-        // progress bar (drawn only past a second) with the time left.
-        ++round;
-        ProgressBar bar(fmt::format("iter {} round {}: {} links", rec.iteration, round, newCount),
-                        n, progress_);
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 64), [&](const auto& range) {
-            uint64_t localRays = 0;
-            for (size_t i = range.begin(); i != range.end(); ++i) {
-                if (offset[i + 1] == offset[i]) continue;
-                size_t o = offset[i];
-                size_t so = aggregate ? sampleOffset[i] : 0;
-                forEachChildPair(i, [&](uint32_t rc, uint32_t sc) {
-                    uint32_t nr = 0;
-                    // A self-link between surfaces carries nothing (planar
-                    // patches); between clusters it is kept, to be opened.
-                    nlinks[o] = rc == sc && !h.isCluster(rc) ? Link{} : links_.make(h, rc, sc, nr);
-                    nrecv[o] = rc;
-                    if (aggregate && childSampled(rc, sc)) {
-                        // Samples only for links that carry light (the others
-                        // are dropped below, or kept for the oracle with zero
-                        // samples).
-                        if (nlinks[o].K > 0) nS[so] = linkSamples(h, rc, sc);
-                        ++so;
-                    }
-                    localRays += nr;
-                    ++o;
-                });
-            }
-            rays += localRays;
-            bar.add(range.size());
-        });
-        bar.done();
-        rec.rays += rays;
-        rec.formFactors += newCount;
-        // Drop links that carry nothing (back-facing or fully occluded pairs).
-        size_t w = 0, ws = 0, rs = 0;
-        // Links to be opened (kOpen), cluster links whose judged rays were
-        // all (kUncertain) or partly (kPartial) blocked, and deferred links
-        // (kDeferred, computed later) are kept whatever their independent K
-        // carries: the oracle still judges them.
-        for (size_t i = 0; i < newCount; ++i) {
-            bool clusterLink = h.isCluster(nrecv[i]) ||
-                               (nlinks[i].sender != kNone && h.isCluster(nlinks[i].sender));
-            bool keep = clusterLink ? (nlinks[i].flags & (Link::kOpen | Link::kUncertain |
-                                                          Link::kPartial | Link::kDeferred)) != 0
-                                    : links_.keepSurfaceLink(nlinks[i]);
-            const bool sampled = aggregate && h.storesKernelSamples(nrecv[i], nlinks[i]);
-            const size_t si = sampled ? rs++ : 0;
-            if (!(nlinks[i].K > 0) && !keep) continue;
-            nlinks[w] = nlinks[i];
-            nrecv[w] = nrecv[i];
-            if (sampled) nS[ws++] = nS[si];
-            ++w;
-        }
-        HRAD_CHECK(rs == nS.size());
-        nlinks.resize(w);
-        nrecv.resize(w);
-        if (aggregate) nS.resize(ws);
-        pending = std::move(nlinks);
-        recv = std::move(nrecv);
-        pendingS = std::move(nS);
-    }
-    // Refinement stopped early: the links it was about to open get a
-    // stand-in transfer instead of none (cluster/link.h "Stand-ins").
-    if (res.linkCapHit || res.memoryBudgetHit || res.timeLimitHit)
-        standInUnopened(h, finalRecv, finalLinks, res, rec);
-    if (aggregate)
-        h.setLinks(finalRecv, std::move(finalLinks), std::move(finalS));
-    else
-        h.setLinks(finalRecv, std::move(finalLinks));
+    const uint64_t refined = RefinementPass(*this, h, oracle, res, rec).run();
     if (coupling_) rec.rays += updateCoupling(h, &previous);
     return refined;
+}
+
+bool HrSolver::checksAtConvergence(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res) {
+    CheckConvergence c{h, oracle, engine_, epsPower_, scene_->emittedPower(), leafCache_};
+    bool again = false;
+    for (auto& check : checks_) again = check->atConvergence(c) || again;
+    res.refineSeconds += c.seconds;
+    return again;
 }
 
 HrResult HrSolver::solve(bool progress) {
@@ -1179,7 +582,8 @@ HrResult HrSolver::solveOnce(bool progress) {
                  h.numPatches(), res.linkingSeconds);
 
     std::vector<double> stages = s_.epsSchedule;
-    bool hasEps = s_.oracle != "uniform";
+    Params probe = s_.oracleParams;
+    const bool hasEps = oracles::createOracle(s_.oracle, probe)->refinesByError();
     if (stages.empty()) stages.push_back(hasEps ? s_.oracleParams.getDouble("eps", NAN) : NAN);
 
     RGB lastReflected = h.reflectedPower();
@@ -1211,11 +615,14 @@ HrResult HrSolver::solveOnce(bool progress) {
         // The radiosities of the last judging pass (lazy refinement); a new
         // stage (a new eps) always judges.
         std::vector<RGB> judgedB;
-        // The full leaf budget judges every iteration; the balanced one keeps
-        // lazy refinement (its check runs where the stage would converge).
-        const bool lazy = s_.refineGrowth > 0.0 && h.basisSize() == 1 &&
-                          s_.leafBudget != HrSettings::LeafBudget::Full;
-        budgetPush_.clear();
+        // A check that must see every iteration (the full leaf budget) turns
+        // lazy refinement off; the balanced budget keeps it (its check runs
+        // where the stage would converge).
+        bool lazy = s_.refineGrowth > 0.0 && h.basisSize() == 1;
+        for (auto& check : checks_) {
+            lazy = lazy && !check->judgesEveryIteration();
+            check->beginStage();
+        }
         // No cap (links, memory, clock) has stopped refinement.
         auto mayRefine = [&] {
             return !res.linkCapHit && !res.memoryBudgetHit && !outOfTime();
@@ -1230,8 +637,11 @@ HrResult HrSolver::solveOnce(bool progress) {
             // smaller and reflected, a fall by more than the growth
             // allowance triggers a judging pass.
             const double powerNow = epsPower.power();
-            const bool budgetPass = !budgetPush_.empty();
-            budgetTotalsValid_ = false;
+            // A check holding refinements for this pass (the balanced leaf
+            // budget's pushes) makes it a judging pass.
+            bool budgetPass = false;
+            for (auto& check : checks_) budgetPass = budgetPass || check->wantsPass();
+            leafCache_.valid = false;
             rec.judged = !lazy || judgedB.empty() || budgetPass ||
                          grownSince(h.allB(), judgedB, s_.refineGrowth) ||
                          powerNow * (1.0 + s_.refineGrowth) < epsPower_;
@@ -1361,7 +771,7 @@ HrResult HrSolver::solveOnce(bool progress) {
                 // the leaves' error is held to its budget; a pass that pushes
                 // links follows (unless the last push refined nothing, or a
                 // cap or the clock has stopped refinement).
-                if (!budgetPass && mayRefine() && leafBudgetCheck(h, *oracle, res)) continue;
+                if (!budgetPass && mayRefine() && checksAtConvergence(h, *oracle, res)) continue;
                 stageConverged = true;
                 break;
             }
@@ -1369,7 +779,7 @@ HrResult HrSolver::solveOnce(bool progress) {
             // the next gather rather than at the next convergence (the
             // estimate is linear in B, which a push changes little): one
             // round of pushes follows another until the budget holds.
-            if (budgetPass && rec.refinedLinks > 0 && mayRefine()) leafBudgetCheck(h, *oracle, res);
+            if (budgetPass && rec.refinedLinks > 0 && mayRefine()) checksAtConvergence(h, *oracle, res);
             if (outOfTime()) {
                 if (!res.timeLimitHit)
                     spdlog::warn(
@@ -1392,14 +802,14 @@ HrResult HrSolver::solveOnce(bool progress) {
             coupling_->fallbacks(), s_.basisCheck);
     const std::vector<uint32_t> recv = h.linkReceivers();
     res.errorEstimate = estimateError(h, recv);
-    if (s_.leafEstimates && budgetTotalsValid_) {
+    if (s_.leafEstimates && leafCache_.valid) {
         // The balanced leaf budget's last check saw this very state: its
         // seconds are the estimate's, not refinement's.
-        res.refineSeconds -= budgetCheckSeconds_;
-        res.errorEstimateSeconds += budgetCheckSeconds_;
+        res.refineSeconds -= leafCache_.seconds;
+        res.errorEstimateSeconds += leafCache_.seconds;
         const double reflected = luminance(h.reflectedPower());
-        res.errorEstimateLeaves = reflected > 0 ? budgetTotals_.leaves / reflected : 0.0;
-        res.errorEstimatePoints = reflected > 0 ? budgetTotals_.points / reflected : 0.0;
+        res.errorEstimateLeaves = reflected > 0 ? leafCache_.totals.leaves / reflected : 0.0;
+        res.errorEstimatePoints = reflected > 0 ? leafCache_.totals.points / reflected : 0.0;
     } else if (s_.leafEstimates) {
         res.errorEstimateLeaves = leafAverageError(
             h, recv, h.links(), engine_, &res.errorEstimatePoints,

@@ -394,6 +394,8 @@
 #include "core/memory.h"
 #include "core/params.h"
 #include "core/timer.h"
+#include "hr/budget.h"
+#include "hr/checks/check.h"
 #include "hr/eps_power.h"
 #include "hr/settings.h"
 #include "hr/hierarchy.h"
@@ -540,6 +542,8 @@ struct HrResult {
 };
 
 class HrSolver {
+    friend class RefinementPass;  // hr/refiner.h: one judging pass, phase by phase
+
   public:
     HrSolver(const scene::Scene& scene, const transport::Visibility& visibility,
              HrSettings settings);
@@ -615,20 +619,9 @@ class HrSolver {
     /// (Oracle::receiverCheckEps).
     uint64_t refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
                     IterationRecord& rec);
-    /// The leaf budget in power (luminance): the receiver check's eps of the
-    /// power eps refers to; 0 where there is none (uniform).
-    double leafBudgetPower(const oracles::Oracle& oracle) const;
-    /// The balanced leaf budget's check: true when the leaves' error exceeds
-    /// the budget beyond the error inside the leaves, with the receivers to
-    /// push in budgetPush_.
-    /// Its seconds go to res.refineSeconds (to the estimate's when the
-    /// final estimate reuses its totals).
-    bool leafBudgetCheck(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res);
-    /// What a judging pass over `links` links (`samples` of them with kernel
-    /// samples) and `elements` elements allocates at its peak, besides the
-    /// elements themselves (memory.budget_mb).
-    uint64_t passPeakBytes(const Hierarchy& h, uint64_t links, uint64_t samples,
-                           uint64_t elements) const;
+    /// The checks' atConvergence() (hr/checks/check.h): true when one asks
+    /// for another judging pass. Its seconds count as refinement's.
+    bool checksAtConvergence(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res);
     /// Adds stand-ins made to the result's counts (near: judged ones).
     void countStandIns(HrResult& res, IterationRecord& rec, uint64_t links, uint64_t rays,
                        double seconds, bool near) const;
@@ -660,21 +653,20 @@ class HrSolver {
     /// The power eps is a fraction of in the current judging pass
     /// (hr.eps_power; LinkEstimate::emittedPower).
     double epsPower_ = 1.0;
-    /// The balanced leaf budget (hr.leaf_budget): the marks its check at
-    /// convergence hands to the next judging pass, and the totals of its last
-    /// check, valid while the hierarchy is the one it checked (the final
-    /// estimate reuses them).
-    std::vector<uint8_t> budgetPush_;
-    LeafErrorTotals budgetTotals_;
-    bool budgetTotalsValid_ = false;
-    double budgetCheckSeconds_ = 0.0;
+    /// The refinement checks (hr/checks/registry.h), in amendment order.
+    std::vector<std::unique_ptr<RefinementCheck>> checks_;
+    /// The leaves' error totals of the last convergence check, which the
+    /// final estimate reuses while the hierarchy is the one checked.
+    LeafTotalsCache leafCache_;
+    /// The limits that stop refinement early (hr/budget.h).
+    std::unique_ptr<RefinementBudget> budget_;
     double emittedRadiosity_ = 1.0;  ///< largest max-channel emission of any patch
     IterationHook hook_;
     bool progress_ = false;  ///< progress bars on stderr (solve's argument)
     Timer solveTimer_;       ///< started by solve() (hr.max_seconds)
     /// Patches the transport includes (hr.reach_rays; empty: all).
     std::vector<uint8_t> included_;
-    bool outOfTime() const { return s_.maxSeconds > 0 && solveTimer_.seconds() > s_.maxSeconds; }
+    bool outOfTime() const { return budget_->outOfTime(); }
     std::unique_ptr<cluster::ClusterLinker> linker_;       ///< made by solve() with the tree
     std::unique_ptr<scene::BasisSet> basis_;               ///< degree > 0
     std::unique_ptr<transport::CouplingEngine> coupling_;  ///< degree > 0
