@@ -48,54 +48,6 @@ bool grownSince(const std::vector<RGB>& now, const std::vector<RGB>& judged, dou
     return false;
 }
 
-// A judging pass that refines at most this share of the links leaves its
-// iteration quiet for relaxation and extrapolation (header, "Relaxation" and
-// "Extrapolation"): with lazy refinement a slowly brightening scene is judged
-// every iteration, and on the bathroom 1 to 56 of 1.4 M links were refined in
-// most iterations after the first sixteen, which held both back while its
-// reflected power still rose by 0.1 % per iteration.
-constexpr double kQuietRefinement = 1e-4;
-
-/// The root patches that carry at least `share` of the change of the last
-/// two iterations (A_p max_c |B_p - previous_p| plus `lastChange`_p, the
-/// same one iteration earlier, which it updates; two iterations, so that both
-/// surfaces of a facing pair whose light alternates between them are
-/// found), the fewest that do, when they are at most `fraction` of all root
-/// patches; empty otherwise. In index order.
-std::vector<uint32_t> concentratedChange(const Hierarchy& h, const std::vector<RGB>& previous,
-                                         std::vector<double>& lastChange, double share,
-                                         double fraction) {
-    const uint32_t np = uint32_t(previous.size());
-    const uint32_t most = uint32_t(std::min<double>(fraction * double(np), double(np)));
-    std::vector<uint32_t> hot;
-    lastChange.resize(np, 0.0);
-    std::vector<double> d(np);
-    double total = 0.0;
-    for (uint32_t p = 0; p < np; ++p) {
-        const double now = h.area(p) * maxComponent(glm::abs(h.B(p) - previous[p]));
-        d[p] = now + lastChange[p];
-        lastChange[p] = now;
-        total += d[p];
-    }
-    if (most == 0) return hot;
-    if (!(total > 0.0)) return hot;
-    std::vector<uint32_t> idx(np);
-    for (uint32_t p = 0; p < np; ++p) idx[p] = p;
-    auto larger = [&](uint32_t a, uint32_t b) { return d[a] > d[b] || (d[a] == d[b] && a < b); };
-    std::nth_element(idx.begin(), idx.begin() + (most - 1), idx.end(), larger);
-    idx.resize(most);
-    std::sort(idx.begin(), idx.end(), larger);
-    double sum = 0.0;
-    for (uint32_t p : idx) {
-        hot.push_back(p);
-        sum += d[p];
-        if (sum >= share * total) break;
-    }
-    if (sum < share * total) hot.clear();
-    std::sort(hot.begin(), hot.end());
-    return hot;
-}
-
 double relativeChange(const RGB& now, const RGB& before) {
     double num = maxComponent(glm::abs(now - before));
     double den = maxComponent(glm::abs(now));
@@ -514,31 +466,29 @@ HrResult HrSolver::solveOnce(bool progress) {
     res.epsPowerOf = s_.epsPower;
     res.minArea = minArea_;
     links_.resetCost();
-    if (s_.clusterModel == cluster::ClusterModel::Auto) {
-        s_.clusterModel = scene_->patches.size() > cluster::kAutoClusterPatches
-                              ? cluster::ClusterModel::Oriented
-                              : cluster::ClusterModel::None;
+    buildHierarchy(res);
+    Hierarchy& h = *res.hierarchy;
+    linkInitially(h, res, progress);
+    iterate(h, res, progress);
+    res.field = std::make_unique<HierarchyField>(h);
+    estimateErrors(h, res);
+    summarize(h, res);
+    return res;
+}
+
+void HrSolver::buildHierarchy(HrResult& res) {
+    // cluster.model = auto resolves here, recorded in the result.
+    clusterModel_ = s_.clusterModel;
+    if (clusterModel_ == cluster::ClusterModel::Auto) {
+        clusterModel_ = scene_->patches.size() > cluster::kAutoClusterPatches
+                            ? cluster::ClusterModel::Oriented
+                            : cluster::ClusterModel::None;
         spdlog::info("cluster.model = auto: {} for {} patches",
-                     cluster::clusterModelName(s_.clusterModel), scene_->patches.size());
+                     cluster::clusterModelName(clusterModel_), scene_->patches.size());
     }
-    res.clusterModel = cluster::clusterModelName(s_.clusterModel);
-    included_.clear();
-    if (s_.reachRays > 0) {
-        transport::Reachability reach = transport::reachablePatches(
-            *scene_, *vis_, s_.reachRays, reseed(1, s_.seed), s_.reachRetryRays);
-        res.unreachablePatches = reach.unreachable;
-        res.reachRays = reach.rays;
-        res.reachSeconds = reach.seconds;
-        // Emitters are always reachable. Without a lit patch there is nothing
-        // to leave out (the solution is zero anyway).
-        if (reach.unreachable > 0 && reach.unreachable < scene_->patches.size())
-            included_ = std::move(reach.reachable);
-        spdlog::info(
-            "reachability: {} of {} patches cannot be reached by light ({} rays each, {:.2f} s){}",
-            reach.unreachable, scene_->patches.size(), s_.reachRays, reach.seconds,
-            included_.empty() ? "" : ": left out of the transport");
-    }
-    if (s_.clusterModel != cluster::ClusterModel::None) {
+    res.clusterModel = cluster::clusterModelName(clusterModel_);
+    findReachable(res);
+    if (clusterModel_ != cluster::ClusterModel::None) {
         res.clusterTree = std::make_unique<cluster::ClusterTree>(*scene_, s_.cluster, included_);
         res.clusterBuildSeconds = res.clusterTree->buildSeconds();
         spdlog::info(
@@ -547,14 +497,14 @@ HrResult HrSolver::solveOnce(bool progress) {
             res.clusterTree->numFaceNodes(), res.clusterTree->numPlanarFaceNodes(),
             res.clusterTree->depth(), res.clusterBuildSeconds);
     }
-    res.hierarchy = std::make_unique<Hierarchy>(*scene_, res.clusterTree.get(), s_.clusterModel,
+    res.hierarchy = std::make_unique<Hierarchy>(*scene_, res.clusterTree.get(), clusterModel_,
                                                 s_.basisDegree);
     Hierarchy& h = *res.hierarchy;
     h.setSubdivisionLimits(minArea_, s_.maxLevel);
     h.setJudgedSurfaceVisibility(s_.judgeVisibility);
     h.setSeed(s_.seed);
     linker_ = std::make_unique<cluster::ClusterLinker>(*scene_, res.clusterTree.get(),
-                                                       s_.clusterModel, vis_, s_.clusterLink);
+                                                       clusterModel_, vis_, s_.clusterLink);
     links_.setLinker(linker_.get());
     if (res.clusterTree && h.clusterModel() == cluster::ClusterModel::Oriented &&
         s_.clusterLink.visibleHandover) {
@@ -567,7 +517,27 @@ HrResult HrSolver::solveOnce(bool progress) {
         spdlog::info("hand-over openness: {} rays, {:.2f} s, {}", res.opennessRays,
                      res.opennessSeconds, formatBytes(res.openness->memoryBytes()));
     }
+}
 
+void HrSolver::findReachable(HrResult& res) {
+    included_.clear();
+    if (s_.reachRays <= 0) return;
+    transport::Reachability reach = transport::reachablePatches(
+        *scene_, *vis_, s_.reachRays, reseed(1, s_.seed), s_.reachRetryRays);
+    res.unreachablePatches = reach.unreachable;
+    res.reachRays = reach.rays;
+    res.reachSeconds = reach.seconds;
+    // Emitters are always reachable. Without a lit patch there is nothing
+    // to leave out (the solution is zero anyway).
+    if (reach.unreachable > 0 && reach.unreachable < scene_->patches.size())
+        included_ = std::move(reach.reachable);
+    spdlog::info(
+        "reachability: {} of {} patches cannot be reached by light ({} rays each, {:.2f} s){}",
+        reach.unreachable, scene_->patches.size(), s_.reachRays, reach.seconds,
+        included_.empty() ? "" : ": left out of the transport");
+}
+
+void HrSolver::linkInitially(Hierarchy& h, HrResult& res, bool progress) {
     Timer t;
     {
         std::vector<uint32_t> recv;
@@ -580,220 +550,167 @@ HrResult HrSolver::solveOnce(bool progress) {
     res.initialLinks = h.numLinks();
     spdlog::info("initial linking: {} links between {} patches ({:.2f} s)", h.numLinks(),
                  h.numPatches(), res.linkingSeconds);
+}
 
+/// What the iterations carry from one to the next, across eps stages.
+struct HrSolver::LoopState {
+    RGB lastReflected;
+    /// The power eps is a fraction of (hr.eps_power), from the reflected
+    /// power after each iteration.
+    EpsPowerTracker epsPower;
+    IterationAccelerator accel;
+    /// Geometric-tail estimate of the error still to come (solver.h "Stopping").
+    IterationTail tail;
+    int iteration = 0;
+};
+
+void HrSolver::iterate(Hierarchy& h, HrResult& res, bool progress) {
     std::vector<double> stages = s_.epsSchedule;
     Params probe = s_.oracleParams;
     const bool hasEps = oracles::createOracle(s_.oracle, probe)->refinesByError();
     if (stages.empty()) stages.push_back(hasEps ? s_.oracleParams.getDouble("eps", NAN) : NAN);
-
-    RGB lastReflected = h.reflectedPower();
-    // The power eps is a fraction of (hr.eps_power), from the reflected
-    // power after each iteration.
-    EpsPowerTracker epsPower(s_.epsPower, emittedPower_, lastReflected);
-    int iteration = 0;
-    // Aitken extrapolation state (hr.extrapolate): B one iteration earlier,
-    // the last change of reflected power and its ratio, per channel.
-    std::vector<RGB> previousB, previousHi;
-    RGB lastChange(0.0), lastRatio(0.0);
-    // Geometric-tail estimate of the error still to come (solver.h "Stopping").
-    IterationTail tail;
-    int quietIterations = 0, sinceExtrapolation = 2;
-    // Relaxation (hr.relax_share): the root patches' radiosities after the
-    // previous iteration.
-    const uint32_t np = uint32_t(scene_->patches.size());
-    const bool relaxOn =
-        s_.relaxShare > 0.0 && h.basisSize() == 1 && uint64_t(s_.relaxFraction * double(np)) > 0;
-    std::vector<RGB> prevRoots;
-    std::vector<double> prevRootChange;
+    const RGB reflected = h.reflectedPower();
+    LoopState st{reflected, EpsPowerTracker(s_.epsPower, emittedPower_, reflected),
+                 IterationAccelerator(s_, h), IterationTail{}, 0};
     res.converged = false;
     for (size_t stage = 0; stage < stages.size(); ++stage) {
-        Params op = s_.oracleParams;
-        if (!std::isnan(stages[stage])) op.set("eps", stages[stage]);
-        auto oracle = oracles::createOracle(s_.oracle, op);
-        res.oracleDescription = oracle->describe();
-        bool stageConverged = false;
-        // The radiosities of the last judging pass (lazy refinement); a new
-        // stage (a new eps) always judges.
-        std::vector<RGB> judgedB;
-        // A check that must see every iteration (the full leaf budget) turns
-        // lazy refinement off; the balanced budget keeps it (its check runs
-        // where the stage would converge).
-        bool lazy = s_.refineGrowth > 0.0 && h.basisSize() == 1;
-        for (auto& check : checks_) {
-            lazy = lazy && !check->judgesEveryIteration();
-            check->beginStage();
-        }
-        // No cap (links, memory, clock) has stopped refinement.
-        auto mayRefine = [&] {
-            return !res.linkCapHit && !res.memoryBudgetHit && !outOfTime();
-        };
-        for (int it = 0; it < s_.maxIterations; ++it) {
-            IterationRecord rec;
-            rec.iteration = ++iteration;
-            rec.stage = int(stage);
-            rec.eps = stages[stage];
-            Timer tr;
-            // The power eps is a fraction of now (hr.eps_power); under
-            // smaller and reflected, a fall by more than the growth
-            // allowance triggers a judging pass.
-            const double powerNow = epsPower.power();
-            // A check holding refinements for this pass (the balanced leaf
-            // budget's pushes) makes it a judging pass.
-            bool budgetPass = false;
-            for (auto& check : checks_) budgetPass = budgetPass || check->wantsPass();
-            leafCache_.valid = false;
-            rec.judged = !lazy || judgedB.empty() || budgetPass ||
-                         grownSince(h.allB(), judgedB, s_.refineGrowth) ||
-                         powerNow * (1.0 + s_.refineGrowth) < epsPower_;
-            if (rec.judged) {
-                epsPower_ = powerNow;
-                res.epsPower = epsPower_;
-                rec.refinedLinks = refine(h, *oracle, res, rec);
-                if (lazy) judgedB = h.allB();
-            }
-            rec.refineSeconds = tr.seconds();
-            if (s_.gaussSeidel) {
-                h.sweep(s_.gsBlocks > 0 ? s_.gsBlocks
-                                        : int(std::min<uint32_t>(h.numPatches(), 1u << 30)),
-                        &rec.gatherSeconds, &rec.pushPullSeconds);
-            } else {
-                Timer tg;
-                h.gather();
-                rec.gatherSeconds = tg.seconds();
-                Timer tp;
-                h.pushPull();
-                rec.pushPullSeconds = tp.seconds();
-            }
-            // A refinement of at most kQuietRefinement of the links leaves
-            // the iteration quiet: relaxation and extrapolation go on.
-            const bool quiet = rec.refinedLinks == 0 ||
-                               double(rec.refinedLinks) <= kQuietRefinement * double(h.numLinks());
-            // Relaxation of the few patches that carry most of the change
-            // (the change history restarts after a refinement that is not
-            // quiet).
-            if (!quiet) prevRootChange.clear();
-            if (relaxOn && quiet && prevRoots.size() == np) {
-                std::vector<uint32_t> hot = concentratedChange(h, prevRoots, prevRootChange,
-                                                               s_.relaxShare, s_.relaxFraction);
-                if (!hot.empty()) {
-                    Timer tx;
-                    // A tenth of the tolerance, in power (the last
-                    // iteration's reflected power sets the scale).
-                    const double target =
-                        0.1 * s_.tolerance * maxComponent(glm::abs(lastReflected));
-                    Hierarchy::RelaxResult rx = h.relax(
-                        hot, s_.relaxSweeps, std::max<uint64_t>(h.iterationLinkReads(), 1), target);
-                    rec.gatherSeconds += tx.seconds();
-                    if (rx.sweeps > 0) {
-                        rec.relaxedPatches = uint32_t(hot.size());
-                        rec.relaxSweeps = rx.sweeps;
-                        // A relaxation that did not reach its target leaves
-                        // the sequence irregular: the tail estimate takes the
-                        // slowest step of its window, and no extrapolation
-                        // follows right after it.
-                        rec.relaxIncomplete = !rx.reached;
-                        if (rec.relaxIncomplete) sinceExtrapolation = 0;
-                    }
-                }
-            }
-            RGB reflected = h.reflectedPower();
-            if (s_.extrapolate) {
-                RGB change = reflected - lastReflected, ratio(0.0), factor(0.0);
-                quietIterations = quiet ? quietIterations + 1 : 0;
-                bool ok = quietIterations >= 2 && sinceExtrapolation >= 2 &&
-                          previousB.size() == h.allB().size();
-                for (int c = 0; c < 3; ++c) {
-                    ratio[c] = lastChange[c] != 0.0 ? change[c] / lastChange[c] : 0.0;
-                    bool stable = ratio[c] > 0.0 && ratio[c] < 0.99999 &&
-                                  std::fabs(ratio[c] - lastRatio[c]) <= 0.05 * ratio[c];
-                    // A channel whose power no longer changes needs nothing.
-                    if (change[c] == 0.0) continue;
-                    if (!stable) ok = false;
-                    factor[c] = ratio[c] / (1.0 - ratio[c]);
-                }
-                lastRatio = ratio;
-                lastChange = change;
-                ++sinceExtrapolation;
-                if (ok && maxComponent(factor) > 0.0) {
-                    if (h.basisSize() > 1)
-                        h.extrapolateLeaves(previousB, previousHi, factor);
-                    else
-                        h.extrapolateLeaves(previousB, factor);
-                    rec.extrapolation = maxComponent(factor);
-                    sinceExtrapolation = 0;
-                    // The extrapolated state starts a new geometric sequence.
-                    lastChange = h.reflectedPower() - lastReflected;
-                    lastRatio = RGB(0.0);
-                    reflected = h.reflectedPower();
-                }
-                previousB = h.allB();
-                if (h.basisSize() > 1) previousHi = h.allHi();
-            }
-            rec.reflectedPower = reflected;
-            rec.residual = relativeChange(reflected, lastReflected);
-            rec.iterationError = tail.add(reflected - lastReflected, reflected,
-                                          rec.refinedLinks > 0 || rec.extrapolation != 0.0
-                                              ? IterationTail::Step::kBreak
-                                          : rec.relaxIncomplete ? IterationTail::Step::kIrregular
-                                                                : IterationTail::Step::kClean);
-            if (relaxOn) {
-                prevRoots.resize(np);
-                for (uint32_t p = 0; p < np; ++p) prevRoots[p] = h.B(p);
-            }
-            lastReflected = reflected;
-            epsPower.add(reflected);
-            rec.links = h.numLinks();
-            rec.elements = h.numElements();
-            rec.leaves = h.numLeaves();
-            rec.elementBytes = h.elementBytes();
-            rec.linkBytes = h.linkBytes();
-            rec.peakRss = peakRssBytes();
-            res.totalRays += rec.rays;
-            res.totalFormFactors += rec.formFactors;
-            res.refineSeconds += rec.refineSeconds;
-            res.gatherSeconds += rec.gatherSeconds;
-            res.pushPullSeconds += rec.pushPullSeconds;
-            if (progress)
-                spdlog::info(
-                    "iter {:3d}  links {:>10}  elements {:>9}  refined {:>9}  residual {:.3e}  "
-                    "({:.2f} s)",
-                    rec.iteration, rec.links, rec.elements,
-                    rec.judged ? fmt::format("{}", rec.refinedLinks) : std::string("not judged"),
-                    rec.residual, rec.refineSeconds + rec.gatherSeconds + rec.pushPullSeconds);
-            if (progress && rec.relaxedPatches > 0)
-                spdlog::info("          relaxed {} patches alone ({} sweeps)", rec.relaxedPatches,
-                             rec.relaxSweeps);
-            if (hook_) hook_(h, rec);
-            res.history.push_back(rec);
-            if (rec.refinedLinks == 0 && it + 1 >= s_.minIterations &&
-                rec.residual < s_.tolerance && rec.iterationError < s_.tolerance) {
-                // The balanced leaf budget: where the stage would converge,
-                // the leaves' error is held to its budget; a pass that pushes
-                // links follows (unless the last push refined nothing, or a
-                // cap or the clock has stopped refinement).
-                if (!budgetPass && mayRefine() && checksAtConvergence(h, *oracle, res)) continue;
-                stageConverged = true;
-                break;
-            }
-            // Once the budget has pushed links, it checks again right after
-            // the next gather rather than at the next convergence (the
-            // estimate is linear in B, which a push changes little): one
-            // round of pushes follows another until the budget holds.
-            if (budgetPass && rec.refinedLinks > 0 && mayRefine()) checksAtConvergence(h, *oracle, res);
-            if (outOfTime()) {
-                if (!res.timeLimitHit)
-                    spdlog::warn(
-                        "hr.max_seconds = {} reached after iteration {}: the solution so "
-                        "far is the result",
-                        s_.maxSeconds, rec.iteration);
-                res.timeLimitHit = true;
-                break;
-            }
-        }
+        const bool stageConverged = runStage(h, res, int(stage), stages[stage], st, progress);
         res.converged = stageConverged && !res.timeLimitHit;
         if (res.timeLimitHit) break;
     }
-    res.field = std::make_unique<HierarchyField>(h);
+}
+
+bool HrSolver::runStage(Hierarchy& h, HrResult& res, int stage, double eps, LoopState& st,
+                        bool progress) {
+    Params op = s_.oracleParams;
+    if (!std::isnan(eps)) op.set("eps", eps);
+    auto oracle = oracles::createOracle(s_.oracle, op);
+    res.oracleDescription = oracle->describe();
+    // The radiosities of the last judging pass (lazy refinement); a new
+    // stage (a new eps) always judges. A check that must see every iteration
+    // (the full leaf budget) turns lazy refinement off; the balanced budget
+    // keeps it (its check runs where the stage would converge).
+    std::vector<RGB> judgedB;
+    bool lazy = s_.refineGrowth > 0.0 && h.basisSize() == 1;
+    for (auto& check : checks_) {
+        lazy = lazy && !check->judgesEveryIteration();
+        check->beginStage();
+    }
+    // No cap (links, memory, clock) has stopped refinement.
+    auto mayRefine = [&] { return !res.linkCapHit && !res.memoryBudgetHit && !outOfTime(); };
+    for (int it = 0; it < s_.maxIterations; ++it) {
+        // A check holding refinements for this pass (the balanced leaf
+        // budget's pushes) makes it a judging pass.
+        bool checkPass = false;
+        for (auto& check : checks_) checkPass = checkPass || check->wantsPass();
+        IterationRecord rec = runIteration(h, *oracle, res, st, lazy, checkPass, judgedB);
+        rec.stage = stage;
+        rec.eps = eps;
+        logIteration(rec, progress);
+        if (hook_) hook_(h, rec);
+        res.history.push_back(rec);
+        if (rec.refinedLinks == 0 && it + 1 >= s_.minIterations &&
+            rec.residual < s_.tolerance && rec.iterationError < s_.tolerance) {
+            // Where the stage would converge a check may ask for one more
+            // judging pass (unless the last such pass refined nothing, or a
+            // cap or the clock has stopped refinement).
+            if (!checkPass && mayRefine() && checksAtConvergence(h, *oracle, res)) continue;
+            return true;
+        }
+        // After a pass a check asked for, it checks again right after the
+        // next gather rather than at the next convergence (the leaf
+        // estimate is linear in B, which a push changes little).
+        if (checkPass && rec.refinedLinks > 0 && mayRefine()) checksAtConvergence(h, *oracle, res);
+        if (outOfTime()) {
+            if (!res.timeLimitHit)
+                spdlog::warn(
+                    "hr.max_seconds = {} reached after iteration {}: the solution so far is the "
+                    "result",
+                    s_.maxSeconds, rec.iteration);
+            res.timeLimitHit = true;
+            return false;
+        }
+    }
+    return false;
+}
+
+IterationRecord HrSolver::runIteration(Hierarchy& h, const oracles::Oracle& oracle,
+                                       HrResult& res, LoopState& st, bool lazy, bool checkPass,
+                                       std::vector<RGB>& judgedB) {
+    IterationRecord rec;
+    rec.iteration = ++st.iteration;
+    Timer tr;
+    // The power eps is a fraction of now (hr.eps_power); under smaller and
+    // reflected, a fall by more than the growth allowance triggers a
+    // judging pass.
+    const double powerNow = st.epsPower.power();
+    leafCache_.valid = false;
+    rec.judged = !lazy || judgedB.empty() || checkPass ||
+                 grownSince(h.allB(), judgedB, s_.refineGrowth) ||
+                 powerNow * (1.0 + s_.refineGrowth) < epsPower_;
+    if (rec.judged) {
+        epsPower_ = powerNow;
+        res.epsPower = epsPower_;
+        rec.refinedLinks = refine(h, oracle, res, rec);
+        if (lazy) judgedB = h.allB();
+    }
+    rec.refineSeconds = tr.seconds();
+    gatherOnce(h, rec);
+    const bool quiet = IterationAccelerator::quiet(rec.refinedLinks, h.numLinks());
+    st.accel.relax(h, quiet, rec, st.lastReflected);
+    const RGB reflected =
+        st.accel.extrapolate(h, quiet, rec, h.reflectedPower(), st.lastReflected);
+    rec.reflectedPower = reflected;
+    rec.residual = relativeChange(reflected, st.lastReflected);
+    rec.iterationError = st.tail.add(reflected - st.lastReflected, reflected,
+                                     rec.refinedLinks > 0 || rec.extrapolation != 0.0
+                                         ? IterationTail::Step::kBreak
+                                     : rec.relaxIncomplete ? IterationTail::Step::kIrregular
+                                                           : IterationTail::Step::kClean);
+    st.accel.remember(h);
+    st.lastReflected = reflected;
+    st.epsPower.add(reflected);
+    rec.links = h.numLinks();
+    rec.elements = h.numElements();
+    rec.leaves = h.numLeaves();
+    rec.elementBytes = h.elementBytes();
+    rec.linkBytes = h.linkBytes();
+    rec.peakRss = peakRssBytes();
+    res.totalRays += rec.rays;
+    res.totalFormFactors += rec.formFactors;
+    res.refineSeconds += rec.refineSeconds;
+    res.gatherSeconds += rec.gatherSeconds;
+    res.pushPullSeconds += rec.pushPullSeconds;
+    return rec;
+}
+
+void HrSolver::gatherOnce(Hierarchy& h, IterationRecord& rec) const {
+    if (s_.gaussSeidel) {
+        h.sweep(s_.gsBlocks > 0 ? s_.gsBlocks : int(std::min<uint32_t>(h.numPatches(), 1u << 30)),
+                &rec.gatherSeconds, &rec.pushPullSeconds);
+        return;
+    }
+    Timer tg;
+    h.gather();
+    rec.gatherSeconds = tg.seconds();
+    Timer tp;
+    h.pushPull();
+    rec.pushPullSeconds = tp.seconds();
+}
+
+void HrSolver::logIteration(const IterationRecord& rec, bool progress) const {
+    if (!progress) return;
+    spdlog::info(
+        "iter {:3d}  links {:>10}  elements {:>9}  refined {:>9}  residual {:.3e}  ({:.2f} s)",
+        rec.iteration, rec.links, rec.elements,
+        rec.judged ? fmt::format("{}", rec.refinedLinks) : std::string("not judged"),
+        rec.residual, rec.refineSeconds + rec.gatherSeconds + rec.pushPullSeconds);
+    if (rec.relaxedPatches > 0)
+        spdlog::info("          relaxed {} patches alone ({} sweeps)", rec.relaxedPatches,
+                     rec.relaxSweeps);
+}
+
+void HrSolver::estimateErrors(const Hierarchy& h, HrResult& res) const {
     Timer te;
     if (coupling_ && coupling_->fallbacks() > 0)
         spdlog::info(
@@ -816,24 +733,25 @@ HrResult HrSolver::solveOnce(bool progress) {
             h.hasKernelSamples() && h.basisDegree() == 0 ? &h.kernelSamples() : nullptr);
     }
     res.errorEstimateSeconds += te.seconds();
-    {
-        Timer tn;
-        NoiseRays rays;
-        rays.surface = s_.ff.visRays;
-        rays.cluster = linker_ ? linker_->settings().visRays : 0;
-        // The light of each link, which the noise estimate computes anyway,
-        // also gives the share of it that the leaf estimates do not see.
-        const bool uncovered = s_.leafEstimates && std::isfinite(res.errorEstimateLeaves);
-        std::vector<RGB> light;
-        res.noise = estimateNoise(h, rays, uncovered ? &light : nullptr);
-        if (uncovered) res.errorEstimateUncovered = uncoveredLightShare(h, recv, light);
-        res.noiseSeconds = tn.seconds();
-        spdlog::info(
-            "the solve's own ray noise: reflected power +-{:.2f} % (1 sd, {} noisy links, "
-            "amplification {:.2f}), per patch (direct, non-emitters) {:.2f} %",
-            100.0 * res.noise.relative, res.noise.links, maxComponent(res.noise.amplification),
-            100.0 * res.noise.l2NonEmitter);
-    }
+    Timer tn;
+    NoiseRays rays;
+    rays.surface = s_.ff.visRays;
+    rays.cluster = linker_ ? linker_->settings().visRays : 0;
+    // The light of each link, which the noise estimate computes anyway,
+    // also gives the share of it that the leaf estimates do not see.
+    const bool uncovered = s_.leafEstimates && std::isfinite(res.errorEstimateLeaves);
+    std::vector<RGB> light;
+    res.noise = estimateNoise(h, rays, uncovered ? &light : nullptr);
+    if (uncovered) res.errorEstimateUncovered = uncoveredLightShare(h, recv, light);
+    res.noiseSeconds = tn.seconds();
+    spdlog::info(
+        "the solve's own ray noise: reflected power +-{:.2f} % (1 sd, {} noisy links, "
+        "amplification {:.2f}), per patch (direct, non-emitters) {:.2f} %",
+        100.0 * res.noise.relative, res.noise.links, maxComponent(res.noise.amplification),
+        100.0 * res.noise.l2NonEmitter);
+}
+
+void HrSolver::summarize(const Hierarchy& h, HrResult& res) const {
     h.reportMemory(res.memory);
     if (res.openness) res.memory.set("handover_openness", res.openness->memoryBytes());
     res.handOverByOpenness = h.handOverByOpenness();
@@ -841,10 +759,10 @@ HrResult HrSolver::solveOnce(bool progress) {
     res.handOverCapped = h.handOverCapped();
     RGB standIn(0.0);  // the light the stand-ins carry: what their receivers reflect of it
     for (uint32_t r = 0; r < h.numElements(); ++r) {
-        bool rc = h.isCluster(r);
+        const bool rc = h.isCluster(r);
         for (uint64_t i = h.linkBegin(r); i < h.linkEnd(r); ++i) {
             const Link& l = h.link(i);
-            bool sc = h.isCluster(l.sender);
+            const bool sc = h.isCluster(l.sender);
             (rc ? (sc ? res.linksCC : res.linksCS) : (sc ? res.linksSC : res.linksSS))++;
             if (l.flags & Link::kOpen) ++res.unopenedLinks;
             if (l.flags & Link::kDeferred) ++res.deferredLinksLeft;
@@ -855,7 +773,7 @@ HrResult HrSolver::solveOnce(bool progress) {
         }
     }
     if (res.standInLinksFinal > 0) {
-        double reflected = maxComponent(h.reflectedPower());
+        const double reflected = maxComponent(h.reflectedPower());
         res.standInPowerShare = reflected > 0 ? maxComponent(standIn) / reflected : 0.0;
         spdlog::info("stand-in links carry {:.1f} % of the reflected power",
                      100.0 * res.standInPowerShare);
@@ -867,16 +785,13 @@ HrResult HrSolver::solveOnce(bool progress) {
             "(cluster.stand_in = false); they carry no light",
             res.unopenedLinks);
     res.linkCost = links_.cost();
-    {
-        const LinkKindCost& c = res.linkCost;
-        spdlog::info(
-            "link evaluations (kept or refined away), rays, CPU s by kind: surface-surface "
-            "{} / {} / {:.2f}, surface<-cluster {} / {} / {:.2f}, cluster<-surface {} / "
-            "{} / {:.2f}, cluster-cluster {} / {} / {:.2f}",
-            c.evaluations[0], c.rays[0], c.seconds[0], c.evaluations[1], c.rays[1], c.seconds[1],
-            c.evaluations[2], c.rays[2], c.seconds[2], c.evaluations[3], c.rays[3], c.seconds[3]);
-    }
-    return res;
+    const LinkKindCost& c = res.linkCost;
+    spdlog::info(
+        "link evaluations (kept or refined away), rays, CPU s by kind: surface-surface "
+        "{} / {} / {:.2f}, surface<-cluster {} / {} / {:.2f}, cluster<-surface {} / "
+        "{} / {:.2f}, cluster-cluster {} / {} / {:.2f}",
+        c.evaluations[0], c.rays[0], c.seconds[0], c.evaluations[1], c.rays[1], c.seconds[1],
+        c.evaluations[2], c.rays[2], c.seconds[2], c.evaluations[3], c.rays[3], c.seconds[3]);
 }
 
 }  // namespace hrad::hr

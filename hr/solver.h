@@ -394,6 +394,7 @@
 #include "core/memory.h"
 #include "core/params.h"
 #include "core/timer.h"
+#include "hr/accelerate.h"
 #include "hr/budget.h"
 #include "hr/checks/check.h"
 #include "hr/eps_power.h"
@@ -599,8 +600,32 @@ class HrSolver {
     double estimateError(const Hierarchy& h, const std::vector<uint32_t>& recv) const;
 
   private:
-    /// One solve with the settings as they are (solve() without the noise target).
+    /// One solve with the settings as they are (solve() without the noise
+    /// target), phase by phase below.
     HrResult solveOnce(bool progress);
+    /// The cluster model (auto resolved), reachability, the cluster tree,
+    /// the hierarchy, the cluster linker and the hand-over's openness.
+    void buildHierarchy(HrResult& res);
+    /// hr.reach_rays: the patches light cannot reach, left out (included_).
+    void findReachable(HrResult& res);
+    void linkInitially(Hierarchy& h, HrResult& res, bool progress);
+    struct LoopState;
+    /// Every eps stage to convergence (or a cap, or the clock).
+    void iterate(Hierarchy& h, HrResult& res, bool progress);
+    /// One stage's iterations; true when it converged.
+    bool runStage(Hierarchy& h, HrResult& res, int stage, double eps, LoopState& st,
+                  bool progress);
+    /// Judge (when due), gather and push-pull, accelerate, record.
+    IterationRecord runIteration(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
+                                 LoopState& st, bool lazy, bool checkPass,
+                                 std::vector<RGB>& judgedB);
+    /// One gather and push-pull (hr.iteration: Jacobi or Gauss-Seidel).
+    void gatherOnce(Hierarchy& h, IterationRecord& rec) const;
+    void logIteration(const IterationRecord& rec, bool progress) const;
+    /// The a posteriori estimates and the solve's own ray noise.
+    void estimateErrors(const Hierarchy& h, HrResult& res) const;
+    /// Memory, link counts by kind, stand-ins, costs.
+    void summarize(const Hierarchy& h, HrResult& res) const;
     struct Pending;
     /// Kernel samples of `links` (receivers `recv`): one entry per link that
     /// stores them (Hierarchy::storesKernelSamples), in link order.
@@ -660,6 +685,8 @@ class HrSolver {
     LeafTotalsCache leafCache_;
     /// The limits that stop refinement early (hr/budget.h).
     std::unique_ptr<RefinementBudget> budget_;
+    /// cluster.model with auto resolved (buildHierarchy).
+    cluster::ClusterModel clusterModel_ = cluster::ClusterModel::None;
     double emittedRadiosity_ = 1.0;  ///< largest max-channel emission of any patch
     IterationHook hook_;
     bool progress_ = false;  ///< progress bars on stderr (solve's argument)
