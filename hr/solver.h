@@ -585,6 +585,8 @@ class HrSolver {
     /// is its unoccluded F (no oracle then reads it).
     oracles::LinkEstimate linkEstimate(const Hierarchy& h, uint32_t r, const Link& l, bool bounds,
                                        bool upper = false) const;
+    /// The two ends of a link touching a cluster (LinkBuilder::endOf).
+    using LinkEnds = std::pair<cluster::LinkEnd, cluster::LinkEnd>;
 
     /// A posteriori estimate of the relative L1 error of the reflected
     /// radiosity of the solution in h: the sum over surface receivers of
@@ -600,6 +602,10 @@ class HrSolver {
     double estimateError(const Hierarchy& h, const std::vector<uint32_t>& recv) const;
 
   private:
+    void judgedTransfer(const Hierarchy& h, uint32_t r, const Link& l, bool upper,
+                        oracles::LinkEstimate& e, LinkEnds& ends) const;
+    void receiverFraction(const Hierarchy& h, const LinkEnds& ends,
+                          oracles::LinkEstimate& e) const;
     /// One solve with the settings as they are (solve() without the noise
     /// target), phase by phase below.
     HrResult solveOnce(bool progress);
