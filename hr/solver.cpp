@@ -47,7 +47,7 @@ double relativeChange(const RGB& now, const RGB& before) {
 }  // namespace
 
 HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visibility,
-                   HrSettings settings)
+                   HrSettings settings, const std::vector<CheckEntry>& extraChecks)
     : scene_(&scene),
       vis_(&visibility),
       s_(std::move(settings)),
@@ -61,7 +61,8 @@ HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visib
     for (const auto& patch : scene.patches)
         emittedRadiosity_ = std::max(emittedRadiosity_, maxComponent(patch.emission));
     if (!(emittedRadiosity_ > 0)) emittedRadiosity_ = 1.0;
-    checks_ = makeRefinementChecks(s_);
+    extraChecks_ = extraChecks;
+    checks_ = makeRefinementChecks(s_, extraChecks);
     if (s_.basisDegree > 0) {
         basis_ = std::make_unique<scene::BasisSet>(s_.basisDegree);
         coupling_ = std::make_unique<transport::CouplingEngine>(
@@ -284,7 +285,7 @@ HrResult HrSolver::solve(bool progress) {
             "(ff.vis_rays {}, cluster.vis_rays {})",
             s_.noiseTarget, noise, next, t.ff.visRays, t.clusterLink.visRays);
         res = HrResult{};  // one hierarchy in memory at a time
-        HrSolver again(*scene_, *vis_, std::move(t));
+        HrSolver again(*scene_, *vis_, std::move(t), extraChecks_);
         again.setIterationHook(hook_);
         res = again.solveOnce(progress);
         prevFactor = factor;

@@ -397,6 +397,7 @@
 #include "hr/accelerate.h"
 #include "hr/budget.h"
 #include "hr/checks/check.h"
+#include "hr/checks/registry.h"
 #include "hr/eps_power.h"
 #include "hr/settings.h"
 #include "hr/hierarchy.h"
@@ -546,8 +547,10 @@ class HrSolver {
     friend class RefinementPass;  // hr/refiner.h: one judging pass, phase by phase
 
   public:
+    /// `extraChecks` run after the registry's checks (hr/checks/registry.h):
+    /// a check under study, without a row in the table yet.
     HrSolver(const scene::Scene& scene, const transport::Visibility& visibility,
-             HrSettings settings);
+             HrSettings settings, const std::vector<CheckEntry>& extraChecks = {});
 
     /// Runs the whole solve. `progress` enables progress lines on stderr.
     /// With hr.noise_target, a solve whose own noise estimate (hr/noise.h)
@@ -686,6 +689,7 @@ class HrSolver {
     double epsPower_ = 1.0;
     /// The refinement checks (hr/checks/registry.h), in amendment order.
     std::vector<std::unique_ptr<RefinementCheck>> checks_;
+    std::vector<CheckEntry> extraChecks_;  ///< for the re-solves of hr.noise_target
     /// The leaves' error totals of the last convergence check, which the
     /// final estimate reuses while the hierarchy is the one checked.
     LeafTotalsCache leafCache_;
