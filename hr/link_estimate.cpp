@@ -106,10 +106,9 @@ oracles::LinkEstimate HrSolver::linkEstimate(const Hierarchy& h, uint32_t r, con
     // holding a luminaire and the ceiling around it has a mean B several
     // times below the luminaire's, and its point-approximation transfer
     // (centroid distance, visibility of area-sampled points) misjudges the
-    // luminaire's light most. Judged with the mean B, such links were
-    // accepted and lost light: with the other fixes of this file in place,
-    // the mean B still loses 2.8 % of the power on office:2 and 8.3 % on
-    // office:4 (eps 1e-3). The oracle sees the largest radiosity of the root
+    // luminaire's light most: judged with the mean B such links were
+    // accepted and lost light (papers/notes/2026-11-29-receiver-error.md).
+    // The oracle sees the largest radiosity of the root
     // patches below a sender cluster (a bound on what any of its surfaces
     // sends, in the spirit of the B_max of error-bounded refinement,
     // Lischinski et al. 1994), so bright clusters are opened until their
