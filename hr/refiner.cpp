@@ -29,8 +29,14 @@ bool refinesSender(Decision d) { return d == Decision::RefineSender || d == Deci
 }  // namespace
 
 RefinementPass::RefinementPass(HrSolver& solver, Hierarchy& h, const oracles::Oracle& oracle,
-                               HrResult& res, IterationRecord& rec)
-    : solver_(solver), h_(h), oracle_(oracle), res_(res), rec_(rec), s_(solver.s_) {}
+                               HrResult& res, IterationRecord& rec, uint64_t fixedBytes)
+    : solver_(solver),
+      h_(h),
+      oracle_(oracle),
+      res_(res),
+      rec_(rec),
+      s_(solver.s_),
+      fixedBytes_(fixedBytes) {}
 
 uint64_t RefinementPass::run() {
     begin();
@@ -103,12 +109,18 @@ void RefinementPass::beginChecks() {
                    solver_.epsPower_, solver_.scene_->emittedPower(),
                    checkEps_,        guardEps_, nearStandIns};
     CheckNeeds needs;
-    for (auto& c : solver_.checks_) {
+    if (res_.checks.empty())
+        for (auto& c : solver_.checks_) res_.checks.push_back({c->name()});
+    for (size_t k = 0; k < solver_.checks_.size(); ++k) {
+        RefinementCheck* c = solver_.checks_[k].get();
         if (!c->beginPass(pass)) continue;
-        checks_.push_back(c.get());
+        checks_.push_back(c);
+        checkIndex_.push_back(k);
+        ++res_.checks[k].passes;
         needs.receiverErrors |= c->needs().receiverErrors;
         needs.senderTotals |= c->needs().senderTotals;
     }
+    amended_ = std::vector<std::atomic<uint64_t>>(checks_.size());
     aggregate_ = oracle_.needsReceiverError() || needs.receiverErrors;
     // The error oracles read the sender totals in their own decision.
     wantTotals_ = (oracle_.needsReceiverError() && s_.senderTotal) || needs.senderTotals;
@@ -178,7 +190,14 @@ void RefinementPass::judgeRound(bool capHit) {
     releaseVector(ranges.hi);
     releaseVector(stot);
     RoundDecisions decisions{decision_, std::vector<uint8_t>(n, 0)};
-    for (RefinementCheck* c : checks_) c->finishRound(round, decisions);
+    std::vector<uint8_t> before;
+    for (size_t k = 0; k < checks_.size(); ++k) {
+        before = decision_;
+        checks_[k]->finishRound(round, decisions);
+        uint64_t changed = 0;
+        for (size_t i = 0; i < n; ++i) changed += before[i] != decision_[i];
+        amended_[k] += changed;
+    }
     for (RefinementCheck* c : checks_) c->releaseRound();
 }
 
@@ -225,7 +244,11 @@ Decision RefinementPass::decideLink(size_t i, bool carries, size_t si, const Che
         e.senderLinks = stot[si].links;
     }
     Decision d = oracles::constrain(oracle_.decide(e), e);
-    for (const RefinementCheck* c : checks_) c->amend(round, i, e, d);
+    for (size_t k = 0; k < checks_.size(); ++k) {
+        const Decision before = d;
+        checks_[k]->amend(round, i, e, d);
+        if (d != before) amended_[k].fetch_add(1, std::memory_order_relaxed);
+    }
     return d;
 }
 
@@ -384,6 +407,7 @@ void RefinementPass::dropEmpty() {
 }
 
 void RefinementPass::finish() {
+    for (size_t k = 0; k < checks_.size(); ++k) res_.checks[checkIndex_[k]].amended += amended_[k];
     // Refinement stopped early: the links it was about to open get a
     // stand-in transfer instead of none (cluster/link.h "Stand-ins").
     if (res_.linkCapHit || res_.memoryBudgetHit || res_.timeLimitHit)

@@ -13,6 +13,7 @@
 // the hierarchy (stand-ins for links a stopped pass left unopened).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <vector>
 
@@ -22,8 +23,10 @@ namespace hrad::hr {
 
 class RefinementPass {
   public:
+    /// `fixedBytes`: what the process held besides links and elements when
+    /// the pass began (memory.budget_mb).
     RefinementPass(HrSolver& solver, Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
-                   IterationRecord& rec);
+                   IterationRecord& rec, uint64_t fixedBytes);
     /// Runs the pass; returns the links refined.
     uint64_t run();
 
@@ -64,8 +67,11 @@ class RefinementPass {
     std::vector<Link> pending_, finalLinks_, nlinks_;
     std::vector<KernelSamples> pendingS_, finalS_, nS_;
     std::vector<uint8_t> decision_, mark_;
-    /// The checks taking part in this pass, in registry order.
+    /// The checks taking part in this pass, in registry order, with their
+    /// index in the solve's (HrResult::checks) and the decisions each changed.
     std::vector<RefinementCheck*> checks_;
+    std::vector<size_t> checkIndex_;
+    mutable std::vector<std::atomic<uint64_t>> amended_;
     bool aggregate_ = false;   ///< receiver errors are computed (oracle or a check)
     bool wantTotals_ = false;  ///< sender totals are computed
     bool bounds_ = false;

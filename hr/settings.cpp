@@ -3,10 +3,12 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
 #include "core/memory.h"
+#include "hr/checks/registry.h"
 #include "oracles/registry.h"
 #include "scene/basis.h"
 
@@ -30,6 +32,25 @@ std::vector<double> parseSchedule(const std::string& text, const SourceLocation&
         out.push_back(v);
     }
     return out;
+}
+/// hr.checks: "all" (the default), "none", or names from the check table.
+void parseChecks(const Params& p, HrSettings& s) {
+    const std::string text = p.getString("hr.checks", "all");
+    if (text == "all") return;
+    s.allChecks = false;
+    if (text == "none") return;
+    std::vector<std::string> valid;
+    for (const CheckEntry& e : refinementChecks()) valid.push_back(e.name);
+    std::stringstream ss(text);
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+        item.erase(0, item.find_first_not_of(" \t"));
+        item.erase(item.find_last_not_of(" \t") + 1);
+        if (std::find(valid.begin(), valid.end(), item) == valid.end())
+            throwInputError(p.where("hr.checks"), "hr.checks: unknown check '{}' (valid: all, none, {})",
+                            item, fmt::join(valid, ", "));
+        s.checks.push_back(item);
+    }
 }
 }  // namespace
 
@@ -61,6 +82,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
     else if (p.has("hr.receiver_eps"))
         s.receiverEps = p.getDouble("hr.receiver_eps", 0.0, 0.0, 1.0);
     s.senderTotal = p.getBool("hr.sender_total", s.senderTotal);
+    parseChecks(p, s);
     // true / "full", false / "off", or "balanced" (the default).
     if (auto it = p.entries().find("hr.leaf_budget");
         it != p.entries().end() && std::holds_alternative<std::string>(it->second.value)) {

@@ -36,6 +36,10 @@ struct HrSettings {
     /// hr.sender_total: error and kv also bound the sender-side error summed
     /// per sender over all its receivers (hr/receiver_error.h SenderTotal).
     bool senderTotal = true;
+    /// hr.checks: the refinement checks that may take part (hr/checks/
+    /// registry.h), by name in table order; all of them by default.
+    std::vector<std::string> checks;
+    bool allChecks = true;
     /// hr.leaf_estimates: compute error_estimate_leaves / _points after the
     /// solve (hr/receiver_error.h leafAverageError).
     bool leafEstimates = true;

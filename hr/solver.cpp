@@ -227,10 +227,15 @@ void HrSolver::initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vect
 
 uint64_t HrSolver::refine(Hierarchy& h, const oracles::Oracle& oracle, HrResult& res,
                           IterationRecord& rec) {
+    // memory.budget_mb (hr/budget.h): what the process holds besides the
+    // links and elements (the scene, Embree, the clusters, the libraries, and
+    // whatever the allocator kept), measured now.
+    const uint64_t rssNow = currentRssBytes(), held = h.elementBytes() + h.linkBytes();
+    const uint64_t fixedBytes = rssNow > held ? rssNow - held : 0;
     // The coupling matrices of the links as they are, for the links kept.
     PreviousCoupling previous;
     if (coupling_) previous = snapshotCoupling(h);
-    const uint64_t refined = RefinementPass(*this, h, oracle, res, rec).run();
+    const uint64_t refined = RefinementPass(*this, h, oracle, res, rec, fixedBytes).run();
     if (coupling_) rec.rays += updateCoupling(h, &previous);
     return refined;
 }
@@ -631,6 +636,10 @@ void HrSolver::summarize(const Hierarchy& h, HrResult& res) const {
             "hr.max_links, memory.budget_mb or hr.max_seconds) without a stand-in "
             "(cluster.stand_in = false); they carry no light",
             res.unopenedLinks);
+    std::string used;
+    for (const CheckUse& u : res.checks)
+        if (u.passes > 0) used += fmt::format(" {} {}/{}", u.name, u.amended, u.passes);
+    if (!used.empty()) spdlog::info("refinement checks (decisions changed / passes):{}", used);
     res.linkCost = links_.cost();
     const LinkKindCost& c = res.linkCost;
     spdlog::info(

@@ -100,8 +100,17 @@ struct IterationRecord {
     double l2Lum = std::numeric_limits<double>::quiet_NaN();
 };
 
+/// What one refinement check (hr/checks/) did in a solve.
+struct CheckUse {
+    std::string name;
+    uint64_t passes = 0;   ///< judging passes it took part in
+    uint64_t amended = 0;  ///< decisions it changed
+};
+
 struct HrResult {
     std::unique_ptr<Hierarchy> hierarchy;
+    /// Every refinement check of the solve, in amendment order.
+    std::vector<CheckUse> checks;
     std::unique_ptr<HierarchyField> field;
     std::vector<IterationRecord> history;
     std::string oracleDescription;

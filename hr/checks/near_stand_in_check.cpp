@@ -20,7 +20,9 @@ namespace {
 class NearStandInCheck final : public RefinementCheck {
   public:
     const char* name() const override { return "near_stand_in"; }
-    bool beginPass(const CheckPass& pass) override { return pass.nearStandIns; }
+    bool beginPass(const CheckPass& pass) override {
+        return pass.nearStandIns && pass.h.numClusters() > 0;  // sampled links join clusters
+    }
     void amend(const CheckRound& round, size_t i, const oracles::LinkEstimate&,
                oracles::Decision& d) const override {
         d = sided(round, i, d);

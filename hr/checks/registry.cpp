@@ -1,5 +1,7 @@
 #include "hr/checks/registry.h"
 
+#include <algorithm>
+
 namespace hrad::hr {
 
 const std::vector<CheckEntry>& refinementChecks() {
@@ -24,7 +26,10 @@ const std::vector<CheckEntry>& refinementChecks() {
 std::vector<std::unique_ptr<RefinementCheck>> makeRefinementChecks(
     const HrSettings& s, const std::vector<CheckEntry>& extra) {
     std::vector<std::unique_ptr<RefinementCheck>> out;
-    for (const CheckEntry& e : refinementChecks()) out.push_back(e.make(s));
+    // hr.checks: the table's rows it names (all by default), in table order.
+    for (const CheckEntry& e : refinementChecks())
+        if (s.allChecks || std::find(s.checks.begin(), s.checks.end(), e.name) != s.checks.end())
+            out.push_back(e.make(s));
     for (const CheckEntry& e : extra) out.push_back(e.make(s));
     return out;
 }

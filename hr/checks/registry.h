@@ -22,7 +22,7 @@ struct CheckEntry {
 const std::vector<CheckEntry>& refinementChecks();
 
 /// The checks of a solve, in table order (each decides per pass whether it
-/// takes part). `extra` rows (tests) are appended after the table's.
+/// takes part): those hr.checks names (HrSettings::checks), all by default. `extra` rows (tests) are appended after the table's.
 std::vector<std::unique_ptr<RefinementCheck>> makeRefinementChecks(
     const HrSettings& s, const std::vector<CheckEntry>& extra = {});
 

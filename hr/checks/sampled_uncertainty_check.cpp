@@ -22,7 +22,7 @@ class SampledUncertaintyCheck final : public RefinementCheck {
     const char* name() const override { return "sampled_uncertainty"; }
     bool beginPass(const CheckPass& pass) override {
         eps_ = pass.checkEps;
-        return eps_ > 0.0;
+        return eps_ > 0.0 && pass.h.numClusters() > 0;  // sampled links join clusters
     }
     void amend(const CheckRound& round, size_t i, const oracles::LinkEstimate& e,
                oracles::Decision& d) const override {

@@ -75,6 +75,12 @@ TEST(RefinementChecks, ANewCheckIsOneClassAndOneRow) {
     EXPECT_GE(shallowestLeafLevel(*deeper.hierarchy), uint32_t(kMinLevel));
     EXPECT_GT(deeper.hierarchy->numLinks(), plain.hierarchy->numLinks());
     EXPECT_TRUE(deeper.converged);
+    // The result names every check; the new one took part and amended.
+    ASSERT_EQ(deeper.checks.size(), refinementChecks().size() + 1);
+    EXPECT_EQ(deeper.checks.back().name, "minimum_level");
+    EXPECT_GT(deeper.checks.back().passes, 0u);
+    EXPECT_GT(deeper.checks.back().amended, 0u);
+    EXPECT_EQ(plain.checks.size(), refinementChecks().size());
 }
 
 TEST(RefinementChecks, TheErrorOraclesTakeNoReceiverCheck) {
@@ -92,4 +98,46 @@ TEST(RefinementChecks, TheErrorOraclesTakeNoReceiverCheck) {
     };
     EXPECT_NE(links("bfa", 1e-2, true), links("bfa", 1e-2, false));
     EXPECT_EQ(links("error", 1e-2, true), links("error", 1e-2, false));
+    // The result says so: the receiver check took part in bfa's passes and
+    // amended decisions, and in none of error's.
+    auto receiverUse = [&](const std::string& oracle) {
+        HrSettings st = test::hrSettings(oracle, 1e-2);
+        HrResult r = HrSolver(s, vis, st).solve();
+        EXPECT_EQ(r.checks.front().name, "receiver");
+        return r.checks.front();
+    };
+    const CheckUse bfa = receiverUse("bfa"), error = receiverUse("error");
+    EXPECT_GT(bfa.passes, 0u);
+    EXPECT_GT(bfa.amended, 0u);
+    EXPECT_EQ(error.passes, 0u);
+}
+
+TEST(RefinementChecks, HrChecksChoosesThem) {
+    scene::Scene s = scene::loadScene("cornell");
+    transport::Visibility vis(s);
+    auto solve = [&](const std::string& checks) {
+        Params p;
+        p.set("hr.oracle", std::string("bfa"));
+        p.set("oracle.eps", 1e-2);
+        p.set("cluster.model", std::string("none"));
+        if (!checks.empty()) p.set("hr.checks", checks);
+        HrSettings st = HrSettings::fromParams(p);
+        p.reportUnused();
+        return HrSolver(s, vis, st).solve();
+    };
+    const HrResult all = solve(""), none = solve("none"), some = solve("receiver, sender_total");
+    EXPECT_EQ(all.checks.size(), refinementChecks().size());
+    EXPECT_TRUE(none.checks.empty());
+    ASSERT_EQ(some.checks.size(), 2u);
+    EXPECT_EQ(some.checks[0].name, "receiver");
+    EXPECT_EQ(some.checks[1].name, "sender_total");
+    // Without the checks bfa judges link by link, as published: fewer links.
+    EXPECT_LT(none.hierarchy->numLinks(), all.hierarchy->numLinks());
+    try {
+        solve("receiver,recever");
+        FAIL() << "an unknown check name must be an error";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("recever"), std::string::npos);
+        EXPECT_NE(std::string(e.what()).find("leaf_budget"), std::string::npos);
+    }
 }
