@@ -127,6 +127,184 @@ KernelSamples linkResidualSamples(const Hierarchy& h, const transport::CouplingE
     });
 }
 
+namespace {
+
+/// The surface links of the receivers receiverErrors() evaluates, pending
+/// (code 2i + 1) and accepted (code 2i), in CSR form by receiver, each with
+/// the index of its samples (kNoSamples where none are stored) and, for a
+/// pending link, of its entry in the output.
+struct ReceiverItems {
+    static constexpr uint64_t kNoSamples = ~uint64_t(0);
+    std::vector<uint8_t> wanted;
+    std::vector<uint64_t> offset, items, itemSamples, itemOut;
+};
+
+bool surfaceLinkOf(const Hierarchy& h, uint32_t r, const Link& l) {
+    return !h.isCluster(r) && l.sender != kNone && !h.isCluster(l.sender) &&
+           !(l.flags & Link::kOpen);
+}
+
+ReceiverItems collectReceiverItems(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
+                                   const std::vector<Link>& pending,
+                                   const std::vector<KernelSamples>& pendingSamples,
+                                   const std::vector<uint32_t>& acceptedRecv,
+                                   const std::vector<Link>& accepted,
+                                   const std::vector<KernelSamples>& acceptedSamples,
+                                   bool compute) {
+    ReceiverItems it;
+    const size_t np = pending.size();
+    const uint32_t n = h.numElements();
+    // Receivers to evaluate: those with a pending surface link; without
+    // `compute` (refinement), only those with one that either end's
+    // subdivision could refine (no decision reads the others).
+    it.wanted.assign(n, 0);
+    for (size_t i = 0; i < np; ++i)
+        if (surfaceLinkOf(h, pendingRecv[i], pending[i]) &&
+            (compute || h.canSubdivide(pendingRecv[i]) || h.canSubdivide(pending[i].sender)))
+            it.wanted[pendingRecv[i]] = 1;
+    // Counting sort by receiver, stable.
+    it.offset.assign(size_t(n) + 1, 0);
+    auto count = [&](const std::vector<uint32_t>& recv, const std::vector<Link>& links) {
+        for (size_t i = 0; i < links.size(); ++i)
+            if (it.wanted[recv[i]] && surfaceLinkOf(h, recv[i], links[i])) ++it.offset[recv[i] + 1];
+    };
+    count(acceptedRecv, accepted);
+    count(pendingRecv, pending);
+    for (uint32_t e = 0; e < n; ++e) it.offset[e + 1] += it.offset[e];
+    // Samples are stored only for the links that storesKernelSamples(), in
+    // link order; outputs one per pending link that carriesKernelSamples().
+    it.items.resize(it.offset[n]);
+    it.itemSamples.resize(it.offset[n]);
+    it.itemOut.resize(it.offset[n]);
+    std::vector<uint64_t> fill(it.offset.begin(), it.offset.end() - 1);
+    auto place = [&](const std::vector<uint32_t>& recv, const std::vector<Link>& links,
+                     const std::vector<KernelSamples>& samples, uint64_t tag) {
+        const bool stored = !(samples.empty() && compute);
+        uint64_t k = 0, ks = 0;
+        for (size_t i = 0; i < links.size(); ++i) {
+            if (!h.carriesKernelSamples(recv[i], links[i])) continue;
+            const bool has = stored && h.storesKernelSamples(recv[i], links[i]);
+            if (it.wanted[recv[i]] && surfaceLinkOf(h, recv[i], links[i])) {
+                const uint64_t j = fill[recv[i]]++;
+                it.items[j] = 2 * uint64_t(i) + tag;
+                it.itemSamples[j] = has ? ks : ReceiverItems::kNoSamples;
+                it.itemOut[j] = k;
+            }
+            ++k;
+            ks += has ? 1 : 0;
+        }
+        HRAD_CHECK(ks == samples.size());
+    };
+    place(acceptedRecv, accepted, acceptedSamples, 0);
+    place(pendingRecv, pending, pendingSamples, 1);
+    return it;
+}
+
+/// What receiverErrors() reads, for one receiver's evaluation.
+struct ReceiverInputs {
+    const Hierarchy& h;
+    const std::vector<Link>& pending;
+    const std::vector<KernelSamples>& pendingSamples;
+    const std::vector<Link>& accepted;
+    const std::vector<KernelSamples>& acceptedSamples;
+    const ReceiverItems& it;
+    const LeafRanges& lr;
+    bool residualSamples;
+    const SampleFn& compute;
+};
+
+/// The aggregate of receiver r's links, written to the entries of its
+/// pending links in `out`. linkDev and linkSend are scratch.
+void evaluateReceiver(const ReceiverInputs& in, uint32_t r, std::vector<float>& linkDev,
+                      std::vector<float>& linkSend, std::vector<ReceiverError>& out) {
+    constexpr int K = transport::FormFactorEngine::kMaxKernelSamples;
+    const Hierarchy& h = in.h;
+    const ReceiverItems& it = in.it;
+    const RGB rho = h.rho(r);
+    // Triangles have 7 sample points, quads 9 (kernelSamplePoints).
+    const int m = h.scene().patches[h.patch(r)].kind == scene::PatchKind::Quad ? 9 : 7;
+    RGB D[K];
+    for (auto& d : D) d = RGB(0.0);
+    RGB unsignedPart(0.0), senderSum(0.0);
+    uint64_t b = it.offset[r], e = it.offset[r + 1];
+    linkDev.assign(e - b, 0.f);
+    linkSend.assign(e - b, 0.f);
+    for (uint64_t j = b; j < e; ++j) {
+        uint64_t code = it.items[j];
+        const Link& l = (code & 1) ? in.pending[code >> 1] : in.accepted[code >> 1];
+        const uint32_t s = l.sender;
+        // The link's samples: stored, computed now, or none (a receiver that
+        // cannot subdivide, judged by nothing here). A link without light
+        // has zero samples, stored or not (the solver makes none for it).
+        KernelSamples computed;
+        const KernelSamples* vals = nullptr;
+        if (it.itemSamples[j] != ReceiverItems::kNoSamples)
+            vals = (code & 1) ? &in.pendingSamples[it.itemSamples[j]]
+                              : &in.acceptedSamples[it.itemSamples[j]];
+        else if (in.compute) {
+            if (l.K > 0) computed = in.compute(r, s);
+            vals = &computed;
+        }
+        // The judged visibility (hr.judge_visibility) and the unoccluded
+        // form factor.
+        double v = l.vis();
+        double Fu = h.unoccludedF(l);
+        RGB w = rho * h.B(s) * v;  // rho_r B_s v per channel
+        double dev = 0.0, wmax = maxComponent(w);
+        // Kernel samples less the link's constant; residual samples are
+        // already less the link's polynomial.
+        if (vals) {
+            const double base = (in.residualSamples ? 0.0 : Fu) - vals->mean();
+            const double step = vals->step();
+            for (int k = 0; k < m; ++k) {
+                double d = vals->deviation(k) * step - base;
+                D[k] += w * d;
+                dev = std::max(dev, wmax * std::fabs(d));
+            }
+        }
+        if (l.flags & Link::kPartial) {
+            // Where the shadow falls on the receiver is unknown: the link's
+            // whole transfer may be misplaced. It is bounded with the
+            // unoccluded F, not with K (K judged by its own visibility
+            // estimate would be biased low among the links kept).
+            RGB t = rho * h.B(s) * Fu;
+            unsignedPart += t;
+            dev += maxComponent(t);
+        }
+        linkDev[j - b] = float(dev);
+        // The sender's own error bound: its average against the extremes of
+        // its leaves (any part of it may be the part the receiver sees).
+        const RGB sp =
+            rho * double(l.K) * glm::max(in.lr.hi[s] - h.B(s), h.B(s) - in.lr.lo[s]);
+        senderSum += sp;
+        linkSend[j - b] = float(maxComponent(sp));
+    }
+    double rangeMax = 0.0, devMax = 0.0;
+    for (int c = 0; c < 3; ++c) {
+        double lo = 1e300, hi = -1e300, dv = 0.0;
+        for (int k = 0; k < m; ++k) {
+            lo = std::min(lo, D[k][c]);
+            hi = std::max(hi, D[k][c]);
+            dv = std::max(dv, std::fabs(D[k][c]));
+        }
+        if (m == 0) lo = hi = 0.0;
+        rangeMax = std::max(rangeMax, hi - lo + unsignedPart[c]);
+        devMax = std::max(devMax, dv + unsignedPart[c]);
+    }
+    for (uint64_t j = b; j < e; ++j) {
+        if (!(it.items[j] & 1)) continue;
+        ReceiverError& o = out[it.itemOut[j]];
+        o.range = float(rangeMax);
+        o.deviation = float(devMax);
+        o.linkDeviation = linkDev[j - b];
+        o.links = uint32_t(e - b);
+        o.senderSum = float(maxComponent(senderSum));
+        o.linkSender = linkSend[j - b];
+    }
+}
+
+}  // namespace
+
 void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv,
                     const std::vector<Link>& pending,
                     const std::vector<KernelSamples>& pendingSamples,
@@ -134,159 +312,23 @@ void receiverErrors(const Hierarchy& h, const std::vector<uint32_t>& pendingRecv
                     const std::vector<KernelSamples>& acceptedSamples,
                     std::vector<ReceiverError>& out, bool residualSamples, const SampleFn& compute,
                     const LeafRanges* ranges) {
-    const size_t np = pending.size();
     size_t carriers = 0;
-    for (size_t i = 0; i < np; ++i) carriers += h.carriesKernelSamples(pendingRecv[i], pending[i]);
+    for (size_t i = 0; i < pending.size(); ++i)
+        carriers += h.carriesKernelSamples(pendingRecv[i], pending[i]);
     out.assign(carriers, ReceiverError{});
-    const uint32_t n = h.numElements();
-    auto surfaceLink = [&](uint32_t r, const Link& l) {
-        return !h.isCluster(r) && l.sender != kNone && !h.isCluster(l.sender) &&
-               !(l.flags & Link::kOpen);
-    };
-    // Receivers to evaluate: those with a pending surface link; without
-    // `compute` (refinement), only those with one that either end's
-    // subdivision could refine (no decision reads the others).
-    std::vector<uint8_t> wanted(n, 0);
-    for (size_t i = 0; i < np; ++i)
-        if (surfaceLink(pendingRecv[i], pending[i]) &&
-            (compute || h.canSubdivide(pendingRecv[i]) || h.canSubdivide(pending[i].sender)))
-            wanted[pendingRecv[i]] = 1;
-    // Their surface links, pending (code 2i + 1) and accepted (code 2i), in
-    // CSR form by receiver (counting sort, stable).
-    std::vector<uint64_t> offset(size_t(n) + 1, 0);
-    auto count = [&](const std::vector<uint32_t>& recv, const std::vector<Link>& links) {
-        for (size_t i = 0; i < links.size(); ++i)
-            if (wanted[recv[i]] && surfaceLink(recv[i], links[i])) ++offset[recv[i] + 1];
-    };
-    count(acceptedRecv, accepted);
-    count(pendingRecv, pending);
-    for (uint32_t e = 0; e < n; ++e) offset[e + 1] += offset[e];
-    // With each item, the index of its link's samples (stored only for the
-    // links that storesKernelSamples(), in link order; kNoSamples for the
-    // others) and, for a pending link, of its entry in `out` (one per link
-    // that carriesKernelSamples()).
-    constexpr uint64_t kNoSamples = ~uint64_t(0);
-    std::vector<uint64_t> items(offset[n]), itemSamples(offset[n]), itemOut(offset[n]);
-    {
-        std::vector<uint64_t> fill(offset.begin(), offset.end() - 1);
-        auto place = [&](const std::vector<uint32_t>& recv, const std::vector<Link>& links,
-                         const std::vector<KernelSamples>& samples, uint64_t tag) {
-            const bool stored = !(samples.empty() && compute);
-            uint64_t k = 0, ks = 0;
-            for (size_t i = 0; i < links.size(); ++i) {
-                if (!h.carriesKernelSamples(recv[i], links[i])) continue;
-                const bool has = stored && h.storesKernelSamples(recv[i], links[i]);
-                if (wanted[recv[i]] && surfaceLink(recv[i], links[i])) {
-                    const uint64_t j = fill[recv[i]]++;
-                    items[j] = 2 * uint64_t(i) + tag;
-                    itemSamples[j] = has ? ks : kNoSamples;
-                    itemOut[j] = k;
-                }
-                ++k;
-                ks += has ? 1 : 0;
-            }
-            HRAD_CHECK(ks == samples.size());
-        };
-        place(acceptedRecv, accepted, acceptedSamples, 0);
-        place(pendingRecv, pending, pendingSamples, 1);
-    }
+    const ReceiverItems it =
+        collectReceiverItems(h, pendingRecv, pending, pendingSamples, acceptedRecv, accepted,
+                             acceptedSamples, bool(compute));
     LeafRanges ownRanges;
     const LeafRanges& lr = rangesOf(h, ranges, ownRanges);
-    const std::vector<RGB>& lo = lr.lo;
-    const std::vector<RGB>& hi = lr.hi;
-    constexpr int K = transport::FormFactorEngine::kMaxKernelSamples;
-    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 64), [&](const auto& range) {
-        std::vector<float> linkDev, linkSend;
-        for (uint32_t r = range.begin(); r != range.end(); ++r) {
-            if (!wanted[r]) continue;
-            const RGB rho = h.rho(r);
-            // Triangles have 7 sample points, quads 9 (kernelSamplePoints).
-            const int m = h.scene().patches[h.patch(r)].kind == scene::PatchKind::Quad ? 9 : 7;
-            RGB D[K];
-            for (auto& d : D) d = RGB(0.0);
-            RGB unsignedPart(0.0), senderSum(0.0);
-            uint64_t b = offset[r], e = offset[r + 1];
-            linkDev.assign(e - b, 0.f);
-            linkSend.assign(e - b, 0.f);
-            for (uint64_t j = b; j < e; ++j) {
-                uint64_t code = items[j];
-                const Link& l = (code & 1) ? pending[code >> 1] : accepted[code >> 1];
-                const uint32_t s = l.sender;
-                // The link's samples: stored, computed now, or none (a
-                // receiver that cannot subdivide, judged by nothing here).
-                // A link without light has zero samples, stored or not (the
-                // solver makes none for it).
-                KernelSamples computed;
-                const KernelSamples* vals = nullptr;
-                if (itemSamples[j] != kNoSamples)
-                    vals = (code & 1) ? &pendingSamples[itemSamples[j]]
-                                      : &acceptedSamples[itemSamples[j]];
-                else if (compute) {
-                    if (l.K > 0) computed = compute(r, s);
-                    vals = &computed;
-                }
-                // The judged visibility (hr.judge_visibility) and the
-                // unoccluded form factor.
-                double v = l.vis();
-                double Fu = h.unoccludedF(l);
-                RGB w = rho * h.B(s) * v;  // rho_r B_s v per channel
-                double dev = 0.0, wmax = maxComponent(w);
-                // Kernel samples less the link's constant; residual samples
-                // are already less the link's polynomial.
-                if (vals) {
-                    const double base = (residualSamples ? 0.0 : Fu) - vals->mean();
-                    const double step = vals->step();
-                    for (int k = 0; k < m; ++k) {
-                        double d = vals->deviation(k) * step - base;
-                        D[k] += w * d;
-                        dev = std::max(dev, wmax * std::fabs(d));
-                    }
-                }
-                if (l.flags & Link::kPartial) {
-                    // Where the shadow falls on the receiver is unknown: the
-                    // link's whole transfer may be misplaced. It is bounded
-                    // with the unoccluded F, not with K: judged by its own
-                    // visibility estimate, a link whose rays happened to find
-                    // more blockers looked more accurate and was kept, so the
-                    // kept links' K were low on average (-0.3 % of Cornell's
-                    // gathered light at error eps 1e-3, a selection bias).
-                    RGB t = rho * h.B(s) * Fu;
-                    unsignedPart += t;
-                    dev += maxComponent(t);
-                }
-                linkDev[j - b] = float(dev);
-                // The sender's own error bound: its average against the
-                // extremes of its leaves (any part of it may be the part the
-                // receiver sees).
-                const RGB sp = rho * double(l.K) * glm::max(hi[s] - h.B(s), h.B(s) - lo[s]);
-                senderSum += sp;
-                linkSend[j - b] = float(maxComponent(sp));
-            }
-            double rangeMax = 0.0, devMax = 0.0;
-            for (int c = 0; c < 3; ++c) {
-                double lo = 1e300, hi = -1e300, dv = 0.0;
-                for (int k = 0; k < m; ++k) {
-                    lo = std::min(lo, D[k][c]);
-                    hi = std::max(hi, D[k][c]);
-                    dv = std::max(dv, std::fabs(D[k][c]));
-                }
-                if (m == 0) lo = hi = 0.0;
-                rangeMax = std::max(rangeMax, hi - lo + unsignedPart[c]);
-                devMax = std::max(devMax, dv + unsignedPart[c]);
-            }
-            for (uint64_t j = b; j < e; ++j) {
-                uint64_t code = items[j];
-                if (!(code & 1)) continue;
-                ReceiverError& o = out[itemOut[j]];
-                o.range = float(rangeMax);
-                o.deviation = float(devMax);
-                o.linkDeviation = linkDev[j - b];
-                o.links = uint32_t(e - b);
-                o.senderSum = float(maxComponent(senderSum));
-                o.linkSender = linkSend[j - b];
-            }
-        }
-    });
+    const ReceiverInputs in{h,  pending, pendingSamples, accepted, acceptedSamples,
+                            it, lr,      residualSamples, compute};
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, h.numElements(), 64),
+                      [&](const auto& range) {
+                          std::vector<float> linkDev, linkSend;
+                          for (uint32_t r = range.begin(); r != range.end(); ++r)
+                              if (it.wanted[r]) evaluateReceiver(in, r, linkDev, linkSend, out);
+                      });
 }
 
 namespace {

@@ -12,12 +12,8 @@
 // of one receiver compensate each other (in a closed room sum_l F_l(x) = 1 at
 // every x), while many links whose variations have the same sign (a coarse
 // receiver next to a finely linked wall) each pass a per-link threshold and
-// add up to an error of several per cent. Measured on the furnace (closed
-// cube, rho 0.5): with per-link criteria the mean |sum of a leaf's
-// coefficients - 1| was 8-14 % (bfa, error, kv at eps 1e-3), from the
-// receiver-average coefficients of links accepted on coarse receivers; the
-// quadrature error of the coefficients themselves was below 0.1 %. The
-// aggregate is the error estimate of Holzschuch & Sillion 1998 and
+// add up to an error of several per cent (measured: papers/notes/
+// 2026-11-29-receiver-error.md). The aggregate is the error estimate of Holzschuch & Sillion 1998 and
 // Lischinski, Smits & Greenberg 1994 taken over all links of a receiver
 // rather than per link, sampled at the receiver's corners, edge midpoints and
 // centroid (transport FormFactorEngine::kernelSamples), where the kernel of a
@@ -29,11 +25,8 @@
 // B_s) is at most K max_c |B_c - B_s|. Its sign is not random: the parts of a
 // sender a receiver sees best (near it, or unoccluded) are mostly the parts
 // the light reaches too, and the shadowed parts the average includes are
-// often the ones the receiver cannot see. Measured per link on cornell
-// (error eps 1e-3, the exact transfer of the solution's own leaf radiosities
-// by point-to-polygon integrals): the averaged senders carried 1.3 % less
-// light than their parts, 0.8 % of it on partially visible links, and a
-// per-link test let it through at every eps. The receiver's sum over its
+// often the ones the receiver cannot see, and a per-link test lets the
+// loss through at every eps (same page). The receiver's sum over its
 // links of K_l max_c |B_c - B_l| is therefore held to eps as a whole, like
 // the kernel term (papers/README.md, "Where the darkness came from").
 //

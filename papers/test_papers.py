@@ -267,3 +267,41 @@ def main():
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+# pytest: the docs' layout (issue 58). `/usr/bin/python3 -m pytest papers/test_papers.py -q`
+ROOT = os.path.dirname(HERE)
+GENERATED = {os.path.join(ROOT, "docs", "settings.md")}  # written by the settings generator
+
+
+def markdown_files():
+    yield os.path.join(ROOT, "README.md")
+    for d, _, names in os.walk(HERE):
+        yield from (os.path.join(d, n) for n in sorted(names) if n.endswith(".md"))
+
+
+def test_markdown_links_resolve():
+    """Every relative link in README.md and papers/**/*.md names a file or
+    folder that exists (docs/settings.md is generated elsewhere)."""
+    import re
+    bad = []
+    for md in markdown_files():
+        text = open(md, encoding="utf-8").read()
+        text = re.sub(r"```.*?```", "", text, flags=re.S)
+        for target in re.findall(r"\]\(<?([^)\s>]+)>?(?:\s+\"[^\"]*\")?\)", text):
+            if re.match(r"^[a-z]+:", target) or target.startswith("#"):
+                continue
+            path = os.path.normpath(os.path.join(os.path.dirname(md), target.split("#")[0]))
+            if path not in GENERATED and not os.path.exists(path):
+                bad.append(f"{os.path.relpath(md, ROOT)}: {target}")
+    assert not bad, bad
+
+
+def test_index_names_every_study_and_page():
+    """papers/README.md is the index: it names every study file of
+    papers/studies/ and links every dated page of papers/notes/."""
+    index = open(os.path.join(HERE, "README.md"), encoding="utf-8").read()
+    studies = [n for n in os.listdir(os.path.join(HERE, "studies")) if n.endswith(".toml")]
+    assert [n for n in studies if n not in index] == []
+    notes = sorted(os.listdir(os.path.join(HERE, "notes")))
+    assert notes and [n for n in notes if f"notes/{n}" not in index] == []
