@@ -118,15 +118,12 @@ void uniqueEdges(std::vector<DualEdge>& e) {
     e.resize(w);
 }
 
-}  // namespace
-
-FaceForest buildFaceForest(const scene::Scene& scene, const FaceClusterParams& params) {
+/// The dual graph of the patches: welds vertices by quantised position and
+/// makes patches sharing a mesh edge, on the same side and of the same kind
+/// (emitting or not), adjacent. Fills each patch's initial state.
+std::vector<DualEdge> dualGraph(const scene::Scene& scene, std::vector<State>& st) {
     const auto& P = scene.patches;
     const uint32_t k = uint32_t(P.size());
-    FaceForest forest;
-    forest.numPatches = k;
-
-    // Weld vertices by quantised position.
     double diag = scene.bounds().diagonal();
     double q = diag > 0 ? 1e-7 * diag : 1e-12;
     struct Key {
@@ -150,7 +147,6 @@ FaceForest buildFaceForest(const scene::Scene& scene, const FaceClusterParams& p
     };
     std::vector<EdgeEntry> entries;
     entries.reserve(size_t(k) * 4);
-    std::vector<State> st(size_t(k) * 2);
     for (uint32_t i = 0; i < k; ++i) {
         const auto& p = P[i];
         int nv = p.numVertices();
@@ -177,8 +173,6 @@ FaceForest buildFaceForest(const scene::Scene& scene, const FaceClusterParams& p
     std::sort(entries.begin(), entries.end(), [](const EdgeEntry& x, const EdgeEntry& y) {
         return x.key != y.key ? x.key < y.key : x.patch < y.patch;
     });
-    // Patches sharing a mesh edge, on the same side and of the same kind
-    // (emitting or not), are adjacent in the dual graph.
     std::vector<DualEdge> edges;
     for (size_t i = 0; i < entries.size();) {
         size_t j = i;
@@ -195,49 +189,78 @@ FaceForest buildFaceForest(const scene::Scene& scene, const FaceClusterParams& p
         }
         i = j;
     }
-    entries.clear();
-    entries.shrink_to_fit();
     uniqueEdges(edges);
+    return edges;
+}
 
+struct Candidate {
+    double cost;
+    uint32_t edge;
+};
+
+/// The edges whose merge stays within the cone, planarity and compactness
+/// limits, by cost (fit, cone, shape), cheapest first.
+void mergeCandidates(const std::vector<DualEdge>& edges, const std::vector<State>& st,
+                     const FaceClusterParams& params, std::vector<Candidate>& cand) {
     const double coneLimit = params.coneDegrees * kPi / 180.0;
+    cand.clear();
+    for (uint32_t e = 0; e < edges.size(); ++e) {
+        const State& a = st[edges[e].u];
+        const State& b = st[edges[e].v];
+        Vec3 axis;
+        double theta;
+        mergeCones(a.axis, a.theta, b.axis, b.theta, axis, theta);
+        if (theta > coneLimit) continue;
+        AreaMoments m = a.moments;
+        m.add(b.moments);
+        PlaneFit f = fitPlane(m, axis);
+        double fit =
+            f.meanSquaredRadius > 0 ? std::sqrt(f.meanSquaredDistance / f.meanSquaredRadius) : 0.0;
+        if (fit > params.planarity) continue;
+        if (params.compactness > 0 && m.area < params.compactness * 2 * kPi * f.meanSquaredRadius)
+            continue;
+        double perim = std::max(0.0, a.perimeter + b.perimeter - 2 * edges[e].length);
+        double shape = perim > 0 ? std::max(0.0, 1.0 - 4 * kPi * m.area / (perim * perim)) : 0.0;
+        double cost = fit + (1.0 - std::cos(theta)) + params.shapeWeight * shape;
+        cand.push_back({cost, e});
+    }
+    std::sort(cand.begin(), cand.end(), [](const Candidate& x, const Candidate& y) {
+        return x.cost != y.cost ? x.cost < y.cost : x.edge < y.edge;
+    });
+}
+
+/// The contracted graph: merged pairs become their new node.
+std::vector<DualEdge> contract(const std::vector<DualEdge>& edges,
+                               const std::vector<uint8_t>& matched,
+                               const std::vector<uint32_t>& rep) {
+    std::vector<DualEdge> next;
+    next.reserve(edges.size());
+    for (const DualEdge& e : edges) {
+        uint32_t u = matched[e.u] ? rep[e.u] : e.u;
+        uint32_t v = matched[e.v] ? rep[e.v] : e.v;
+        if (u == v) continue;
+        next.push_back({std::min(u, v), std::max(u, v), e.length});
+    }
+    uniqueEdges(next);
+    return next;
+}
+
+}  // namespace
+
+FaceForest buildFaceForest(const scene::Scene& scene, const FaceClusterParams& params) {
+    const uint32_t k = uint32_t(scene.patches.size());
+    FaceForest forest;
+    forest.numPatches = k;
+    std::vector<State> st(size_t(k) * 2);
+    std::vector<DualEdge> edges = dualGraph(scene, st);
     std::vector<uint8_t> isChild(size_t(k) * 2, 0);
     std::vector<uint32_t> rep(size_t(k) * 2);
-    struct Candidate {
-        double cost;
-        uint32_t edge;
-    };
     std::vector<Candidate> cand;
     std::vector<uint8_t> matched(size_t(k) * 2, 0);
     constexpr int kMaxRounds = 48;  // bounds the depth of the face hierarchy
     for (int round = 0; round < kMaxRounds && !edges.empty(); ++round) {
-        cand.clear();
-        for (uint32_t e = 0; e < edges.size(); ++e) {
-            const State& a = st[edges[e].u];
-            const State& b = st[edges[e].v];
-            Vec3 axis;
-            double theta;
-            mergeCones(a.axis, a.theta, b.axis, b.theta, axis, theta);
-            if (theta > coneLimit) continue;
-            AreaMoments m = a.moments;
-            m.add(b.moments);
-            PlaneFit f = fitPlane(m, axis);
-            double fit = f.meanSquaredRadius > 0
-                             ? std::sqrt(f.meanSquaredDistance / f.meanSquaredRadius)
-                             : 0.0;
-            if (fit > params.planarity) continue;
-            if (params.compactness > 0 &&
-                m.area < params.compactness * 2 * kPi * f.meanSquaredRadius)
-                continue;
-            double perim = std::max(0.0, a.perimeter + b.perimeter - 2 * edges[e].length);
-            double shape =
-                perim > 0 ? std::max(0.0, 1.0 - 4 * kPi * m.area / (perim * perim)) : 0.0;
-            double cost = fit + (1.0 - std::cos(theta)) + params.shapeWeight * shape;
-            cand.push_back({cost, e});
-        }
+        mergeCandidates(edges, st, params, cand);
         if (cand.empty()) break;
-        std::sort(cand.begin(), cand.end(), [](const Candidate& x, const Candidate& y) {
-            return x.cost != y.cost ? x.cost < y.cost : x.edge < y.edge;
-        });
         int merged = 0;
         for (const Candidate& c : cand) {
             uint32_t u = edges[c.edge].u, v = edges[c.edge].v;
@@ -264,17 +287,7 @@ FaceForest buildFaceForest(const scene::Scene& scene, const FaceClusterParams& p
             ++merged;
         }
         forest.rounds = round + 1;
-        // The contracted graph: merged pairs become their new node.
-        std::vector<DualEdge> next;
-        next.reserve(edges.size());
-        for (const DualEdge& e : edges) {
-            uint32_t u = matched[e.u] ? rep[e.u] : e.u;
-            uint32_t v = matched[e.v] ? rep[e.v] : e.v;
-            if (u == v) continue;
-            next.push_back({std::min(u, v), std::max(u, v), e.length});
-        }
-        uniqueEdges(next);
-        edges = std::move(next);
+        edges = contract(edges, matched, rep);
         std::fill(matched.begin(), matched.end(), 0);
         if (merged == 0) break;
     }

@@ -1,49 +1,26 @@
-// How open each surface is towards a sender: the hand-over of the light an
-// oriented cluster receives to its surfaces (cluster.handover = visible).
+// How open each surface is towards a sender: the oriented model's hand-over
+// of the light a receiving cluster gets to its surfaces (cluster.handover =
+// visible; cluster/oriented_model.h).
 //
-// An oriented receiving cluster hands the irradiance of each link to every
-// surface below it with that surface's cosine towards the sender (Smits,
-// Arvo & Greenberg 1994, sec. 4). The link's visibility fraction is a mean
-// over the cluster's surfaces (its rays end on them, drawn by A_k cos_k), so
-// a surface that faces the sender but is hidden inside the cluster (a seat
-// under its desk, the inner faces of a shelf) gets as much as the surfaces
-// that hide it. Where those surfaces differ in reflectance the hand-over
-// changes how much light is reflected (papers/README.md, "Links made in the
-// dark": classroom with one grey reflectance everywhere kept its light when
-// clustered, with its own materials it did not).
-//
-// This table gives each surface k an openness w_k(u, c) in [0, 1] towards
-// direction u inside cluster c: the fraction of M fixed points x_j on the
-// surface from which a ray in u's direction bin leaves c's bounding sphere
-// (centre C, radius R) without hitting anything. It is precomputed once per
-// surface from rays in a stratified set of directions over the surface's
-// hemisphere (16 bins of equal solid angle: 4 bands uniform in cos theta
-// times 4 sectors), one ray per point and bin, keeping the distance to the
-// nearest hit; a query compares it with R - (x_j - C).u, the distance at
-// which u leaves the sphere from x_j along the line through the centre (an
-// upper bound elsewhere). So one table serves every level of the tree:
-// occluders inside c count; those between c and the sender are the link's
-// own visibility, the same for all of c's surfaces. (Counting them per
-// surface from the bins' directions, which differ from the sender's by up to
-// about 35 degrees, placed the light worse on classroom: papers/README.md,
-// "Receiving clusters hand their light to the surfaces that see out".)
-// Hand-over then gives surface k
+// An oriented receiving cluster hands a link's irradiance to every surface
+// below it with that surface's cosine towards the sender (Smits, Arvo &
+// Greenberg 1994, sec. 4); the link's visibility is a mean over the
+// cluster's surfaces, so a surface hidden inside the cluster (a seat under
+// its desk) would get as much as those that hide it. This table gives each
+// surface k an openness w_k(u, c) in [0, 1] towards direction u inside
+// cluster c: the fraction of M fixed points x_j on the surface from which a
+// ray in u's direction bin leaves c's bounding sphere (centre C, radius R)
+// without hitting anything, from rays traced once per surface in 16 bins of
+// equal solid angle (4 bands uniform in cos theta times 4 sectors), keeping
+// the distance to the nearest hit and comparing it with R - (x_j - C).u. One
+// table serves every level of the tree. Hand-over then gives surface k
 //     K' cos_k(u) w_k(u, c) B_s,   K' = K / W,
 //     W = sum_k A_k cos_k(u)+ w_k(u, c) / sum_k A_k cos_k(u)+,
-// so the power the link delivers, K B_s sum_k A_k cos_k+, is unchanged (K
-// is divided by W, summed exactly over the cluster's surfaces, once per
-// link: Hierarchy::handOverNewLinks) and only where it lands moves towards
-// the surfaces that see out of the cluster. This is the receiving side of
-// the visibility within clusters that Sillion 1995 ("A unified hierarchical
-// algorithm for global illumination with scattering volumes and object
-// clusters") models as an extinction through the cluster's volume; here it
-// is measured on the surfaces themselves, and a query is a bin lookup, four
-// dot products and four comparisons (the push makes one per surface and
-// link into an ancestor cluster, every iteration).
-//
-// Cost: 64 rays per surface (M = 4 points, 16 bins) when the solve starts,
-// and 64 bytes per surface: each distance is one byte on a log scale from
-// 1e-5 of the scene's diagonal to all of it (steps of 4.6 %, rounded down).
+// so the power the link delivers is unchanged and only where it lands moves
+// (the receiving side of Sillion 1995's extinction through a cluster's
+// volume, measured on the surfaces themselves). Cost: 64 rays and 64 bytes
+// per surface (M = 4 points, 16 bins; one byte per distance on a log scale).
+// Measurements: papers/notes/2026-12-01-cluster-transfer.md.
 #pragma once
 
 #include <algorithm>

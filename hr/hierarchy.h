@@ -27,6 +27,7 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -37,6 +38,7 @@
 #include <vector>
 
 #include "cluster/transfer.h"
+#include "cluster/transfer_model.h"
 #include "cluster/tree.h"
 #include "core/memory.h"
 #include "core/types.h"
@@ -212,6 +214,8 @@ class Hierarchy {
     uint32_t numPatches() const { return uint32_t(scene_->patches.size()); }
     uint32_t numClusters() const { return numClusters_; }
     cluster::ClusterModel clusterModel() const { return model_; }
+    /// The transfer model of clusterModel() (cluster/transfer_model.h).
+    const cluster::TransferModel& transferModel() const { return *transfer_; }
     const cluster::ClusterTree* clusterTree() const { return tree_; }
     /// Oriented model: hand each link's light to the surfaces below its
     /// receiving cluster by cosine and openness (cluster/openness.h) instead
@@ -536,11 +540,10 @@ class Hierarchy {
     /// surface of the cluster gets K / W cos_k w_k with cos_k w_k <= 1. W
     /// and the visibility in K are separate estimates (16 direction bins and
     /// 4 points per surface; 8 rays): where the rays find the sender but
-    /// the only open surface facing it is a sliver, W is tiny and K / W put
-    /// the whole link's power on the sliver (graz.mgf cut by
-    /// split_intersections: a piece of 7e-8 m^2 in a binder took K = 51, a
-    /// radiosity of 4e4 against the Monte Carlo reference's 4.5). The power
-    /// past the bound is not delivered.
+    /// the only open surface facing it is a sliver, W is tiny and K / W would
+    /// put the whole link's power on the sliver
+    /// (papers/notes/2026-12-01-cluster-transfer.md, "A sliver's K / W").
+    /// The power past the bound is not delivered.
     void handOverNewLinks();
     /// With the openness table and setSeenHandOver: every stand-in into a
     /// cluster that no direction hands over (Link::byArea), other than a
@@ -565,6 +568,15 @@ class Hierarchy {
     /// is dark, no surface sees it, or the pair has more than kSeenMaxPairs
     /// surface pairs to weigh.
     void handOverStandIns();
+    /// handOverStandIns and handOverNewLinks phase by phase (hr/handover.cpp).
+    struct SeenDecision;
+    struct SeenScratch;
+    void seenCandidates(uint32_t c, std::vector<SeenDecision>& out, SeenScratch& s);
+    double seenSources(uint32_t r, uint32_t sender, SeenScratch& s) const;
+    void scaleSeenWeights(uint32_t c, const SeenScratch& s, std::vector<SeenDecision>& out) const;
+    void storeSeen(std::vector<std::vector<SeenDecision>>& made);
+    uint64_t divideByOpenness(const std::vector<uint64_t>& fresh, const std::vector<double>& num,
+                              const std::vector<double>& den, std::atomic<uint64_t>& capped);
     /// Push-pull of the polynomial coefficients (basis degree > 0).
     void pushPullPolynomial(const std::vector<RGB>& fromAbove);
     /// Pull of the coefficients of e from its four children (degree > 0).
@@ -579,6 +591,7 @@ class Hierarchy {
     const cluster::SurfaceOpenness* openness_ = nullptr;
     uint64_t handOverByOpenness_ = 0, handOverByCosine_ = 0, handOverCapped_ = 0;
     cluster::ClusterModel model_ = cluster::ClusterModel::None;
+    const cluster::TransferModel* transfer_ = nullptr;
     uint32_t numClusters_ = 0;
     /// Oriented model: unit direction from each cluster-receiver link's
     /// receiver to its sender, for the links of cluster rows (contiguous).
@@ -615,15 +628,9 @@ class Hierarchy {
     std::unordered_map<uint64_t, uint64_t> seenCache_;
     /// Position of each patch in the tree's order (made when first needed).
     std::vector<uint32_t> orderPos_;
-    /// Oriented model, per cluster and RGB channel: sum A_k B_k, sum A_k B_k n_k,
-    /// sum A_k B_k n_k n_k^T (xx, xy, xz, yy, yz, zz). Summed in double
-    /// (pullCluster), stored in float (120 bytes per cluster): a relative
-    /// rounding of 6e-8 on a radiance whose model error is percents.
-    struct RadiantMoments {
-        glm::vec3 ab{0.f};
-        std::array<glm::vec3, 3> s{};
-        std::array<std::array<float, 6>, 3> m{};
-    };
+    /// Models that send by direction: per cluster, the radiant moments of
+    /// the surfaces below (cluster/transfer_model.h).
+    using RadiantMoments = cluster::RadiantMoments;
     std::vector<RadiantMoments> moments_;
     /// Per cluster: largest radiosity of the root patches below (maxB()).
     std::vector<RGB> maxB_;
