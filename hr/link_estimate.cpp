@@ -83,7 +83,7 @@ void HrSolver::judgedTransfer(const Hierarchy& h, uint32_t r, const Link& l, boo
 /// judges it with the fraction towards the sender.
 void HrSolver::receiverFraction(const Hierarchy& h, const LinkEnds& ends,
                                 oracles::LinkEstimate& e) const {
-    if (h.clusterModel() == cluster::ClusterModel::Oriented) {
+    if (h.transferModel().receivesByCosine()) {
         const cluster::LinkEnd& re = ends.first;
         Vec3 u = ends.second.center - re.center;
         double len = glm::length(u);

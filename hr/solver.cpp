@@ -340,7 +340,7 @@ void HrSolver::buildHierarchy(HrResult& res) {
     }
     res.clusterModel = cluster::clusterModelName(clusterModel_);
     findReachable(res);
-    if (clusterModel_ != cluster::ClusterModel::None) {
+    if (cluster::transferModel(clusterModel_).hasClusters()) {
         res.clusterTree = std::make_unique<cluster::ClusterTree>(*scene_, s_.cluster, included_);
         res.clusterBuildSeconds = res.clusterTree->buildSeconds();
         spdlog::info(
@@ -358,7 +358,7 @@ void HrSolver::buildHierarchy(HrResult& res) {
     linker_ = std::make_unique<cluster::ClusterLinker>(*scene_, res.clusterTree.get(),
                                                        clusterModel_, vis_, s_.clusterLink);
     links_.setLinker(linker_.get());
-    if (res.clusterTree && h.clusterModel() == cluster::ClusterModel::Oriented &&
+    if (res.clusterTree && h.transferModel().handsOverByOpenness() &&
         s_.clusterLink.visibleHandover) {
         res.openness =
             std::make_unique<cluster::SurfaceOpenness>(*scene_, *res.clusterTree, *vis_, s_.seed);
