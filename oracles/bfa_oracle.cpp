@@ -7,8 +7,9 @@ namespace hrad::oracles {
 PowerOracle::Settings PowerOracle::Settings::fromParams(const Params& p) {
     Settings s;
     s.eps = p.getDouble({"eps",
-                         "oracle threshold: power a link may carry (bfa) as a fraction of the "
-                         "emitted power; lower for accuracy, raise for speed"},
+                         "oracle threshold: bfa/error/kv a fraction of the emitted power (the "
+                         "power a link carries or misplaces), ff the form factor F_eps "
+                         "(default 0.01); lower for accuracy, raise for speed"},
                         s.eps, 0.0, 1.0, true);
     s.useBound =
         p.getBool({"use_bound", "judge by the form factor's upper bound rather than its estimate"},

@@ -240,6 +240,8 @@ TEST(Store, MergeRefusesMixedStudiesUnlessForced) {
 }  // namespace
 }  // namespace hrad::experiments
 
+namespace hrad::experiments {
+
 TEST(Store, EveryRowCarriesTheResolvedSettingsWhole) {
     auto dir = test::tempDir("store_resolved");
     Study study = parseStudy(kStudy, "one.toml", dir);
@@ -256,3 +258,5 @@ TEST(Store, EveryRowCarriesTheResolvedSettingsWhole) {
     EXPECT_EQ(key("oracle.eps"), "0.5;0.1;");
     EXPECT_EQ(key("cluster.model"), "none;none;");  // auto, resolved by the solve
 }
+
+}  // namespace hrad::experiments
