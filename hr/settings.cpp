@@ -221,24 +221,4 @@ HrSettings HrSettings::fromParams(const Params& p) {
     return s;
 }
 
-std::string HrSettings::describe() const {
-    std::string sched = fmt::format("{}", fmt::join(epsSchedule, ","));
-    return fmt::format(
-               "hr(oracle={}, eps_schedule=[{}], min_area={}, min_area_rel={}, max_level={}, "
-               "max_iterations={}, tolerance={}, iteration={}, {}, cluster_model={}, {}, {})",
-               oracle, sched, minArea, minAreaRel, maxLevel, maxIterations, tolerance,
-               gaussSeidel ? fmt::format("gauss-seidel/{}", gsBlocks) : std::string("jacobi"),
-               ff.describe(), cluster::clusterModelName(clusterModel), cluster.describe(),
-               clusterLink.describe()) +
-           (basisDegree > 0
-                ? fmt::format(" basis={} basis_points={} basis_near_levels={} basis_check={}",
-                              scene::basisName(basisDegree),
-                              basisPoints > 0 ? basisPoints : basisDegree + 2, basisNearLevels,
-                              basisCheck)
-                : std::string()) +
-           (noiseTarget > 0 ? fmt::format(" noise_target={} noise_rounds={} noise_max_factor={}",
-                                          noiseTarget, noiseRounds, noiseMaxFactor)
-                            : std::string());
-}
-
 }  // namespace hrad::hr
