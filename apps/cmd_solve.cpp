@@ -40,8 +40,7 @@ int runSolve(const SolveOptions& opt, Params& params) {
         point.reference.set("kind", std::string("full-matrix"), params.where("metrics.reference_level"));
         std::string solver =
             params.has("solver")
-                ? params.getString(
-                      {"solver", "solver: hr (hierarchical), full-matrix, or progressive"}, "hr")
+                ? params.getString("solver", "hr")  // documented in experiments/runner.cpp
                 : "hr";
         for (const auto& [k, e] : params.entries())
             if (k.rfind("fm.", 0) == 0 && k != "fm.level" && k != "fm.max_area")

@@ -194,9 +194,12 @@ void Params::record(const Key& key, const char* type, const Value& value, const 
     r.given = has(key.name);
     if (r.doc.empty()) r.doc = key.doc;
     if (r.range.empty()) r.range = std::move(range);
-    const std::string who = rec.scopes.empty() ? std::string() : rec.scopes.back();
-    if (!who.empty() && (", " + r.component + ", ").find(", " + who + ", ") == std::string::npos)
-        r.component += (r.component.empty() ? "" : ", ") + who;
+    if (!rec.scopes.empty()) r.addReader(rec.scopes.back());
+}
+
+void Params::Record::addReader(const std::string& who) {
+    if (!who.empty() && (", " + component + ", ").find(", " + who + ", ") == std::string::npos)
+        component += (component.empty() ? "" : ", ") + who;
 }
 
 void Params::recordResolved(const std::string& key, Value value) const {

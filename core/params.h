@@ -64,6 +64,8 @@ class Params {
         bool given = false;     ///< set in the input (not the default)
         std::optional<Value> resolved;  ///< recordResolved: what the run used
         const Value& used() const { return resolved ? *resolved : value; }
+        /// Adds a reader to `component` unless it is listed already.
+        void addReader(const std::string& who);
     };
 
     /// RAII: reads while it lives are recorded as read by `component`

@@ -194,9 +194,7 @@ void probeLoaderKeys(const Params& params) {
 /// emitter loaded, and the solve then exited 0 with an empty, NaN or all-zero
 /// solution. `validate = false` skips the checks at loading only (hrad info).
 void requireSolvable(const scene::Scene& sc, const Params& settings) {
-    if (settings.getBool(
-            {"validate", "check the scene when loading (false skips the checks, for hrad info)"},
-            true))
+    if (settings.getBool("validate", true))  // documented where scene/loader.cpp reads it
         return;  // loadScene has checked
     try {
         sc.validate();

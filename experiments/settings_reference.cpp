@@ -28,9 +28,7 @@ void merge(Records& into, const std::map<std::string, Params::Record>& from,
         }
         if (m.doc.empty()) m.doc = r.doc;
         if (m.range.empty()) m.range = r.range;
-        if (!r.component.empty() &&
-            (", " + m.component + ", ").find(", " + r.component + ", ") == std::string::npos)
-            m.component += (m.component.empty() ? "" : ", ") + r.component;
+        m.addReader(r.component);
     }
 }
 
