@@ -26,7 +26,8 @@ int runRender(const RenderCliOptions& opt, Params& params) {
     render::RenderSettings rs = render::RenderSettings::fromParams(params, "render");
     rs.adoptFilm(sc);  // the scene's film size where --width/--height are unset
     rs.showProgress = true;  // final gather / path tracing take a while
-    double exposure = params.getDouble("render.exposure", 0.0, 0.0, 1e300);
+    double exposure = params.getDouble("render.exposure", 0.0, 0.0,
+                                       1e300);  // documented in experiments/runner.cpp
     params.reportUnused();
     std::unique_ptr<scene::LeafField> field = reference::loadSolution(opt.solution, sc);
     transport::Visibility vis(sc);

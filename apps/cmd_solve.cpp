@@ -32,10 +32,16 @@ int runSolve(const SolveOptions& opt, Params& params) {
     point.sceneLabel = opt.scene;
     // --reference-level N (metrics.reference_level): a full-matrix reference at
     // uniform level N, sharing the fm.* settings with a full-matrix solve.
-    int refLevel = int(params.getInt("metrics.reference_level", -1, -1, 12));
+    int refLevel = [&] {
+        Params::Scope scope(params, "hrad solve");
+        return readReferenceLevel(params);
+    }();
     if (refLevel >= 0) {
         point.reference.set("kind", std::string("full-matrix"), params.where("metrics.reference_level"));
-        std::string solver = params.has("solver") ? params.getString("solver", "hr") : "hr";
+        std::string solver =
+            params.has("solver")
+                ? params.getString("solver", "hr")  // documented in experiments/runner.cpp
+                : "hr";
         for (const auto& [k, e] : params.entries())
             if (k.rfind("fm.", 0) == 0 && k != "fm.level" && k != "fm.max_area")
                 point.reference.set(k, e.value, e.where);

@@ -62,6 +62,22 @@ struct ReferenceCliOptions {
     bool progress = true;
 };
 
+struct SettingsCliOptions {
+    std::string prefix;     ///< only keys starting with it ("" : all)
+    bool markdown = false;  ///< docs/settings.md
+    bool readme = false;    ///< the README's table of the main settings
+};
+
+/// `hrad settings [PREFIX]`: every key, default, type, range, reader, doc.
+int runSettings(const SettingsCliOptions& options);
+/// The names of a registry, comma-separated, for help texts: "solver",
+/// "oracle", "cluster" (models), "builder", "format" (file extensions), "builtin".
+std::string registryHelp(const std::string& family);
+/// metrics.reference_level (hrad solve), read with its doc.
+int readReferenceLevel(const Params& params);
+/// The keys the app itself reads (for hrad settings).
+void readAppSettings(const Params& params);
+
 /// `hrad info SCENE`: counts, area, power, bounds, materials, load time.
 int runInfo(const std::string& scene, Params& params);
 

@@ -50,9 +50,9 @@ int main(int argc, char** argv) {
     // info
     auto* info = app.add_subcommand("info", "print scene statistics");
     std::string infoScene;
-    info->add_option("scene", infoScene,
-                     "built-in name (cornell, furnace, office:N, office:N:T, ...) or file")
-        ->required();
+    const std::string sceneHelp = "built-in name (" + app::registryHelp("builtin") +
+                                  ", ...) or file (" + app::registryHelp("format") + ")";
+    info->add_option("scene", infoScene, sceneHelp)->required();
 
     // solve
     auto* solve = app.add_subcommand("solve", "solve a scene and write images, PLY and summary");
@@ -61,16 +61,17 @@ int main(int argc, char** argv) {
     double eps = -1, minArea = -1;
     int refLevel = -1, width = 0, height = 0;
     bool interpolate = false, noImages = false, noPly = false, quietProgress = false, errorMap = false;
-    solve->add_option("scene", so.scene, "built-in name or file")->required();
-    solve->add_option("--solver", solver, "hr | full-matrix | progressive");
-    solve->add_option("--oracle", oracle, "refinement oracle (hr): bfa, ff, uniform, error, kv");
+    solve->add_option("scene", so.scene, sceneHelp)->required();
+    solve->add_option("--solver", solver, "solver: " + app::registryHelp("solver"));
+    solve->add_option("--oracle", oracle,
+                      "refinement oracle (hr.oracle): " + app::registryHelp("oracle"));
     auto* epsOpt = solve->add_option("--eps", eps, "oracle threshold (oracle.eps)");
     auto* minAreaOpt = solve->add_option("--min-area", minArea, "minimum element area (hr.min_area)");
     std::string clusterModel, clusterBuilder;
     solve->add_option("--cluster", clusterModel,
-                      "volume clustering (cluster.model): none, isotropic, oriented");
+                      "volume clustering (cluster.model): " + app::registryHelp("cluster"));
     solve->add_option("--cluster-builder", clusterBuilder,
-                      "cluster tree builder (cluster.builder): bvh, octree");
+                      "cluster tree builder (cluster.builder): " + app::registryHelp("builder"));
     bool faceClusters = false;
     solve->add_flag("--faces", faceClusters,
                     "face clusters of connected, nearly coplanar patches below the bvh "
@@ -162,12 +163,21 @@ int main(int argc, char** argv) {
     // reference
     auto* refCmd = app.add_subcommand("reference", "compute (or find) a cached reference solution");
     app::ReferenceCliOptions ro;
-    refCmd->add_option("scene", ro.scene, "built-in name or file")->required();
+    refCmd->add_option("scene", ro.scene, sceneHelp)->required();
     refCmd->add_option("--kind", ro.kind, "full-matrix | montecarlo")
         ->check(CLI::IsMember({"full-matrix", "montecarlo"}));
     refCmd->add_option("--cache", ro.cacheDir, "cache folder (default $HRAD_CACHE or ~/.cache/hrad)");
     bool refQuiet = false;
     refCmd->add_flag("--no-progress", refQuiet, "no progress lines on stderr");
+
+    // settings
+    auto* settingsCmd = app.add_subcommand(
+        "settings", "list every setting: default, type, range, reader and meaning");
+    app::SettingsCliOptions sto;
+    settingsCmd->add_option("prefix", sto.prefix,
+                            "only keys starting with this (e.g. hr. or cluster)");
+    settingsCmd->add_flag("--markdown", sto.markdown, "as Markdown tables (docs/settings.md)");
+    settingsCmd->add_flag("--readme", sto.readme, "the README's table of the main settings");
 
     try {
         app.parse(argc, argv);
@@ -222,6 +232,7 @@ int main(int argc, char** argv) {
             sw.threads = threads;
             return app::runSweepCommand(sw);
         }
+        if (*settingsCmd) return app::runSettings(sto);
         if (*rexport) return app::runResultsExport(exportStore, exportDir);
         if (*rmerge) return app::runResultsMerge(mergeOut, mergeIn, mergeForce);
         if (*refCmd) {

@@ -14,28 +14,55 @@ namespace hrad::cluster {
 
 ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
     ClusterLinkSettings s;
-    s.visRays = int(p.getInt("cluster.vis_rays", s.visRays, 0, 1024));
-    s.separation = p.getDouble("cluster.separation", s.separation, 1.0, 100.0);
-    s.surfaceSeparation =
-        p.getDouble("cluster.surface_separation", s.surfaceSeparation, 1.0, 100.0);
-    const std::string near = p.getEnum("cluster.near", "stand_in", {"open", "sample", "stand_in"});
+    s.visRays = int(p.getInt(
+        {"cluster.vis_rays",
+         "visibility rays for links touching clusters (cast twice: one set judges, one transfers)"},
+        s.visRays, 0, 1024));
+    s.separation =
+        p.getDouble({"cluster.separation",
+                     "clusters closer than this many bounding-sphere radii are opened, not linked"},
+                    s.separation, 1.0, 100.0);
+    s.surfaceSeparation = p.getDouble(
+        {"cluster.surface_separation", "the same for links between a surface and a cluster"},
+        s.surfaceSeparation, 1.0, 100.0);
+    const std::string near = p.getEnum({"cluster.near",
+                                        "clusters too close to link: open (always opened), sample "
+                                        "(Monte Carlo transfer) or stand_in (a sampled stand-in)"},
+                                       "stand_in", {"open", "sample", "stand_in"});
     s.sampleNear = near == "sample";
     s.standInNear = near == "stand_in";
-    s.nearOverlapping = p.getBool("cluster.near_overlapping", s.nearOverlapping);
-    s.nearOpenPairs = uint64_t(
-        p.getInt("cluster.near_open_pairs", int64_t(s.nearOpenPairs), 0, int64_t(1) << 40));
-    s.nearRays = int(p.getInt("cluster.near_rays", s.nearRays, 2, 4096));
-    s.deferDark = p.getBool("cluster.defer_dark", s.deferDark);
-    s.ambient = p.getBool("cluster.ambient", s.ambient);
-    s.faceSeparation = p.getDouble("cluster.face_separation", s.faceSeparation, 1.0, 100.0);
-    s.faceDisc = p.getEnum("cluster.face_kernel", "point", {"point", "disc"}) == "disc";
-    s.visibleHandover =
-        p.getEnum("cluster.handover", "visible", {"visible", "cosine"}) == "visible";
-    s.standIn = p.getBool("cluster.stand_in", s.standIn);
-    s.standInSeen = p.getEnum("cluster.stand_in_handover", "area", {"area", "seen"}) == "seen";
-    s.standInRays = int(p.getInt("cluster.stand_in_rays", s.standInRays, 2, 4096));
-    s.standInPairs =
-        uint64_t(p.getInt("cluster.stand_in_pairs", int64_t(s.standInPairs), 0, int64_t(1) << 40));
+    s.nearOverlapping =
+        p.getBool({"cluster.near_overlapping", "apply cluster.near to overlapping clusters too"},
+                  s.nearOverlapping);
+    s.nearOpenPairs = uint64_t(p.getInt(
+        {"cluster.near_open_pairs", "near cluster pairs opened at most before stand-ins take over"},
+        int64_t(s.nearOpenPairs), 0, int64_t(1) << 40));
+    s.nearRays = int(p.getInt({"cluster.near_rays", "rays per near cluster pair (sample)"},
+                              s.nearRays, 2, 4096));
+    s.deferDark = p.getBool({"cluster.defer_dark", "defer linking clusters that send no light yet"},
+                            s.deferDark);
+    s.ambient =
+        p.getBool({"cluster.ambient",
+                   "add an ambient term for light not yet transported through cluster links"},
+                  s.ambient);
+    s.faceSeparation = p.getDouble(
+        {"cluster.face_separation", "separation (in radii) for links between face clusters"},
+        s.faceSeparation, 1.0, 100.0);
+    s.faceDisc = p.getEnum({"cluster.face_kernel", "face-cluster transfer kernel: point or disc"},
+                           "point", {"point", "disc"}) == "disc";
+    s.visibleHandover = p.getEnum({"cluster.handover",
+                                   "how an oriented receiving cluster hands light to its surfaces: "
+                                   "visible (cosine and openness) or cosine"},
+                                  "visible", {"visible", "cosine"}) == "visible";
+    s.standIn = p.getBool(
+        {"cluster.stand_in", "near cluster pairs get a sampled stand-in transfer"}, s.standIn);
+    s.standInSeen = p.getEnum({"cluster.stand_in_handover",
+                               "how a stand-in's light is handed to surfaces: area or seen"},
+                              "area", {"area", "seen"}) == "seen";
+    s.standInRays =
+        int(p.getInt({"cluster.stand_in_rays", "rays per stand-in pair"}, s.standInRays, 2, 4096));
+    s.standInPairs = uint64_t(p.getInt({"cluster.stand_in_pairs", "stand-in pairs at most"},
+                                       int64_t(s.standInPairs), 0, int64_t(1) << 40));
     return s;
 }
 

@@ -26,14 +26,27 @@ std::vector<std::string> builderNames() { return kBuilders; }
 
 ClusterSettings ClusterSettings::fromParams(const Params& p) {
     ClusterSettings s;
-    s.builder = p.getEnum("cluster.builder", s.builder, kBuilders);
-    s.leafSize = int(p.getInt("cluster.leaf_size", s.leafSize, 1, 64));
-    s.maxDepth = int(p.getInt("cluster.max_depth", s.maxDepth, 1, 64));
-    s.faces = p.getBool("cluster.faces", s.faces);
-    s.faceCone = p.getDouble("cluster.face_cone", s.faceCone, 0.0, 89.0);
-    s.facePlanarity = p.getDouble("cluster.face_planarity", s.facePlanarity, 0.0, 1.0);
-    s.faceShape = p.getDouble("cluster.face_shape", s.faceShape, 0.0, 10.0);
-    s.faceCompactness = p.getDouble("cluster.face_compactness", s.faceCompactness, 0.0, 1.0);
+    s.builder = p.getEnum({"cluster.builder", "cluster tree builder: bvh (binned SAH) or octree"},
+                          s.builder, kBuilders);
+    s.leafSize = int(p.getInt({"cluster.leaf_size", "root patches per leaf cluster at most"},
+                              s.leafSize, 1, 64));
+    s.maxDepth = int(
+        p.getInt({"cluster.max_depth", "depth of the cluster tree at most"}, s.maxDepth, 1, 64));
+    s.faces = p.getBool(
+        {"cluster.faces", "build face clusters (Willmott et al. 1999) below the volume clusters"},
+        s.faces);
+    s.faceCone =
+        p.getDouble({"cluster.face_cone", "face clusters: normal cone half-angle at most, degrees"},
+                    s.faceCone, 0.0, 89.0);
+    s.facePlanarity =
+        p.getDouble({"cluster.face_planarity", "face clusters: planarity tolerance (relative)"},
+                    s.facePlanarity, 0.0, 1.0);
+    s.faceShape =
+        p.getDouble({"cluster.face_shape", "face clusters: weight of the shape term in merging"},
+                    s.faceShape, 0.0, 10.0);
+    s.faceCompactness =
+        p.getDouble({"cluster.face_compactness", "face clusters: compactness required (0: any)"},
+                    s.faceCompactness, 0.0, 1.0);
     if (s.faces && s.builder != "bvh")
         throwInputError({}, "cluster.faces = true needs cluster.builder = bvh (got '{}')",
                         s.builder);

@@ -2,6 +2,7 @@
 
 #include "core/parse.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -53,7 +54,9 @@ const Params::Entry* Params::find(const std::string& key) const {
     return &it->second;
 }
 
-bool Params::getBool(const std::string& key, bool def) const {
+// Each getter reads (readX, no record), checks, then records what it returned.
+
+bool Params::readBool(const std::string& key, bool def) const {
     const Entry* e = find(key);
     if (!e) return def;
     if (auto* b = std::get_if<bool>(&e->value)) return *b;
@@ -61,7 +64,7 @@ bool Params::getBool(const std::string& key, bool def) const {
                     typeName(e->value), valueToString(e->value));
 }
 
-int64_t Params::getInt(const std::string& key, int64_t def) const {
+int64_t Params::readInt(const std::string& key, int64_t def) const {
     const Entry* e = find(key);
     if (!e) return def;
     if (auto* i = std::get_if<int64_t>(&e->value)) return *i;
@@ -73,15 +76,7 @@ int64_t Params::getInt(const std::string& key, int64_t def) const {
                     typeName(e->value), valueToString(e->value));
 }
 
-int64_t Params::getInt(const std::string& key, int64_t def, int64_t lo, int64_t hi) const {
-    int64_t v = getInt(key, def);
-    if (v < lo || v > hi)
-        throwInputError(where(key), "setting '{}' = {} is out of range [{}, {}]", prefix_ + key, v, lo,
-                        hi);
-    return v;
-}
-
-double Params::getDouble(const std::string& key, double def) const {
+double Params::readDouble(const std::string& key, double def) const {
     const Entry* e = find(key);
     if (!e) return def;
     double v;
@@ -97,17 +92,7 @@ double Params::getDouble(const std::string& key, double def) const {
     return v;
 }
 
-double Params::getDouble(const std::string& key, double def, double lo, double hi,
-                         bool loOpen) const {
-    double v = getDouble(key, def);
-    bool bad = loOpen ? !(v > lo && v <= hi) : !(v >= lo && v <= hi);
-    if (bad)
-        throwInputError(where(key), "setting '{}' = {} is out of range {}{}, {}]", prefix_ + key, v,
-                        loOpen ? "(" : "[", lo, hi);
-    return v;
-}
-
-std::string Params::getString(const std::string& key, const std::string& def) const {
+std::string Params::readString(const std::string& key, const std::string& def) const {
     const Entry* e = find(key);
     if (!e) return def;
     if (auto* s = std::get_if<std::string>(&e->value)) return *s;
@@ -115,17 +100,122 @@ std::string Params::getString(const std::string& key, const std::string& def) co
                     typeName(e->value), valueToString(e->value));
 }
 
-std::string Params::getEnum(const std::string& key, const std::string& def,
+bool Params::getBool(const Key& key, bool def) const {
+    bool v = readBool(key.name, def);
+    record(key, "boolean", v, def ? "true" : "false", "");
+    return v;
+}
+
+int64_t Params::getInt(const Key& key, int64_t def) const {
+    int64_t v = readInt(key.name, def);
+    record(key, "integer", v, std::to_string(def), "");
+    return v;
+}
+
+int64_t Params::getInt(const Key& key, int64_t def, int64_t lo, int64_t hi) const {
+    int64_t v = readInt(key.name, def);
+    if (v < lo || v > hi)
+        throwInputError(where(key.name), "setting '{}' = {} is out of range [{}, {}]",
+                        prefix_ + key.name, v, lo, hi);
+    record(key, "integer", v, std::to_string(def), fmt::format("[{}, {}]", lo, hi));
+    return v;
+}
+
+double Params::getDouble(const Key& key, double def) const {
+    double v = readDouble(key.name, def);
+    record(key, "number", v, fmt::format("{}", def), "");
+    return v;
+}
+
+double Params::getDouble(const Key& key, double def, double lo, double hi, bool loOpen) const {
+    double v = readDouble(key.name, def);
+    bool bad = loOpen ? !(v > lo && v <= hi) : !(v >= lo && v <= hi);
+    if (bad)
+        throwInputError(where(key.name), "setting '{}' = {} is out of range {}{}, {}]",
+                        prefix_ + key.name, v, loOpen ? "(" : "[", lo, hi);
+    record(key, "number", v, fmt::format("{}", def),
+           fmt::format("{}{}, {}]", loOpen ? "(" : "[", lo, hi));
+    return v;
+}
+
+std::string Params::getString(const Key& key, const std::string& def) const {
+    std::string v = readString(key.name, def);
+    record(key, "string", v, def, "");
+    return v;
+}
+
+std::string Params::getEnum(const Key& key, const std::string& def,
                             const std::vector<std::string>& allowed) const {
-    std::string v = getString(key, def);
-    for (const auto& a : allowed)
-        if (a == v) return v;
-    throwInputError(where(key), "setting '{}' = '{}' is not one of: {}", prefix_ + key, v,
-                    fmt::join(allowed, ", "));
+    std::string v = readString(key.name, def);
+    if (std::find(allowed.begin(), allowed.end(), v) == allowed.end())
+        throwInputError(where(key.name), "setting '{}' = '{}' is not one of: {}",
+                        prefix_ + key.name, v, fmt::join(allowed, ", "));
+    record(key, "string", v, def, fmt::format("{}", fmt::join(allowed, " | ")));
+    return v;
+}
+
+// ---- records ------------------------------------------------------------------
+
+Params::Params(const Params& o) : entries_(o.entries_), prefix_(o.prefix_) {
+    if (o.rec_) rec_ = std::make_shared<Recorder>(*o.rec_);
+}
+
+Params& Params::operator=(const Params& o) {
+    if (this == &o) return *this;
+    entries_ = o.entries_;
+    prefix_ = o.prefix_;
+    rec_ = o.rec_ ? std::make_shared<Recorder>(*o.rec_) : nullptr;
+    return *this;
+}
+
+Params::Recorder& Params::recorder() const {
+    if (!rec_) rec_ = std::make_shared<Recorder>();
+    return *rec_;
+}
+
+Params::Scope::Scope(const Params& p, std::string component) : p_(p) {
+    p_.recorder().scopes.push_back(std::move(component));
+}
+
+Params::Scope::~Scope() { p_.recorder().scopes.pop_back(); }
+
+void Params::record(const Key& key, const char* type, const Value& value, const std::string& def,
+                    std::string range) const {
+    Recorder& rec = recorder();
+    const std::string full = prefix_ + key.name;
+    auto [it, fresh] = rec.records.try_emplace(full);
+    Record& r = it->second;
+    if (fresh) {
+        r.key = full;
+        r.type = type;
+        r.def = def;
+    }
+    r.value = value;
+    r.given = has(key.name);
+    if (r.doc.empty()) r.doc = key.doc;
+    if (r.range.empty()) r.range = std::move(range);
+    if (!rec.scopes.empty()) r.addReader(rec.scopes.back());
+}
+
+void Params::Record::addReader(const std::string& who) {
+    if (!who.empty() && (", " + component + ", ").find(", " + who + ", ") == std::string::npos)
+        component += (component.empty() ? "" : ", ") + who;
+}
+
+void Params::recordResolved(const std::string& key, Value value) const {
+    auto& records = recorder().records;
+    auto it = records.find(prefix_ + key);
+    if (it != records.end() && it->second.value != value) it->second.resolved = std::move(value);
+}
+
+const std::map<std::string, Params::Record>& Params::records() const {
+    return recorder().records;
 }
 
 Params Params::subset(const std::string& prefix) const {
     Params out;
+    recorder();
+    out.rec_ = rec_;  // the subset's reads are the parent's records
     std::string p = prefix + ".";
     out.prefix_ = prefix_ + p;
     for (const auto& [k, e] : entries_)

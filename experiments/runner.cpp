@@ -12,6 +12,7 @@
 #include "core/memory.h"
 #include "core/timer.h"
 #include "core/version.h"
+#include "experiments/settings_reference.h"
 #include "experiments/solvers.h"
 #include "reference/cache.h"
 #include "reference/fullmatrix.h"
@@ -119,30 +120,47 @@ void checkPathTracedBudget(const Resolved& r) {
 Resolved resolve(const PointSpec& p) {
     Resolved r;
     const Params& s = p.settings;
-    r.solver = s.getString("solver", "hr");
+    Params::Scope scope(s, "experiments");
+    r.solver =
+        s.getString({"solver", "solver: hr (hierarchical), full-matrix, or progressive"}, "hr");
     r.solverImpl = createSolver(r.solver, s, s.where("solver"));
     r.render = render::RenderSettings::fromParams(s, "render");
-    r.exposure = s.getDouble("render.exposure", 0.0, 0.0, 1e300);
-    r.errorFloor = s.getDouble("render.error_floor", 0.01, 1e-9, 1.0);
-    r.errorRange = s.getDouble("render.error_range", 0.25, 1e-6, 1.0);
+    r.exposure = s.getDouble({"render.exposure", "image exposure (0: automatic from the image)"},
+                             0.0, 0.0, 1e300);
+    r.errorFloor =
+        s.getDouble({"render.error_floor", "error maps: luminance floor as a fraction of the mean"},
+                    0.01, 1e-9, 1.0);
+    r.errorRange = s.getDouble(
+        {"render.error_range", "error maps: relative error at the top of the false-colour range"},
+        0.25, 1e-6, 1.0);
     r.errorOnRegions =
-        s.getEnum("render.error_mode", "regions", {"regions", "pixels"}) == "regions";
-    if (s.getBool("metrics.residual", false)) r.residual = render::ResidualSettings::fromParams(s);
-    r.errorVsPathTraced = s.getEnum("render.error_reference", "solution",
-                                    {"solution", "path-traced"}) == "path-traced";
+        s.getEnum({"render.error_mode", "error maps per region of the reference, or per pixel"},
+                  "regions", {"regions", "pixels"}) == "regions";
+    if (s.getBool({"metrics.residual",
+                   "compute the transport residual of the solution (render/residual.h)"},
+                  false))
+        r.residual = render::ResidualSettings::fromParams(s);
+    r.errorVsPathTraced =
+        s.getEnum({"render.error_reference",
+                   "error maps against the reference solution's image, or a path-traced image"},
+                  "solution", {"solution", "path-traced"}) == "path-traced";
     if (r.errorVsPathTraced) {
         if (s.has("render.error_mode") && r.errorOnRegions)
             throwInputError(s.where("render.error_mode"),
                             "render.error_mode = \"regions\" needs a reference solution; with "
                             "render.error_reference = \"path-traced\" the error is per pixel");
         r.errorOnRegions = false;
-        r.pathTracedSpp = int(s.getInt("render.reference_spp", 256, 1, 65536));
+        r.pathTracedSpp =
+            int(s.getInt({"render.reference_spp", "path-traced reference image: samples per pixel"},
+                         256, 1, 65536));
         r.pathTracedWhere = s.where("render.reference_spp");
         checkPathTracedBudget(r);
     }
 
     const Params& ref = p.reference;
-    r.refKind = ref.getEnum("kind", "none", {"none", "full-matrix", "montecarlo"});
+    Params::Scope refScope(ref, "reference");
+    r.refKind = ref.getEnum({"kind", "reference: none, full-matrix or montecarlo"}, "none",
+                            {"none", "full-matrix", "montecarlo"});
     if (p.outputs.errorMap && r.refKind == "none" && !r.errorVsPathTraced)
         throw InputError(
             p.outputs.errorMapWhere,
@@ -176,7 +194,8 @@ void probeLoaderKeys(const Params& params) {
 /// emitter loaded, and the solve then exited 0 with an empty, NaN or all-zero
 /// solution. `validate = false` skips the checks at loading only (hrad info).
 void requireSolvable(const scene::Scene& sc, const Params& settings) {
-    if (settings.getBool("validate", true)) return;  // loadScene has checked
+    if (settings.getBool("validate", true))  // documented where scene/loader.cpp reads it
+        return;  // loadScene has checked
     try {
         sc.validate();
     } catch (const InputError& e) {
@@ -392,7 +411,6 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     const SolverInfo& info = solverInfo(r.solver);
     Timer tSolve;
     summary["solver"] = r.solver;
-    summary["solver_settings"] = r.solverImpl->describe();
     SolveContext solveCtx;
     solveCtx.progress = ctx.progress;
     if (info.keepsHistory && p.outputs.historyError && r.refKind != "none") {
@@ -410,6 +428,12 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     }
     SolveOutput solved = r.solverImpl->solve(sc, vis, solveCtx);
     field = solved.field;
+    // cluster.model = auto is resolved by the solve (hr/solver.cpp solveOnce).
+    if (solved.summary.contains("cluster_model") && solved.summary["cluster_model"].is_string())
+        p.settings.recordResolved("cluster.model",
+                                  solved.summary["cluster_model"].get<std::string>());
+    // Every key read, with the value the run used: the record of what ran.
+    summary["resolved_settings"] = resolvedSettingsJson(p.settings, p.reference);
     for (const auto& [k, v] : solved.summary.items()) summary[k] = v;
     for (const auto& [k, v] : solved.timings.items()) timings[k] = v;
     for (const auto& [k, v] : solved.memory.all()) memory.set(k, v);

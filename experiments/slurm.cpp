@@ -242,6 +242,7 @@ std::string formatSlurmTime(int64_t seconds) {
 }
 
 SlurmSettings slurmSettingsFromParams(const Params& p) {
+    Params::Scope scope(p, "slurm");
     SlurmSettings s;
     s.partition = textOf(p, "partition");
     checkName(p, "partition", s.partition, "_.,-");
@@ -254,10 +255,12 @@ SlurmSettings slurmSettingsFromParams(const Params& p) {
     s.mergeTime = timeOf(p, "merge_time");
     s.mem = memOf(p, "mem");
     s.referenceMem = memOf(p, "reference_mem");
-    s.cpus = int(p.getInt("cpus", 1, 1, 4096));
-    s.referenceCpus = int(p.getInt("reference_cpus", 0, 0, 4096));
-    s.tasks = int(p.getInt("tasks", 0, 0, 1'000'000));
-    s.maxParallel = int(p.getInt("max_parallel", 0, 0, 1'000'000));
+    s.cpus = int(p.getInt({"cpus", "Slurm: CPUs per task of a sweep"}, 1, 1, 4096));
+    s.referenceCpus = int(
+        p.getInt({"reference_cpus", "Slurm: CPUs of the reference job (0: as cpus)"}, 0, 0, 4096));
+    s.tasks = int(p.getInt({"tasks", "Slurm: array tasks (0: one per point)"}, 0, 0, 1'000'000));
+    s.maxParallel = int(p.getInt(
+        {"max_parallel", "Slurm: array tasks running at once (0: no limit)"}, 0, 0, 1'000'000));
     std::string extra = textOf(p, "sbatch");
     if (!extra.empty()) {
         std::istringstream in(extra);

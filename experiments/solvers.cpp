@@ -23,7 +23,6 @@ json nanToNull(double v) { return std::isnan(v) ? json(nullptr) : json(v); }
 class HrEntry final : public Solver {
   public:
     explicit HrEntry(const Params& p) : settings_(hr::HrSettings::fromParams(p)) {}
-    std::string describe() const override { return settings_.describe(); }
 
     SolveOutput solve(const scene::Scene& sc, const transport::Visibility& vis,
                       const SolveContext& ctx) const override {
@@ -172,7 +171,6 @@ class FullMatrixEntry final : public Solver {
   public:
     explicit FullMatrixEntry(const Params& p)
         : settings_(reference::FullMatrixSettings::fromParams(p, "fm")) {}
-    std::string describe() const override { return settings_.describe(); }
 
     SolveOutput solve(const scene::Scene& sc, const transport::Visibility& vis,
                       const SolveContext& ctx) const override {
@@ -204,7 +202,6 @@ class ProgressiveEntry final : public Solver {
   public:
     explicit ProgressiveEntry(const Params& p)
         : settings_(reference::ProgressiveSettings::fromParams(p, "pr")) {}
-    std::string describe() const override { return settings_.describe(); }
 
     SolveOutput solve(const scene::Scene& sc, const transport::Visibility& vis,
                       const SolveContext& ctx) const override {

@@ -75,8 +75,8 @@ struct SolveOutput {
 class Solver {
 public:
     virtual ~Solver() = default;
-    /// The settings as written next to every result (summary.solver_settings).
-    virtual std::string describe() const = 0;
+    // The settings written next to every result are the Params records of
+    // every key read (summary.resolved_settings), not a describe() line.
     virtual SolveOutput solve(const scene::Scene& scene, const transport::Visibility& visibility,
                               const SolveContext& ctx) const = 0;
 };

@@ -39,7 +39,8 @@ CREATE TABLE IF NOT EXISTS runs (
   l1_reflected_lum REAL, l2_reflected_lum REAL, l1_nonemitter_lum REAL,
   l2_nonemitter_lum REAL, mean_ratio_nonemitter REAL, error_estimate REAL, residual REAL,
   slurm_job_id TEXT, slurm_array_task_id INTEGER, noise_estimate REAL,
-  noise_l2_nonemitter REAL, error_estimate_leaves REAL, error_estimate_points REAL);
+  noise_l2_nonemitter REAL, error_estimate_leaves REAL, error_estimate_points REAL,
+  resolved_settings TEXT);
 CREATE TABLE IF NOT EXISTS iterations (
   run_key TEXT, iteration INTEGER, stage INTEGER, eps REAL, links INTEGER,
   elements INTEGER, leaves INTEGER, refined_links INTEGER, rays INTEGER,
@@ -65,10 +66,13 @@ CREATE TABLE IF NOT EXISTS failures (
 ///   5  runs gain error_estimate_leaves and error_estimate_points (the
 ///      error of the leaves' averages and of the irradiance at the leaves'
 ///      points, hr/receiver_error.h leafAverageError)
+///   6  runs gain resolved_settings: every key the run read, with the value
+///      it used (defaults and resolved "auto"s included), as a JSON object
+///      (core/params records; summary.resolved_settings)
 /// Older versions are migrated when opened for writing (missing columns are
 /// added, NULL in old rows) and read as they are when opened read-only.
 constexpr int32_t kApplicationId = 0x48524144;
-constexpr int kSchemaVersion = 5;
+constexpr int kSchemaVersion = 6;
 
 const char* kTables[] = {"studies", "runs", "iterations", "failures"};
 
@@ -77,13 +81,20 @@ const char* kTables[] = {"studies", "runs", "iterations", "failures"};
 /// the solver's error and noise estimates and final residual). Stores without them get
 /// them on opening for writing (NULL in the old rows; the values are in each
 /// row's `summary` too).
-const std::pair<const char*, const char*> kAddedRunColumns[] = {
-    {"l1_reflected_lum", "REAL"},  {"l2_reflected_lum", "REAL"},
-    {"l1_nonemitter_lum", "REAL"}, {"l2_nonemitter_lum", "REAL"},
-    {"mean_ratio_nonemitter", "REAL"}, {"error_estimate", "REAL"},
-    {"residual", "REAL"}, {"slurm_job_id", "TEXT"}, {"slurm_array_task_id", "INTEGER"},
-    {"noise_estimate", "REAL"}, {"noise_l2_nonemitter", "REAL"},
-    {"error_estimate_leaves", "REAL"}, {"error_estimate_points", "REAL"}};
+const std::pair<const char*, const char*> kAddedRunColumns[] = {{"l1_reflected_lum", "REAL"},
+                                                                {"l2_reflected_lum", "REAL"},
+                                                                {"l1_nonemitter_lum", "REAL"},
+                                                                {"l2_nonemitter_lum", "REAL"},
+                                                                {"mean_ratio_nonemitter", "REAL"},
+                                                                {"error_estimate", "REAL"},
+                                                                {"residual", "REAL"},
+                                                                {"slurm_job_id", "TEXT"},
+                                                                {"slurm_array_task_id", "INTEGER"},
+                                                                {"noise_estimate", "REAL"},
+                                                                {"noise_l2_nonemitter", "REAL"},
+                                                                {"error_estimate_leaves", "REAL"},
+                                                                {"error_estimate_points", "REAL"},
+                                                                {"resolved_settings", "TEXT"}};
 const std::pair<const char*, const char*> kAddedFailureColumns[] = {
     {"slurm_job_id", "TEXT"}, {"slurm_array_task_id", "INTEGER"}};
 
@@ -396,24 +407,80 @@ std::string ResultStore::addStudy(const std::string& name, const std::string& pa
 
 void ResultStore::addRun(const std::string& key, const std::string& study, int64_t pointIndex,
                          const json& s) {
-    static const std::vector<const char*> cols = {
-        "key", "study", "point_index", "scene", "solver", "oracle", "eps", "settings",
-        "reference", "version", "build_type", "host", "date", "wall_s", "load_s",
-        "visibility_s", "cluster_build_s", "linking_s", "refine_s", "gather_s", "push_pull_s",
-        "solve_s", "reference_s", "error_s", "render_s", "peak_rss", "elements", "leaves",
-        "links", "rays", "form_factors", "iterations", "converged", "links_ss", "links_sc",
-        "links_cs", "links_cc", "l1_lum", "l2_lum",
-        "linf_lum", "l1_rgb", "l2_rgb", "linf_rgb", "mc_stderr_l2_lum", "mc_stderr_l2_rgb",
-        "regions", "reference_desc", "bytes", "summary", "l1_reflected_lum",
-        "l2_reflected_lum", "l1_nonemitter_lum", "l2_nonemitter_lum", "mean_ratio_nonemitter",
-        "error_estimate", "residual", "slurm_job_id", "slurm_array_task_id", "noise_estimate",
-        "noise_l2_nonemitter", "error_estimate_leaves", "error_estimate_points"};
+    static const std::vector<const char*> cols = {"key",
+                                                  "study",
+                                                  "point_index",
+                                                  "scene",
+                                                  "solver",
+                                                  "oracle",
+                                                  "eps",
+                                                  "settings",
+                                                  "reference",
+                                                  "version",
+                                                  "build_type",
+                                                  "host",
+                                                  "date",
+                                                  "wall_s",
+                                                  "load_s",
+                                                  "visibility_s",
+                                                  "cluster_build_s",
+                                                  "linking_s",
+                                                  "refine_s",
+                                                  "gather_s",
+                                                  "push_pull_s",
+                                                  "solve_s",
+                                                  "reference_s",
+                                                  "error_s",
+                                                  "render_s",
+                                                  "peak_rss",
+                                                  "elements",
+                                                  "leaves",
+                                                  "links",
+                                                  "rays",
+                                                  "form_factors",
+                                                  "iterations",
+                                                  "converged",
+                                                  "links_ss",
+                                                  "links_sc",
+                                                  "links_cs",
+                                                  "links_cc",
+                                                  "l1_lum",
+                                                  "l2_lum",
+                                                  "linf_lum",
+                                                  "l1_rgb",
+                                                  "l2_rgb",
+                                                  "linf_rgb",
+                                                  "mc_stderr_l2_lum",
+                                                  "mc_stderr_l2_rgb",
+                                                  "regions",
+                                                  "reference_desc",
+                                                  "bytes",
+                                                  "summary",
+                                                  "l1_reflected_lum",
+                                                  "l2_reflected_lum",
+                                                  "l1_nonemitter_lum",
+                                                  "l2_nonemitter_lum",
+                                                  "mean_ratio_nonemitter",
+                                                  "error_estimate",
+                                                  "residual",
+                                                  "slurm_job_id",
+                                                  "slurm_array_task_id",
+                                                  "noise_estimate",
+                                                  "noise_l2_nonemitter",
+                                                  "error_estimate_leaves",
+                                                  "error_estimate_points",
+                                                  "resolved_settings"};
     auto [slurmJob, slurmTask] = slurmProvenance();
     json settings = at(s, "settings");
     json oracle = nullptr;
     if (at(s, "solver") == "hr")
         oracle = settings.contains("hr.oracle") ? settings["hr.oracle"] : json(hr::HrSettings{}.oracle);
     json eps = settings.is_object() && settings.contains("oracle.eps") ? settings["oracle.eps"] : json(nullptr);
+    // What the run used, defaults included (summary.resolved_settings; older
+    // summaries have none): the oracle's eps even when it was not set.
+    json resolved = at(s, "resolved_settings");
+    if (eps.is_null() && resolved.is_object() && resolved.contains("oracle.eps"))
+        eps = resolved["oracle.eps"];
     std::vector<json> vals = {key,
                               study,
                               pointIndex,
@@ -475,7 +542,8 @@ void ResultStore::addRun(const std::string& key, const std::string& study, int64
                               at(s, "noise_estimate"),
                               at(s, "noise", "l2_nonemitter_direct"),
                               at(s, "error_estimate_leaves"),
-                              at(s, "error_estimate_points")};
+                              at(s, "error_estimate_points"),
+                              resolved.is_object() ? json(resolved.dump()) : json(nullptr)};
     exec("BEGIN IMMEDIATE");
     try {
         Stmt st(db_, insertSql("runs", cols, "INSERT OR REPLACE"));

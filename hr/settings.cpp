@@ -35,7 +35,11 @@ std::vector<double> parseSchedule(const std::string& text, const SourceLocation&
 }
 /// hr.checks: "all" (the default), "none", or names from the check table.
 void parseChecks(const Params& p, HrSettings& s) {
-    const std::string text = p.getString("hr.checks", "all");
+    const std::string text = p.getString({"hr.checks",
+                                             "the refinement checks that amend the oracle's "
+                                             "decisions (hr/checks/): all, none, or names from "
+                                             "the table; drop one to measure what it does"},
+                                            "all");
     if (text == "all") return;
     s.allChecks = false;
     if (text == "none") return;
@@ -52,29 +56,73 @@ void parseChecks(const Params& p, HrSettings& s) {
         s.checks.push_back(item);
     }
 }
+
+/// A key set, to something else than a word such as "auto" (a number, a boolean).
+bool isSetNotWord(const Params& p, const std::string& key) {
+    auto it = p.entries().find(key);
+    return it != p.entries().end() && !std::holds_alternative<std::string>(it->second.value);
+}
 }  // namespace
 
 HrSettings HrSettings::fromParams(const Params& p) {
+    Params::Scope scope(p, "hr solver");
     HrSettings s;
-    s.oracle = p.getEnum("hr.oracle", s.oracle, oracles::oracleNames());
+    s.oracle =
+        p.getEnum({"hr.oracle",
+                   "refinement oracle (bfa: power a link carries, ff: form factor, uniform: fixed "
+                   "depth, error/kv: error control); change to compare refinement criteria"},
+                  s.oracle, oracles::oracleNames());
     s.oracleParams = p.subset("oracle");
-    s.epsSchedule = parseSchedule(p.getString("hr.eps_schedule", ""), p.where("hr.eps_schedule"));
-    s.minArea = p.getDouble("hr.min_area", s.minArea, 0.0, 1e300);
-    s.minAreaRel = p.getDouble("hr.min_area_rel", s.minAreaRel, 0.0, 1.0);
-    s.maxLevel = int(p.getInt("hr.max_level", s.maxLevel, 0, scene::kMaxLevel));
-    s.maxIterations = int(p.getInt("hr.max_iterations", s.maxIterations, 1, 1000000));
-    s.minIterations = int(p.getInt("hr.min_iterations", s.minIterations, 1, 1000000));
-    s.tolerance = p.getDouble("hr.tolerance", s.tolerance, 0.0, 1.0, true);
-    s.maxLinks = uint64_t(p.getInt("hr.max_links", int64_t(s.maxLinks), 1, int64_t(1) << 40));
-    s.maxSeconds = p.getDouble("hr.max_seconds", s.maxSeconds, 0.0, 1e9);
-    int64_t budgetMb = p.getInt("memory.budget_mb", 0, 0, int64_t(1) << 30);
+    s.epsSchedule =
+        parseSchedule(p.getString({"hr.eps_schedule",
+                                   "decreasing eps values, comma-separated (multigridding: solve "
+                                   "at each in turn); empty: the oracle's eps alone"},
+                                  ""),
+                      p.where("hr.eps_schedule"));
+    s.minArea = p.getDouble(
+        {"hr.min_area",
+         "smallest element area (absolute, scene units^2); raise to cap the mesh on tiny features"},
+        s.minArea, 0.0, 1e300);
+    s.minAreaRel = p.getDouble({"hr.min_area_rel",
+                                "smallest element area as a fraction of the scene's total area; "
+                                "lower for finer meshes on large scenes"},
+                               s.minAreaRel, 0.0, 1.0);
+    s.maxLevel =
+        int(p.getInt({"hr.max_level", "deepest quadtree level of an element below its root patch"},
+                     s.maxLevel, 0, scene::kMaxLevel));
+    s.maxIterations =
+        int(p.getInt({"hr.max_iterations", "iteration cap of the refine-gather-push-pull loop"},
+                     s.maxIterations, 1, 1000000));
+    s.minIterations =
+        int(p.getInt({"hr.min_iterations", "iterations run before convergence may stop the solve"},
+                     s.minIterations, 1, 1000000));
+    s.tolerance = p.getDouble({"hr.tolerance",
+                               "convergence: relative change of reflected power (and error still "
+                               "to come) below which the solve stops"},
+                              s.tolerance, 0.0, 1.0, true);
+    s.maxLinks = uint64_t(
+        p.getInt({"hr.max_links",
+                  "refinement stops past this many links (a memory guard); raise for huge scenes"},
+                 int64_t(s.maxLinks), 1, int64_t(1) << 40));
+    s.maxSeconds = p.getDouble(
+        {"hr.max_seconds", "refinement stops after this wall time, seconds (0: no limit)"},
+        s.maxSeconds, 0.0, 1e9);
+    int64_t budgetMb = p.getInt(
+        {"memory.budget_mb",
+         "refinement stops before the process would pass this many MiB (0: 80 % of physical RAM)"},
+        0, 0, int64_t(1) << 30);
     s.memoryBudget =
         budgetMb > 0 ? uint64_t(budgetMb) << 20 : uint64_t(0.8 * double(physicalMemoryBytes()));
+    p.recordResolved("memory.budget_mb", int64_t(s.memoryBudget >> 20));
     s.ff = transport::FormFactorSettings::fromParams(p, "ff");
     s.clusterModel = cluster::parseClusterModel(
-        p.getEnum("cluster.model", "auto", cluster::clusterModelNames()));
+        p.getEnum({"cluster.model",
+                   "volume clustering: none (all patch pairs), isotropic (A/4), oriented (sum of A "
+                   "cos); auto = none up to 2,000 patches, oriented above"},
+                  "auto", cluster::clusterModelNames()));
     s.cluster = cluster::ClusterSettings::fromParams(p);
     // "auto" (the default), "off", or a fraction of the emitted power.
+<<<<<<< HEAD
     if (auto it = p.entries().find("hr.receiver_eps");
         it != p.entries().end() && std::holds_alternative<std::string>(it->second.value))
         s.receiverEps =
@@ -83,46 +131,118 @@ HrSettings HrSettings::fromParams(const Params& p) {
         s.receiverEps = p.getDouble("hr.receiver_eps", 0.0, 0.0, 1.0);
     s.senderTotal = p.getBool("hr.sender_total", s.senderTotal);
     parseChecks(p, s);
+=======
+    const Params::Key receiverEps{"hr.receiver_eps",
+                                  "receiver-aggregate error check added to bfa/ff: auto (from "
+                                  "the oracle's eps), off, or a fraction of the emitted power in "
+                                  "[0, 1]"};
+    if (isSetNotWord(p, receiverEps.name))
+        s.receiverEps = p.getDouble(receiverEps, 0.0, 0.0, 1.0);
+    else
+        s.receiverEps = p.getEnum(receiverEps, "auto", {"auto", "off"}) == "auto" ? -1.0 : 0.0;
+    s.senderTotal = p.getBool({"hr.sender_total",
+                               "error/kv also bound the sender-side error summed per sender over "
+                               "all its receivers; off only to study the published oracles"},
+                              s.senderTotal);
+>>>>>>> settings
     // true / "full", false / "off", or "balanced" (the default).
-    if (auto it = p.entries().find("hr.leaf_budget");
-        it != p.entries().end() && std::holds_alternative<std::string>(it->second.value)) {
-        const std::string v = p.getEnum("hr.leaf_budget", "balanced", {"balanced", "full", "off"});
+    const Params::Key leafBudget{"hr.leaf_budget",
+                                 "push links down while the leaves' error exceeds the check's "
+                                 "eps: balanced, full (true) or off (false)"};
+    if (isSetNotWord(p, leafBudget.name)) {
+        s.leafBudget = p.getBool(leafBudget, false) ? HrSettings::LeafBudget::Full
+                                                    : HrSettings::LeafBudget::Off;
+    } else {
+        const std::string v = p.getEnum(leafBudget, "balanced", {"balanced", "full", "off"});
         s.leafBudget = v == "full"  ? HrSettings::LeafBudget::Full
                        : v == "off" ? HrSettings::LeafBudget::Off
                                     : HrSettings::LeafBudget::Balanced;
-    } else if (p.has("hr.leaf_budget")) {
-        s.leafBudget = p.getBool("hr.leaf_budget", false) ? HrSettings::LeafBudget::Full
-                                                           : HrSettings::LeafBudget::Off;
     }
-    s.leafEstimates = p.getBool("hr.leaf_estimates", s.leafEstimates);
-    s.extrapolate = p.getBool("hr.extrapolate", s.extrapolate);
-    s.relaxShare = p.getDouble("hr.relax_share", s.relaxShare, 0.0, 1.0);
-    s.relaxFraction = p.getDouble("hr.relax_fraction", s.relaxFraction, 0.0, 1.0);
-    s.relaxSweeps = int(p.getInt("hr.relax_sweeps", s.relaxSweeps, 1, 1 << 20));
-    s.refineGrowth = p.getDouble("hr.refine_growth", s.refineGrowth, 0.0, 1e300);
-    s.judgeVisibility =
-        p.getEnum("hr.judge_visibility", s.judgeVisibility ? "independent" : "carried",
-                  {"independent", "carried"}) == "independent";
+    s.leafEstimates = p.getBool({"hr.leaf_estimates",
+                                 "compute error_estimate_leaves and error_estimate_points after "
+                                 "the solve; off saves their point form factors"},
+                                s.leafEstimates);
+    s.extrapolate = p.getBool({"hr.extrapolate",
+                               "Aitken extrapolation of the gather iteration once refinement stops "
+                               "(fast convergence of high-reflectance scenes)"},
+                              s.extrapolate);
+    s.relaxShare = p.getDouble({"hr.relax_share",
+                                "relaxation: the share of an iteration's change the few "
+                                "most-changing root patches must carry to be relaxed"},
+                               s.relaxShare, 0.0, 1.0);
+    s.relaxFraction = p.getDouble(
+        {"hr.relax_fraction", "relaxation: at most this fraction of the root patches is relaxed"},
+        s.relaxFraction, 0.0, 1.0);
+    s.relaxSweeps = int(p.getInt(
+        {"hr.relax_sweeps", "relaxation: gather sweeps over the relaxed root patches at most"},
+        s.relaxSweeps, 1, 1 << 20));
+    s.refineGrowth = p.getDouble({"hr.refine_growth",
+                                  "lazy refinement: re-judge links only when the power they carry "
+                                  "grew by this fraction (0: judge every iteration)"},
+                                 s.refineGrowth, 0.0, 1e300);
+    s.judgeVisibility = p.getEnum({"hr.judge_visibility",
+                                   "visibility a surface link is judged by: independent (second "
+                                   "set of ff.vis_rays rays) or carried (the link's own)"},
+                                  s.judgeVisibility ? "independent" : "carried",
+                                  {"independent", "carried"}) == "independent";
     s.epsPower =
-        epsPowerFromName(p.getEnum("hr.eps_power", epsPowerName(s.epsPower), epsPowerNames()));
-    s.reachRays = int(p.getInt("hr.reach_rays", s.reachRays, 0, 1 << 20));
-    s.reachRetryRays = int(p.getInt("hr.reach_retry_rays", s.reachRetryRays, 0, 1 << 20));
-    s.seed = uint64_t(p.getInt("hr.seed", int64_t(s.seed), 0, int64_t(1) << 62));
-    s.noiseTarget = p.getDouble("hr.noise_target", s.noiseTarget, 0.0, 1.0);
-    s.noiseRounds = int(p.getInt("hr.noise_rounds", s.noiseRounds, 0, 16));
-    s.noiseMaxFactor = p.getDouble("hr.noise_max_factor", s.noiseMaxFactor, 1.0, 1e6);
-    s.gaussSeidel = p.getEnum("hr.iteration", s.gaussSeidel ? "gauss-seidel" : "jacobi",
+        epsPowerFromName(p.getEnum({"hr.eps_power",
+                                    "what eps is a fraction of: emitted power, reflected power so "
+                                    "far, or the smaller of emitted and predicted reflected power"},
+                                   epsPowerName(s.epsPower), epsPowerNames()));
+    s.reachRays = int(p.getInt(
+        {"hr.reach_rays",
+         "rays per patch of the reachability pass that finds patches no light can reach (0: off)"},
+        s.reachRays, 0, 1 << 20));
+    s.reachRetryRays =
+        int(p.getInt({"hr.reach_retry_rays",
+                      "more reachability rays for each patch the first ones left unconnected"},
+                     s.reachRetryRays, 0, 1 << 20));
+    s.seed = uint64_t(p.getInt({"hr.seed",
+                                "seed of every ray the solve casts: 0 repeats the same solve bit "
+                                "for bit, other values draw independent rays"},
+                               int64_t(s.seed), 0, int64_t(1) << 62));
+    s.noiseTarget =
+        p.getDouble({"hr.noise_target",
+                     "relative ray noise the solve must reach, re-solving with more rays (0: off)"},
+                    s.noiseTarget, 0.0, 1.0);
+    s.noiseRounds = int(p.getInt({"hr.noise_rounds", "re-solves at most for hr.noise_target"},
+                                 s.noiseRounds, 0, 16));
+    s.noiseMaxFactor =
+        p.getDouble({"hr.noise_max_factor",
+                     "growth of ray counts at most, over all re-solves of hr.noise_target"},
+                    s.noiseMaxFactor, 1.0, 1e6);
+    s.gaussSeidel = p.getEnum({"hr.iteration",
+                               "gather order: jacobi (all from the last iteration) or gauss-seidel "
+                               "(root patches use radiosities just computed)"},
+                              s.gaussSeidel ? "gauss-seidel" : "jacobi",
                               {"jacobi", "gauss-seidel"}) == "gauss-seidel";
-    s.gsBlocks = int(p.getInt("hr.gs_blocks", s.gsBlocks, 0, 1 << 30));
+    s.gsBlocks = int(p.getInt(
+        {"hr.gs_blocks",
+         "gauss-seidel: blocks of root patches gathered in turn (0: one block per root patch)"},
+        s.gsBlocks, 0, 1 << 30));
     s.clusterLink = cluster::ClusterLinkSettings::fromParams(p);
     s.openPartialReceivers =
-        p.getEnum("cluster.partial_receivers", s.openPartialReceivers ? "open" : "keep",
-                  {"open", "keep"}) == "open";
-    s.basisDegree = scene::basisDegree(p.getEnum("hr.basis", "constant", scene::basisNames()));
-    s.basisPoints = int(p.getInt("hr.basis_points", 0, 0, 16));
+        p.getEnum({"cluster.partial_receivers",
+                   "open a partly visible link into a cluster when the light it may hand to unseen "
+                   "surfaces exceeds eps (keep: as the oracle decides)"},
+                  s.openPartialReceivers ? "open" : "keep", {"open", "keep"}) == "open";
+    s.basisDegree = scene::basisDegree(
+        p.getEnum({"hr.basis",
+                   "polynomial basis on every element (constant, linear, quadratic, cubic: "
+                   "Galerkin); higher degrees need fewer elements"},
+                  "constant", scene::basisNames()));
+    s.basisPoints = int(p.getInt(
+        {"hr.basis_points", "coupling quadrature points per axis on each element (0: degree + 2)"},
+        0, 0, 16));
     s.basisNearLevels =
-        int(p.getInt("hr.basis_near_levels", s.basisDegree >= 3 ? 2 : s.basisNearLevels, 0, 4));
-    s.basisCheck = p.getDouble("hr.basis_check", s.basisCheck, 0.0, 1e300);
+        int(p.getInt({"hr.basis_near_levels",
+                      "levels of the composite coupling rule used for near element pairs"},
+                     s.basisDegree >= 3 ? 2 : s.basisNearLevels, 0, 4));
+    s.basisCheck = p.getDouble({"hr.basis_check",
+                                "relative error of point-to-point form factors past which a link "
+                                "keeps only the sender's mean"},
+                               s.basisCheck, 0.0, 1e300);
     if (s.gaussSeidel && s.basisDegree > 0)
         throwInputError(
             p.where("hr.iteration"),
@@ -130,31 +250,12 @@ HrSettings HrSettings::fromParams(const Params& p) {
             "runs over all root patches at once)");
     // Validate the oracle settings now (unknown keys included), so a bad
     // setting fails before any work is done.
-    Params probe = s.oracleParams;
+    // The probe is a subset of p, so the oracle's reads are p's records.
+    Params probe = p.subset("oracle");
     oracles::createOracle(s.oracle, probe);
     probe.reportUnused();
     p.markUsedPrefix("oracle");
     return s;
-}
-
-std::string HrSettings::describe() const {
-    std::string sched = fmt::format("{}", fmt::join(epsSchedule, ","));
-    return fmt::format(
-               "hr(oracle={}, eps_schedule=[{}], min_area={}, min_area_rel={}, max_level={}, "
-               "max_iterations={}, tolerance={}, iteration={}, {}, cluster_model={}, {}, {})",
-               oracle, sched, minArea, minAreaRel, maxLevel, maxIterations, tolerance,
-               gaussSeidel ? fmt::format("gauss-seidel/{}", gsBlocks) : std::string("jacobi"),
-               ff.describe(), cluster::clusterModelName(clusterModel), cluster.describe(),
-               clusterLink.describe()) +
-           (basisDegree > 0
-                ? fmt::format(" basis={} basis_points={} basis_near_levels={} basis_check={}",
-                              scene::basisName(basisDegree),
-                              basisPoints > 0 ? basisPoints : basisDegree + 2, basisNearLevels,
-                              basisCheck)
-                : std::string()) +
-           (noiseTarget > 0 ? fmt::format(" noise_target={} noise_rounds={} noise_max_factor={}",
-                                          noiseTarget, noiseRounds, noiseMaxFactor)
-                            : std::string());
 }
 
 }  // namespace hrad::hr

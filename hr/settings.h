@@ -100,7 +100,6 @@ struct HrSettings {
     /// read them: see HrSolver). Throws InputError on bad values or an unknown
     /// oracle name.
     static HrSettings fromParams(const Params& params);
-    std::string describe() const;
 };
 
 }  // namespace hrad::hr

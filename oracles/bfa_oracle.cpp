@@ -6,10 +6,20 @@ namespace hrad::oracles {
 
 PowerOracle::Settings PowerOracle::Settings::fromParams(const Params& p) {
     Settings s;
-    s.eps = p.getDouble("eps", s.eps, 0.0, 1.0, true);
-    s.useBound = p.getBool("use_bound", s.useBound);
-    s.minArea = p.getDouble("min_area", s.minArea, 0.0, 1e300);
-    s.basisResidual = p.getBool("basis_residual", s.basisResidual);
+    s.eps = p.getDouble({"eps",
+                         "oracle threshold: bfa/error/kv a fraction of the emitted power (the "
+                         "power a link carries or misplaces), ff the form factor F_eps "
+                         "(default 0.01); lower for accuracy, raise for speed"},
+                        s.eps, 0.0, 1.0, true);
+    s.useBound =
+        p.getBool({"use_bound", "judge by the form factor's upper bound rather than its estimate"},
+                  s.useBound);
+    s.minArea = p.getDouble({"min_area", "elements below this area are not refined by the oracle"},
+                            s.minArea, 0.0, 1e300);
+    s.basisResidual = p.getBool(
+        {"basis_residual",
+         "with a polynomial basis, judge the residual the basis leaves, not the whole transfer"},
+        s.basisResidual);
     return s;
 }
 

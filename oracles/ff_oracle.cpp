@@ -8,10 +8,17 @@ namespace hrad::oracles {
 
 FormFactorOracle::Settings FormFactorOracle::Settings::fromParams(const Params& p) {
     Settings s;
-    s.eps = p.getDouble("eps", s.eps, 0.0, 1.0, true);
-    s.minArea = p.getDouble("min_area", s.minArea, 0.0, 1e300);
-    s.useBound = p.getBool("use_bound", s.useBound);
-    s.basisResidual = p.getBool("basis_residual", s.basisResidual);
+    s.eps = p.getDouble({"eps", "oracle threshold: form factor F_eps a link may have (ff)"}, s.eps,
+                        0.0, 1.0, true);
+    s.minArea = p.getDouble({"min_area", "elements below this area are not refined by the oracle"},
+                            s.minArea, 0.0, 1e300);
+    s.useBound =
+        p.getBool({"use_bound", "judge by the form factor's upper bound rather than its estimate"},
+                  s.useBound);
+    s.basisResidual = p.getBool(
+        {"basis_residual",
+         "with a polynomial basis, judge the residual the basis leaves, not the whole transfer"},
+        s.basisResidual);
     return s;
 }
 

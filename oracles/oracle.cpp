@@ -15,7 +15,7 @@ const char* decisionName(Decision d) {
     return "?";
 }
 
-ErrorNorm readErrorNorm(const Params& p, const std::string& key, ErrorNorm def) {
+ErrorNorm readErrorNorm(const Params& p, const Params::Key& key, ErrorNorm def) {
     std::string v = p.getEnum(key, errorNormName(def), {"power", "radiosity"});
     return v == "radiosity" ? ErrorNorm::Radiosity : ErrorNorm::Power;
 }
@@ -57,10 +57,18 @@ Decision refineLarger(const LinkEstimate& e) {
 
 VariationOracle::Settings VariationOracle::Settings::fromParams(const Params& p) {
     Settings s;
-    s.eps = p.getDouble("eps", s.eps, 0.0, 1.0, true);
-    s.norm = readErrorNorm(p, "norm", s.norm);
-    s.minArea = p.getDouble("min_area", s.minArea, 0.0, 1e300);
-    s.refineReceiver = p.getEnum("side", "larger", {"larger", "receiver"}) == "receiver";
+    s.eps = p.getDouble({"eps",
+                         "error oracles: power a receiver's irradiance may misplace, as a fraction "
+                         "of the emitted power"},
+                        s.eps, 0.0, 1.0, true);
+    s.norm = readErrorNorm(
+        p, {"norm", "what the error is measured in: power (W, the default) or radiosity"}, s.norm);
+    s.minArea = p.getDouble({"min_area", "elements below this area are not refined by the oracle"},
+                            s.minArea, 0.0, 1e300);
+    s.refineReceiver =
+        p.getEnum(
+            {"side", "which side an error oracle refines: receiver, sender or both by their error"},
+            "larger", {"larger", "receiver"}) == "receiver";
     return s;
 }
 

@@ -145,7 +145,7 @@ class Oracle {
 enum class ErrorNorm : uint8_t { Power = 0, Radiosity = 1 };
 
 /// Reads `key` ("power" | "radiosity") from p.
-ErrorNorm readErrorNorm(const Params& p, const std::string& key, ErrorNorm def);
+ErrorNorm readErrorNorm(const Params& p, const Params::Key& key, ErrorNorm def);
 const char* errorNormName(ErrorNorm n);
 /// True when the receiver radiosity error dB is within eps in the given norm.
 bool errorWithinEps(double dB, double eps, ErrorNorm norm, const LinkEstimate& e);

@@ -51,7 +51,10 @@ std::vector<std::string> oracleNames() {
 std::unique_ptr<Oracle> createOracle(const std::string& name, const Params& params,
                                      const SourceLocation& where) {
     for (const auto& [n, f] : table())
-        if (n == name) return f(params);
+        if (n == name) {
+            Params::Scope scope(params, "oracle " + n);
+            return f(params);
+        }
     throwInputError(where, "unknown oracle '{}'; valid oracles: {}", name,
                     fmt::join(oracleNames(), ", "));
 }

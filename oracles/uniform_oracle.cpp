@@ -6,7 +6,8 @@ namespace hrad::oracles {
 
 UniformOracle::Settings UniformOracle::Settings::fromParams(const Params& p) {
     Settings s;
-    s.level = int(p.getInt("level", s.level, 0, 20));
+    s.level = int(p.getInt({"level", "uniform oracle: refine every link to this quadtree depth"},
+                           s.level, 0, 20));
     return s;
 }
 

@@ -118,19 +118,33 @@ std::string solverName(MatrixSolver s) {
 }
 
 FullMatrixSettings FullMatrixSettings::fromParams(const Params& params, const std::string& prefix) {
+    Params::Scope scope(params, "full-matrix reference");
     FullMatrixSettings s;
     auto key = [&](const char* k) { return prefix.empty() ? std::string(k) : prefix + "." + k; };
-    s.level = int(params.getInt(key("level"), s.level, 0, scene::kMaxLevel));
-    s.maxArea = params.getDouble(key("max_area"), s.maxArea, 0.0, 1e300);
-    s.maxLevel = int(params.getInt(key("max_level"), s.maxLevel, 0, scene::kMaxLevel));
-    std::string solver =
-        params.getEnum(key("solver"), "gauss-seidel", {"jacobi", "gauss-seidel", "southwell"});
+    s.level = int(
+        params.getInt({key("level"), "full matrix: uniform subdivision level of every root patch"},
+                      s.level, 0, scene::kMaxLevel));
+    s.maxArea = params.getDouble(
+        {key("max_area"), "full matrix: subdivide elements above this area (0: by level only)"},
+        s.maxArea, 0.0, 1e300);
+    s.maxLevel = int(
+        params.getInt({key("max_level"), "full matrix: subdivision level at most with max_area"},
+                      s.maxLevel, 0, scene::kMaxLevel));
+    std::string solver = params.getEnum(
+        {key("solver"), "full-matrix linear solver: jacobi, gauss-seidel or southwell"},
+        "gauss-seidel", {"jacobi", "gauss-seidel", "southwell"});
     s.solver = solver == "jacobi"      ? MatrixSolver::Jacobi
                : solver == "southwell" ? MatrixSolver::Southwell
                                        : MatrixSolver::GaussSeidel;
-    s.tolerance = params.getDouble(key("tolerance"), s.tolerance, 0.0, 1.0, true);
-    s.maxIterations = int(params.getInt(key("max_iterations"), s.maxIterations, 1, 1000000000));
-    s.ambient = params.getBool(key("ambient"), s.ambient);
+    s.tolerance =
+        params.getDouble({key("tolerance"), "full matrix: residual tolerance of the linear solve"},
+                         s.tolerance, 0.0, 1.0, true);
+    s.maxIterations = int(params.getInt(
+        {key("max_iterations"), "full matrix: iterations of the linear solve at most"},
+        s.maxIterations, 1, 1000000000));
+    s.ambient = params.getBool(
+        {key("ambient"), "full matrix: ambient term for light not yet shot (southwell)"},
+        s.ambient);
     s.ff = transport::FormFactorSettings::fromParams(params, key("ff"), fullMatrixFormFactorDefaults());
     s.hemicube = transport::HemicubeSettings::fromParams(params, key("ff"));
     return s;

@@ -192,17 +192,31 @@ class Walker {
 }  // namespace
 
 MonteCarloSettings MonteCarloSettings::fromParams(const Params& params, const std::string& prefix) {
+    Params::Scope scope(params, "montecarlo reference");
     MonteCarloSettings s;
     auto key = [&](const char* k) { return prefix.empty() ? std::string(k) : prefix + "." + k; };
-    s.level = int(params.getInt(key("level"), s.level, 0, scene::kMaxLevel));
-    s.maxArea = params.getDouble(key("max_area"), s.maxArea, 0.0, 1e300);
-    s.maxLevel = int(params.getInt(key("max_level"), s.maxLevel, 0, scene::kMaxLevel));
-    s.samples = int(params.getInt(key("samples"), s.samples, 2, 1000000000));
-    s.timeBudget = params.getDouble(key("time_budget"), s.timeBudget, 0.0, 1e12);
-    s.maxDepth = int(params.getInt(key("max_depth"), s.maxDepth, 0, 1000000));
-    s.seed = uint64_t(
-        params.getInt(key("seed"), int64_t(s.seed), 0, std::numeric_limits<int64_t>::max()));
-    s.mis = params.getBool(key("mis"), s.mis);
+    s.level =
+        int(params.getInt({key("level"), "Monte Carlo: uniform subdivision level of the regions"},
+                          s.level, 0, scene::kMaxLevel));
+    s.maxArea = params.getDouble(
+        {key("max_area"), "Monte Carlo: subdivide regions above this area (0: by level only)"},
+        s.maxArea, 0.0, 1e300);
+    s.maxLevel =
+        int(params.getInt({key("max_level"), "Monte Carlo: region level at most with max_area"},
+                          s.maxLevel, 0, scene::kMaxLevel));
+    s.samples = int(params.getInt(
+        {key("samples"), "Monte Carlo: paths per region (standard error falls as 1/sqrt)"},
+        s.samples, 2, 1000000000));
+    s.timeBudget = params.getDouble(
+        {key("time_budget"), "Monte Carlo: seconds of sampling at most (0: no limit)"},
+        s.timeBudget, 0.0, 1e12);
+    s.maxDepth = int(params.getInt(
+        {key("max_depth"), "Monte Carlo: path length at most (0: Russian roulette only)"},
+        s.maxDepth, 0, 1000000));
+    s.seed = uint64_t(params.getInt({key("seed"), "Monte Carlo: seed of the random walks"},
+                                    int64_t(s.seed), 0, std::numeric_limits<int64_t>::max()));
+    s.mis = params.getBool(
+        {key("mis"), "Monte Carlo: multiple importance sampling of next-event estimation"}, s.mis);
     return s;
 }
 

@@ -56,19 +56,36 @@ struct PatchState {
 ProgressiveSettings::ProgressiveSettings() : ff(fullMatrixFormFactorDefaults()) {}
 
 ProgressiveSettings ProgressiveSettings::fromParams(const Params& params, const std::string& prefix) {
+    Params::Scope scope(params, "progressive solver");
     ProgressiveSettings s;
     auto key = [&](const char* k) { return prefix.empty() ? std::string(k) : prefix + "." + k; };
-    s.level = int(params.getInt(key("level"), s.level, 0, kMaxElementLevel));
-    s.maxArea = params.getDouble(key("max_area"), s.maxArea, 0.0, 1e300);
-    s.maxLevel = int(params.getInt(key("max_level"), s.maxLevel, 0, kMaxElementLevel));
-    s.maxSubdivision = int(params.getInt(key("max_subdivision"), s.maxSubdivision, 0, kMaxElementLevel));
+    s.level = int(params.getInt({key("level"), "progressive: uniform level of patches"}, s.level, 0,
+                                kMaxElementLevel));
+    s.maxArea = params.getDouble(
+        {key("max_area"), "progressive: subdivide patches above this area (0: by level only)"},
+        s.maxArea, 0.0, 1e300);
+    s.maxLevel = int(params.getInt({key("max_level"), "progressive: level at most with max_area"},
+                                   s.maxLevel, 0, kMaxElementLevel));
+    s.maxSubdivision = int(params.getInt(
+        {key("max_subdivision"), "progressive: substructuring depth of elements below patches"},
+        s.maxSubdivision, 0, kMaxElementLevel));
     s.subdivideThreshold =
-        params.getDouble(key("subdivide_threshold"), s.subdivideThreshold, 0.0, 1e300, true);
-    s.tolerance = params.getDouble(key("tolerance"), s.tolerance, 0.0, 1.0);
-    s.maxShots = params.getInt(key("max_shots"), s.maxShots, 1, int64_t(1) << 40);
-    s.ambient = params.getBool(key("ambient"), s.ambient);
-    s.historyEvery = int(params.getInt(key("history_every"), s.historyEvery, 1, 1000000000));
-    s.regather = params.getBool(key("regather"), s.regather);
+        params.getDouble({key("subdivide_threshold"),
+                          "progressive: radiosity gradient past which an element is subdivided"},
+                         s.subdivideThreshold, 0.0, 1e300, true);
+    s.tolerance = params.getDouble(
+        {key("tolerance"), "progressive: unshot power fraction at which shooting stops"},
+        s.tolerance, 0.0, 1.0);
+    s.maxShots = params.getInt({key("max_shots"), "progressive: shots at most"}, s.maxShots, 1,
+                               int64_t(1) << 40);
+    s.ambient = params.getBool(
+        {key("ambient"), "progressive: add the ambient term of unshot power (Cohen et al. 1988)"},
+        s.ambient);
+    s.historyEvery = int(
+        params.getInt({key("history_every"), "progressive: a history row every this many shots"},
+                      s.historyEvery, 1, 1000000000));
+    s.regather = params.getBool(
+        {key("regather"), "progressive: a final gather pass over all elements"}, s.regather);
     s.ff = transport::FormFactorSettings::fromParams(params, key("ff"), fullMatrixFormFactorDefaults());
     s.hemicube = transport::HemicubeSettings::fromParams(params, key("ff"));
     const int deepest = (s.maxArea > 0 ? s.maxLevel : s.level) + s.maxSubdivision;

@@ -25,14 +25,21 @@ using scene::ElementKey;
 using scene::PatchKind;
 
 RenderSettings RenderSettings::fromParams(const Params& params, const std::string& prefix) {
+    Params::Scope scope(params, "render");
     auto key = [&](const char* k) { return prefix.empty() ? std::string(k) : prefix + "." + k; };
     RenderSettings s;
-    s.width = int(params.getInt(key("width"), s.width, 1, 32768));
-    s.height = int(params.getInt(key("height"), s.height, 1, 32768));
+    s.width = int(
+        params.getInt({key("width"), "image width in pixels (0: the scene's film or automatic)"},
+                      s.width, 1, 32768));
+    s.height = int(
+        params.getInt({key("height"), "image height in pixels (0: the scene's film or automatic)"},
+                      s.height, 1, 32768));
     s.widthSet = params.has(key("width"));
     s.heightSet = params.has(key("height"));
-    s.spp = int(params.getInt(key("spp"), s.spp, 1, 65536));
-    s.maxSamples = params.getInt(key("max_samples"), s.maxSamples, 1, int64_t(1) << 40);
+    s.spp = int(params.getInt({key("spp"), "render: samples per pixel"}, s.spp, 1, 65536));
+    s.maxSamples = params.getInt(
+        {key("max_samples"), "render: width x height x spp at most (a resource bound)"},
+        s.maxSamples, 1, int64_t(1) << 40);
     if (params.has(key("max_samples"))) s.budgetWhere = params.where(key("max_samples"));
     else if (params.has(key("spp"))) s.budgetWhere = params.where(key("spp"));
     // Checked before any image is allocated or ray cast: the cost of a render
@@ -45,9 +52,14 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
                         "or raise the setting",
                         s.width, s.height, s.spp, samples, key("max_samples"), s.maxSamples);
     }
-    s.interpolate = params.getBool(key("interpolate"), s.interpolate);
-    const std::string rec = params.getEnum(key("reconstruction"), s.interpolate ? "interpolated" : "flat",
-                                           {"flat", "interpolated", "final-gather", "path-traced"});
+    s.interpolate = params.getBool(
+        {key("interpolate"), "render: interpolate radiosity over vertices (Gouraud)"},
+        s.interpolate);
+    const std::string rec =
+        params.getEnum({key("reconstruction"),
+                        "image reconstruction: flat, interpolated, final-gather or path-traced"},
+                       s.interpolate ? "interpolated" : "flat",
+                       {"flat", "interpolated", "final-gather", "path-traced"});
     if (s.interpolate && rec != "interpolated")
         throwInputError(params.where(key("reconstruction")), "'{}' = '{}' contradicts '{}' = true",
                         key("reconstruction"), rec, key("interpolate"));
@@ -56,13 +68,20 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
                        : rec == "path-traced"  ? Reconstruction::PathTraced
                                                : Reconstruction::Flat;
     s.interpolate = s.reconstruction == Reconstruction::Interpolated;
-    s.gather.gatherRays = int(params.getInt(key("gather_rays"), s.gather.gatherRays, 1, 1 << 20));
-    s.gather.shadowRays = int(params.getInt(key("shadow_rays"), s.gather.shadowRays, 1, 1 << 16));
-    s.gather.seed = uint64_t(params.getInt(key("seed"), 0, 0, INT64_MAX));
-    s.backFacesBlack = params.getEnum(key("back_faces"), "black", {"black", "front"}) == "black";
+    s.gather.gatherRays =
+        int(params.getInt({key("gather_rays"), "render final-gather: gather rays per pixel"},
+                          s.gather.gatherRays, 1, 1 << 20));
+    s.gather.shadowRays = int(
+        params.getInt({key("shadow_rays"), "render final-gather: shadow rays per gather sample"},
+                      s.gather.shadowRays, 1, 1 << 16));
+    s.gather.seed = uint64_t(params.getInt(
+        {key("seed"), "render: seed of final-gather and path-traced rays"}, 0, 0, INT64_MAX));
+    s.backFacesBlack =
+        params.getEnum({key("back_faces"), "render: back faces black, or shaded as front faces"},
+                       "black", {"black", "front"}) == "black";
     // "x, y, z" -> Vec3; errors at the setting's file:line.
     auto vec = [&](const std::string& k, const std::string& def) {
-        std::string text = params.getString(k, def);
+        std::string text = params.getString(k, def);  // documented below
         std::istringstream in(text);
         Vec3 v(0.0);
         char comma = 0;
@@ -75,6 +94,16 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
     };
     const std::string eyeKey = key("eye"), targetKey = key("target"), upKey = key("up"),
                       fovKey = key("fov");
+    // Recorded (with their docs) whether or not the camera is explicit.
+    params.getString({eyeKey,
+                      "explicit camera: eye position \"x, y, z\" (unset: the scene's camera or an "
+                      "automatic one)"},
+                     "");
+    params.getString({targetKey, "explicit camera: point looked at \"x, y, z\" (with the eye)"},
+                     "");
+    params.getString({upKey, "explicit camera: up vector \"x, y, z\""}, "0, 1, 0");
+    params.getDouble({fovKey, "explicit camera: vertical field of view, degrees"},
+                     scene::Camera{}.fovYDegrees, 0.0, 179.0, true);
     if (params.has(eyeKey) != params.has(targetKey))
         throwInputError(params.where(params.has(eyeKey) ? eyeKey : targetKey),
                         "an explicit camera needs both '{}' and '{}'", eyeKey, targetKey);
@@ -83,7 +112,9 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
         c.eye = vec(eyeKey, "");
         c.target = vec(targetKey, "");
         c.up = vec(upKey, "0, 1, 0");
-        c.fovYDegrees = params.getDouble(fovKey, c.fovYDegrees, 0.0, 179.0, true);
+        c.fovYDegrees =
+            params.getDouble({fovKey, "explicit camera: vertical field of view, degrees"},
+                             c.fovYDegrees, 0.0, 179.0, true);
         Vec3 f = c.target - c.eye;
         if (!(glm::length(f) > 0))
             throwInputError(params.where(targetKey), "'{}' equals '{}'", targetKey, eyeKey);

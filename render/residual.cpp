@@ -17,12 +17,19 @@
 namespace hrad::render {
 
 ResidualSettings ResidualSettings::fromParams(const Params& params, const std::string& prefix) {
+    Params::Scope scope(params, "transport residual");
     auto key = [&](const char* k) { return prefix + "." + k; };
     ResidualSettings s;
-    s.points = int(params.getInt(key("points"), s.points, 2, 1 << 16));
-    s.gatherRays = int(params.getInt(key("gather_rays"), s.gatherRays, 1, 1 << 20));
-    s.shadowRays = int(params.getInt(key("shadow_rays"), s.shadowRays, 1, 1 << 16));
-    s.seed = uint64_t(params.getInt(key("seed"), int64_t(s.seed), 0, INT64_MAX));
+    s.points = int(params.getInt({key("points"), "transport residual: points per leaf"}, s.points,
+                                 2, 1 << 16));
+    s.gatherRays =
+        int(params.getInt({key("gather_rays"), "transport residual: gather rays per point"},
+                          s.gatherRays, 1, 1 << 20));
+    s.shadowRays =
+        int(params.getInt({key("shadow_rays"), "transport residual: shadow rays per gather sample"},
+                          s.shadowRays, 1, 1 << 16));
+    s.seed = uint64_t(params.getInt({key("seed"), "transport residual: seed of its rays"},
+                                    int64_t(s.seed), 0, INT64_MAX));
     return s;
 }
 

@@ -31,28 +31,42 @@ namespace {
 // Each format's settings, read from Params (with range checks).
 MgfOptions mgfOptions(const Params& params) {
     MgfOptions mgf;
-    mgf.resolution = int(params.getInt("mgf.resolution", mgf.resolution, 3, 4096));
-    mgf.whitePoint = params.getEnum("mgf.white_point", mgf.whitePoint, {"E", "D65"});
-    mgf.maxFaces =
-        size_t(params.getInt("mgf.max_faces", int64_t(mgf.maxFaces), 1, int64_t(1) << 40));
-    mgf.defaultSides = int(params.getInt("mgf.default_sides", mgf.defaultSides, 1, 2));
+    mgf.resolution = int(params.getInt(
+        {"mgf.resolution", "MGF: segments around curved primitives (rings, cones, spheres)"},
+        mgf.resolution, 3, 4096));
+    mgf.whitePoint =
+        params.getEnum({"mgf.white_point", "MGF: white point of colour conversion (E or D65)"},
+                       mgf.whitePoint, {"E", "D65"});
+    mgf.maxFaces = size_t(params.getInt(
+        {"mgf.max_faces", "MGF: faces after xf/include expansion at most (a resource bound)"},
+        int64_t(mgf.maxFaces), 1, int64_t(1) << 40));
+    mgf.defaultSides = int(params.getInt(
+        {"mgf.default_sides", "MGF: sides of a material without a sides statement (1 or 2)"},
+        mgf.defaultSides, 1, 2));
     return mgf;
 }
 
 ObjOptions objOptions(const Params& params) {
     ObjOptions obj;
-    obj.defaultRho = params.getDouble("obj.default_rho", obj.defaultRho, 0.0, 1.0);
+    obj.defaultRho =
+        params.getDouble({"obj.default_rho", "OBJ: reflectance of faces without a material"},
+                         obj.defaultRho, 0.0, 1.0);
     if (!(obj.defaultRho < 1.0))
         throwInputError(params.where("obj.default_rho"), "setting 'obj.default_rho' must be < 1");
-    obj.clampRho = params.getDouble("obj.clamp_rho", obj.clampRho, 0.0, 0.999999);
-    obj.twoSided = params.getBool("obj.two_sided", obj.twoSided);
+    obj.clampRho = params.getDouble(
+        {"obj.clamp_rho",
+         "OBJ: reflectance >= 1 becomes this (0: an error); 0.99 loads scenes with Kd = 1"},
+        obj.clampRho, 0.0, 0.999999);
+    obj.twoSided = params.getBool({"obj.two_sided", "OBJ: every face two-sided"}, obj.twoSided);
     return obj;
 }
 
 PlyOptions plyOptions(const Params& params) {
     PlyOptions ply;
-    ply.emission = params.getDouble("ply.emission", ply.emission, 0.0, 1e30);
-    ply.defaultRho = params.getDouble("ply.default_rho", ply.defaultRho, 0.0, 1.0);
+    ply.emission = params.getDouble({"ply.emission", "PLY: emission of faces marked emitting"},
+                                    ply.emission, 0.0, 1e30);
+    ply.defaultRho = params.getDouble(
+        {"ply.default_rho", "PLY: reflectance of faces without colour"}, ply.defaultRho, 0.0, 1.0);
     if (!(ply.defaultRho < 1.0))
         throwInputError(params.where("ply.default_rho"), "setting 'ply.default_rho' must be < 1");
     return ply;
@@ -60,24 +74,39 @@ PlyOptions plyOptions(const Params& params) {
 
 GltfOptions gltfOptions(const Params& params) {
     GltfOptions gltf;
-    gltf.defaultRho = params.getDouble("gltf.default_rho", gltf.defaultRho, 0.0, 1.0);
+    gltf.defaultRho =
+        params.getDouble({"gltf.default_rho", "glTF: reflectance of primitives without a material"},
+                         gltf.defaultRho, 0.0, 1.0);
     if (!(gltf.defaultRho < 1.0))
         throwInputError(params.where("gltf.default_rho"), "setting 'gltf.default_rho' must be < 1");
-    gltf.clampRho = params.getDouble("gltf.clamp_rho", gltf.clampRho, 0.0, 0.999999);
-    gltf.emissionScale = params.getDouble("gltf.emission_scale", gltf.emissionScale, 0.0, 1e30);
+    gltf.clampRho =
+        params.getDouble({"gltf.clamp_rho", "glTF: reflectance >= 1 becomes this (0: an error)"},
+                         gltf.clampRho, 0.0, 0.999999);
+    gltf.emissionScale = params.getDouble(
+        {"gltf.emission_scale", "glTF: factor on emissive colours (radiosity units)"},
+        gltf.emissionScale, 0.0, 1e30);
     gltf.maxFaces =
-        size_t(params.getInt("gltf.max_faces", int64_t(gltf.maxFaces), 1, int64_t(1) << 40));
+        size_t(params.getInt({"gltf.max_faces", "glTF: faces at most (a resource bound)"},
+                             int64_t(gltf.maxFaces), 1, int64_t(1) << 40));
     return gltf;
 }
 
 MitsubaOptions mitsubaOptions(const Params& params) {
     MitsubaOptions m;
-    m.resolution = int(params.getInt("mitsuba.resolution", m.resolution, 3, 4096));
-    m.clampRho = params.getDouble("mitsuba.clamp_rho", m.clampRho, 0.0, 0.999999);
-    m.defaultRho = params.getDouble("mitsuba.default_rho", m.defaultRho, 0.0, 0.999999);
-    m.textureRho = params.getDouble("mitsuba.texture_rho", m.textureRho, 0.0, 0.999999);
+    m.resolution = int(params.getInt(
+        {"mitsuba.resolution", "Mitsuba: segments around analytic shapes"}, m.resolution, 3, 4096));
+    m.clampRho = params.getDouble(
+        {"mitsuba.clamp_rho", "Mitsuba: reflectance >= 1 becomes this (0: an error)"}, m.clampRho,
+        0.0, 0.999999);
+    m.defaultRho =
+        params.getDouble({"mitsuba.default_rho", "Mitsuba: reflectance of shapes without a BSDF"},
+                         m.defaultRho, 0.0, 0.999999);
+    m.textureRho = params.getDouble(
+        {"mitsuba.texture_rho", "Mitsuba: reflectance standing in for a textured BSDF"},
+        m.textureRho, 0.0, 0.999999);
     m.maxFaces =
-        uint64_t(params.getInt("mitsuba.max_faces", int64_t(m.maxFaces), 1, int64_t(1) << 40));
+        uint64_t(params.getInt({"mitsuba.max_faces", "Mitsuba: faces at most (a resource bound)"},
+                               int64_t(m.maxFaces), 1, int64_t(1) << 40));
     Params sub = params.subset("mitsuba.param");
     for (const auto& [key, entry] : sub.entries())
         m.params[key] = Params::valueToString(entry.value);
@@ -122,10 +151,12 @@ enum class SplitMode { Off, All, Unreachable };
 
 /// split_intersections: false, true, or "unreachable".
 SplitMode readSplitMode(const Params& params) {
-    if (!params.has("split_intersections")) return SplitMode::Off;
+    const Params::Key key{"split_intersections",
+                          "cut patches that pass through one another along the crossing (true), "
+                          "only where light cannot reach (\"unreachable\"), or keep them whole"};
+    if (!params.has(key.name) || std::holds_alternative<bool>(params.entries().at(key.name).value))
+        return params.getBool(key, false) ? SplitMode::All : SplitMode::Off;
     const auto& v = params.entries().at("split_intersections").value;
-    if (std::holds_alternative<bool>(v))
-        return params.getBool("split_intersections", false) ? SplitMode::All : SplitMode::Off;
     const auto* text = std::get_if<std::string>(&v);
     params.markUsed("split_intersections");
     if (!text || *text != "unreachable")
@@ -219,13 +250,23 @@ Scene loadScene(const std::string& spec, const Params& params, const Reachabilit
     Timer timer;
     // Every key is read up front, whether or not it applies to this format,
     // so that the caller's reportUnused() only flags misspellings.
-    for (const SceneFormat& f : sceneFormats()) f.readSettings(params);
-    const std::string twoSided = params.getEnum("two_sided", "auto", {"auto", "all", "none"});
-    bool validate = params.getBool("validate", true);
+    for (const SceneFormat& f : sceneFormats()) {
+        Params::Scope scope(params, std::string("loader ") + f.name);
+        f.readSettings(params);
+    }
+    Params::Scope scope(params, "scene loading");
+    const std::string twoSided = params.getEnum(
+        {"two_sided", "two-sided surfaces: auto (follow the materials), all, or none"}, "auto",
+        {"auto", "all", "none"});
+    bool validate = params.getBool(
+        {"validate", "check the scene when loading (false skips the checks, for hrad info)"}, true);
     const SplitMode split = readSplitMode(params);
-    const int splitRays = int(params.getInt("split_reach_rays", 256, 1, 1 << 20));
-    const double uniformRho =
-        params.has("uniform_rho") ? params.getDouble("uniform_rho", 0.5, 0.0, 0.999999) : -1.0;
+    const int splitRays = int(params.getInt(
+        {"split_reach_rays", "rays per piece to find unreachable pieces after split_intersections"},
+        256, 1, 1 << 20));
+    const double uniformRho = params.getDouble(
+        {"uniform_rho", "override every material's reflectance with this grey (-1: the scene's)"},
+        -1.0, -1.0, 0.999999);
 
     Scene scene;
     if (isBuiltinName(spec)) {

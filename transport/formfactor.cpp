@@ -232,14 +232,29 @@ FormFactorSettings FormFactorSettings::fromParams(const Params& params, const st
 
 FormFactorSettings FormFactorSettings::fromParams(const Params& params, const std::string& prefix,
                                                   const FormFactorSettings& defaults) {
+    Params::Scope scope(params, "form factors (" + prefix + ")");
     FormFactorSettings s = defaults;
-    s.rule = params.getEnum(prefix + ".rule", s.rule, {"gauss", "gauss-gauss", "centroid"});
-    s.points = int(params.getInt(prefix + ".points", s.points, 1, kMaxGaussPoints));
-    s.senderPoints =
-        int(params.getInt(prefix + ".sender_points", s.senderPoints, 1, kMaxGaussPoints));
-    s.visRays = int(params.getInt(prefix + ".vis_rays", s.visRays, 0, kMaxVisRays));
-    s.adaptiveDepth = int(params.getInt(prefix + ".adaptive_depth", s.adaptiveDepth, 0, 8));
-    s.adaptiveTol = params.getDouble(prefix + ".adaptive_tol", s.adaptiveTol, 1e-12, 1.0);
+    s.rule = params.getEnum({prefix + ".rule",
+                             "form-factor quadrature: gauss (points on the receiver, exact polygon "
+                             "on the sender), gauss-gauss, or centroid"},
+                            s.rule, {"gauss", "gauss-gauss", "centroid"});
+    s.points = int(
+        params.getInt({prefix + ".points",
+                       "quadrature points per axis on the receiver; raise for near or large links"},
+                      s.points, 1, kMaxGaussPoints));
+    s.senderPoints = int(params.getInt(
+        {prefix + ".sender_points", "quadrature points per axis on the sender (gauss-gauss)"},
+        s.senderPoints, 1, kMaxGaussPoints));
+    s.visRays = int(
+        params.getInt({prefix + ".vis_rays",
+                       "visibility rays per link (0: assume visible); raise against shadow noise"},
+                      s.visRays, 0, kMaxVisRays));
+    s.adaptiveDepth = int(params.getInt(
+        {prefix + ".adaptive_depth", "adaptive quadrature: subdivision levels at most (0: off)"},
+        s.adaptiveDepth, 0, 8));
+    s.adaptiveTol = params.getDouble(
+        {prefix + ".adaptive_tol", "adaptive quadrature: relative tolerance between levels"},
+        s.adaptiveTol, 1e-12, 1.0);
     return s;
 }
 

@@ -10,16 +10,23 @@
 namespace hrad::transport {
 
 HemicubeSettings HemicubeSettings::fromParams(const Params& params, const std::string& prefix) {
+    Params::Scope scope(params, "form factors (" + prefix + ")");
     HemicubeSettings s;
-    s.enabled = params.getEnum(prefix + ".method", "quadrature", {"quadrature", "hemicube"}) ==
-                "hemicube";
-    s.res = int(params.getInt(prefix + ".hemicube_res", s.res, 2, 4096));
+    s.enabled =
+        params.getEnum({prefix + ".method",
+                        "form factors by quadrature or by hemicubes (Cohen & Greenberg 1985)"},
+                       "quadrature", {"quadrature", "hemicube"}) == "hemicube";
+    s.res = int(params.getInt(
+        {prefix + ".hemicube_res", "hemicube resolution in pixels per side of the top face"}, s.res,
+        2, 4096));
     if (s.res % 2 != 0)
         throw InputError(params.where(prefix + ".hemicube_res"),
                          fmt::format("{}.hemicube_res must be even (the side faces have res/2 "
                                      "rows), got {}",
                                      prefix, s.res));
-    s.points = int(params.getInt(prefix + ".hemicube_points", s.points, 1, 64));
+    s.points = int(params.getInt(
+        {prefix + ".hemicube_points", "hemicubes per element per axis (placed over the receiver)"},
+        s.points, 1, 64));
     return s;
 }
 

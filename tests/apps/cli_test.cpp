@@ -532,3 +532,59 @@ TEST(Cli, SplitWhereLightWouldLeakCutsTheFloorUnderABlock) {
     EXPECT_NE(info.output.find("split          1 of the 1 patches"), std::string::npos)
         << info.output;
 }
+
+// `hrad settings` lists every key some component reads (core/params records
+// them while every reader runs on empty Params): default, type, range,
+// reader and one-line doc.
+TEST(Cli, SettingsListsKeysWithDefaultTypeRangeAndDoc) {
+    Result all = run("settings");
+    ASSERT_EQ(all.code, 0) << all.output;
+    EXPECT_NE(all.output.find("hr.max_level = 14  (integer, [0, "), std::string::npos)
+        << all.output.substr(0, 2000);
+    EXPECT_NE(all.output.find("deepest quadtree level"), std::string::npos);
+    EXPECT_NE(all.output.find("read by: hr solver"), std::string::npos);
+    EXPECT_NE(all.output.find("cluster.model = auto  (string, auto | none | isotropic | oriented"),
+              std::string::npos);
+    EXPECT_EQ(all.output.find("(undocumented)"), std::string::npos)
+        << all.output.substr(all.output.find("(undocumented)") - 300, 400);
+    Result hr = run("settings hr.");
+    ASSERT_EQ(hr.code, 0);
+    EXPECT_EQ(hr.output.find("\ncluster."), std::string::npos);
+    Result md = run("settings --markdown oracle");
+    ASSERT_EQ(md.code, 0);
+    EXPECT_NE(md.output.find("| `oracle.eps` |"), std::string::npos) << md.output;
+    Result none = run("settings no_such_prefix");
+    EXPECT_EQ(none.code, 2) << none.output;
+    EXPECT_NE(none.output.find("no setting starts with 'no_such_prefix'"), std::string::npos)
+        << none.output;
+}
+
+// Every key a real solve reads is in summary.json's resolved_settings with the
+// value it used, and `hrad settings` lists it: no key is undocumented.
+TEST(Cli, EveryKeyASolveReadsIsListedBySettings) {
+    auto dir = hrad::test::tempDir("cli_settings_solve");
+    Result r = run("solve cornell --eps 1e-2 --width 32 --height 32 --no-ply --no-solution -o " +
+                   dir.string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    nlohmann::json s;
+    std::ifstream(dir / "summary.json") >> s;
+    ASSERT_TRUE(s.contains("resolved_settings")) << s.dump();
+    const auto& used = s["resolved_settings"];
+    EXPECT_EQ(used["oracle.eps"], 0.01);
+    EXPECT_EQ(used["hr.max_level"], 14);                   // a default, never set
+    EXPECT_EQ(used["cluster.model"], "none");              // auto, resolved by the solve
+    EXPECT_GT(used["memory.budget_mb"].get<double>(), 0);  // 0 resolved to MiB
+    Result all = run("settings");
+    ASSERT_EQ(all.code, 0);
+    for (const auto& [k, v] : used.items())
+        EXPECT_NE(all.output.find(k + " = "), std::string::npos) << k << " is not listed";
+}
+
+// The CLI's help texts come from the registries.
+TEST(Cli, HelpNamesComeFromTheRegistries) {
+    Result h = run("solve --help");
+    EXPECT_EQ(h.code, 0);
+    EXPECT_NE(h.output.find("bfa, ff, error, kv, uniform"), std::string::npos) << h.output;
+    EXPECT_NE(h.output.find("none, isotropic, oriented"), std::string::npos) << h.output;
+    EXPECT_NE(h.output.find(".obj"), std::string::npos) << h.output;
+}

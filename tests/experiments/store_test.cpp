@@ -74,7 +74,7 @@ TEST(Store, NewStoresCarryTheSchemaVersion) {
     auto dir = test::tempDir("store_version");
     {
         ResultStore s(dir / "a.sqlite");
-        EXPECT_EQ(s.schemaVersion(), 5);
+        EXPECT_EQ(s.schemaVersion(), 6);
     }
     EXPECT_EQ(query(dir / "a.sqlite", "PRAGMA application_id"), "1213350212;");
     EXPECT_EQ(refusal(dir / "a.sqlite", true), "");
@@ -165,18 +165,19 @@ TEST(Store, MigratesVersionOneStores) {
          {"l1_reflected_lum", "l2_reflected_lum", "l1_nonemitter_lum", "l2_nonemitter_lum",
           "mean_ratio_nonemitter", "error_estimate", "residual", "slurm_job_id",
           "slurm_array_task_id", "noise_estimate", "noise_l2_nonemitter", "error_estimate_leaves",
-          "error_estimate_points"})
+          "error_estimate_points", "resolved_settings"})
         drop += fmt::format("ALTER TABLE runs DROP COLUMN {};", c);
     drop += "ALTER TABLE failures DROP COLUMN slurm_job_id; ALTER TABLE failures DROP COLUMN slurm_array_task_id;";
     sql(dir / "v1.sqlite", drop);
     EXPECT_EQ(refusal(dir / "v1.sqlite", true), "");  // readable as it is
     {
         ResultStore s(dir / "v1.sqlite");
-        EXPECT_EQ(s.schemaVersion(), 5);
+        EXPECT_EQ(s.schemaVersion(), 6);
         EXPECT_EQ(s.count("runs"), 2);
     }
     EXPECT_EQ(query(dir / "v1.sqlite", "SELECT slurm_job_id FROM runs"), "NULL;NULL;");
     EXPECT_EQ(query(dir / "v1.sqlite", "SELECT error_estimate_leaves FROM runs"), "NULL;NULL;");
+    EXPECT_EQ(query(dir / "v1.sqlite", "SELECT resolved_settings FROM runs"), "NULL;NULL;");
     // ... and resumes: nothing to rerun.
     SweepOptions o = options(dir, "v1.sqlite");
     o.resume = true;
@@ -237,4 +238,25 @@ TEST(Store, MergeRefusesMixedStudiesUnlessForced) {
 }
 
 }  // namespace
+}  // namespace hrad::experiments
+
+namespace hrad::experiments {
+
+TEST(Store, EveryRowCarriesTheResolvedSettingsWhole) {
+    auto dir = test::tempDir("store_resolved");
+    Study study = parseStudy(kStudy, "one.toml", dir);
+    runSweep(study, options(dir, "r.sqlite"));
+    // Keys the study never set are there with the value the run used.
+    auto key = [&](const char* k) {
+        return query(dir / "r.sqlite",
+                     fmt::format("SELECT json_extract(resolved_settings, '$.\"{}\"') FROM runs "
+                                 "ORDER BY point_index",
+                                 k));
+    };
+    EXPECT_EQ(key("hr.max_level"), "14;14;");
+    EXPECT_EQ(key("hr.max_iterations"), "3;3;");
+    EXPECT_EQ(key("oracle.eps"), "0.5;0.1;");
+    EXPECT_EQ(key("cluster.model"), "none;none;");  // auto, resolved by the solve
+}
+
 }  // namespace hrad::experiments
