@@ -138,7 +138,7 @@ std::string settingsReadmeTable(const std::vector<Params::Record>& records) {
     static const char* kReadmeKeys[] = {"solver",       "hr.oracle",        "oracle.eps",
                                         "hr.basis",     "cluster.model",    "hr.eps_power",
                                         "hr.max_links", "memory.budget_mb", "hr.max_seconds",
-                                        "ff.vis_rays",  "hr.seed"};
+                                        "ff.vis_rays",  "hr.seed",          "hr.checks"};
     std::string out = "| key | default | meaning |\n|---|---|---|\n";
     for (const char* k : kReadmeKeys)
         for (const auto& r : records)

@@ -58,6 +58,14 @@ class HrEntry final : public Solver {
         sm["error_estimate_uncovered_share"] = orNull(res->errorEstimateUncovered);
         sm["stand_in_power_share"] = res->standInPowerShare;
         {
+            // The refinement checks (hr/checks/), in amendment order: the
+            // judging passes each took part in and the decisions it changed.
+            json checks = json::array();
+            for (const hr::CheckUse& c : res->checks)
+                checks.push_back({{"name", c.name}, {"passes", c.passes}, {"amended", c.amended}});
+            sm["refinement_checks"] = checks;
+        }
+        {
             const hr::SolverNoise& n = res->noise;
             auto rgb = [](const RGB& v) { return json::array({v.r, v.g, v.b}); };
             sm["noise_estimate"] = n.relative;

@@ -64,9 +64,9 @@ bool isSetNotWord(const Params& p, const std::string& key) {
 }
 }  // namespace
 
-HrSettings HrSettings::fromParams(const Params& p) {
-    Params::Scope scope(p, "hr solver");
-    HrSettings s;
+namespace {
+/// The oracle, the eps schedule, the mesh and the loop.
+void readMesh(const Params& p, HrSettings& s) {
     s.oracle =
         p.getEnum({"hr.oracle",
                    "refinement oracle (bfa: power a link carries, ff: form factor, uniform: fixed "
@@ -100,6 +100,10 @@ HrSettings HrSettings::fromParams(const Params& p) {
                                "convergence: relative change of reflected power (and error still "
                                "to come) below which the solve stops"},
                               s.tolerance, 0.0, 1.0, true);
+}
+
+/// The limits that stop refinement early (hr/budget.h).
+void readLimits(const Params& p, HrSettings& s) {
     s.maxLinks = uint64_t(
         p.getInt({"hr.max_links",
                   "refinement stops past this many links (a memory guard); raise for huge scenes"},
@@ -114,6 +118,10 @@ HrSettings HrSettings::fromParams(const Params& p) {
     s.memoryBudget =
         budgetMb > 0 ? uint64_t(budgetMb) << 20 : uint64_t(0.8 * double(physicalMemoryBytes()));
     p.recordResolved("memory.budget_mb", int64_t(s.memoryBudget >> 20));
+}
+
+/// Form factors and clusters.
+void readTransfer(const Params& p, HrSettings& s) {
     s.ff = transport::FormFactorSettings::fromParams(p, "ff");
     s.clusterModel = cluster::parseClusterModel(
         p.getEnum({"cluster.model",
@@ -121,17 +129,11 @@ HrSettings HrSettings::fromParams(const Params& p) {
                    "cos); auto = none up to 2,000 patches, oriented above"},
                   "auto", cluster::clusterModelNames()));
     s.cluster = cluster::ClusterSettings::fromParams(p);
+}
+
+/// The refinement checks (hr/checks/) and the leaf estimates.
+void readChecks(const Params& p, HrSettings& s) {
     // "auto" (the default), "off", or a fraction of the emitted power.
-<<<<<<< HEAD
-    if (auto it = p.entries().find("hr.receiver_eps");
-        it != p.entries().end() && std::holds_alternative<std::string>(it->second.value))
-        s.receiverEps =
-            p.getEnum("hr.receiver_eps", "auto", {"auto", "off"}) == "auto" ? -1.0 : 0.0;
-    else if (p.has("hr.receiver_eps"))
-        s.receiverEps = p.getDouble("hr.receiver_eps", 0.0, 0.0, 1.0);
-    s.senderTotal = p.getBool("hr.sender_total", s.senderTotal);
-    parseChecks(p, s);
-=======
     const Params::Key receiverEps{"hr.receiver_eps",
                                   "receiver-aggregate error check added to bfa/ff: auto (from "
                                   "the oracle's eps), off, or a fraction of the emitted power in "
@@ -144,7 +146,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
                                "error/kv also bound the sender-side error summed per sender over "
                                "all its receivers; off only to study the published oracles"},
                               s.senderTotal);
->>>>>>> settings
+    parseChecks(p, s);
     // true / "full", false / "off", or "balanced" (the default).
     const Params::Key leafBudget{"hr.leaf_budget",
                                  "push links down while the leaves' error exceeds the check's "
@@ -162,6 +164,10 @@ HrSettings HrSettings::fromParams(const Params& p) {
                                  "compute error_estimate_leaves and error_estimate_points after "
                                  "the solve; off saves their point form factors"},
                                 s.leafEstimates);
+}
+
+/// The iteration: extrapolation, relaxation, lazy refinement, rays, noise, order.
+void readIteration(const Params& p, HrSettings& s) {
     s.extrapolate = p.getBool({"hr.extrapolate",
                                "Aitken extrapolation of the gather iteration once refinement stops "
                                "(fast convergence of high-reflectance scenes)"},
@@ -221,6 +227,10 @@ HrSettings HrSettings::fromParams(const Params& p) {
         {"hr.gs_blocks",
          "gauss-seidel: blocks of root patches gathered in turn (0: one block per root patch)"},
         s.gsBlocks, 0, 1 << 30));
+}
+
+/// Cluster links, partial receivers and the polynomial basis.
+void readBasis(const Params& p, HrSettings& s) {
     s.clusterLink = cluster::ClusterLinkSettings::fromParams(p);
     s.openPartialReceivers =
         p.getEnum({"cluster.partial_receivers",
@@ -248,6 +258,19 @@ HrSettings HrSettings::fromParams(const Params& p) {
             p.where("hr.iteration"),
             "hr.iteration = gauss-seidel needs hr.basis = constant (the polynomial push-pull "
             "runs over all root patches at once)");
+}
+
+}  // namespace
+
+HrSettings HrSettings::fromParams(const Params& p) {
+    Params::Scope scope(p, "hr solver");
+    HrSettings s;
+    readMesh(p, s);
+    readLimits(p, s);
+    readTransfer(p, s);
+    readChecks(p, s);
+    readIteration(p, s);
+    readBasis(p, s);
     // Validate the oracle settings now (unknown keys included), so a bad
     // setting fails before any work is done.
     // The probe is a subset of p, so the oracle's reads are p's records.

@@ -443,7 +443,9 @@ TEST(Store, ErrorColumnsAndOlderStores) {
                        "mean_ratio_nonemitter > 0 AND error_estimate >= 0 AND residual >= 0 AND "
                        "noise_estimate >= 0 AND noise_l2_nonemitter >= 0 AND "
                        "error_estimate_leaves >= 0 AND error_estimate_points >= 0 AND "
-                       "json_extract(summary, '$.error_estimate_uncovered_share') = 0) "
+                       "json_extract(summary, '$.error_estimate_uncovered_share') = 0 AND "
+                       "json_extract(summary, '$.refinement_checks[0].name') = 'receiver' AND "
+                       "json_array_length(json_extract(summary, '$.refinement_checks')) = 6) "
                        "FROM runs WHERE scene LIKE 'plates%'");
     EXPECT_EQ(rows, std::set<std::string>{"1"});
     // An older store: the same file without the added columns.
