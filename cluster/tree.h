@@ -33,19 +33,9 @@
 // vertex below from the least-squares plane, over the node's radius); the
 // linker treats a face cluster within face_cone and face_planarity as one
 // surface (cluster/link.h). Volume nodes have coneCos -1 and planarity 1.
-// Settings:
-//   cluster.builder    string  "bvh"
-//   cluster.leaf_size  int     4     patches per leaf cluster (1..64)
-//   cluster.max_depth  int     40    depth cap of the bvh (leaves may then hold more
-//                                    patches); face clusters below it add their own depth
-//   cluster.faces           bool    false  face clusters below the bvh
-//   cluster.face_cone       double  30     largest normal-cone half-angle of a face
-//                                          cluster, degrees (0..89)
-//   cluster.face_planarity  double  0.1    largest planarity of a face cluster (0..1)
-//   cluster.face_shape      double  0.5    weight of the compactness term in the
-//                                          merge cost (0..10)
-//   cluster.face_compactness double 0      smallest compactness A / (2 pi r_rms^2) of a
-//                                          merged face cluster (0..1; 0: any shape)
+// Settings: cluster.builder, cluster.leaf_size, cluster.max_depth,
+// cluster.faces, cluster.face_cone, cluster.face_planarity,
+// cluster.face_shape, cluster.face_compactness (`hrad settings cluster.`).
 #pragma once
 
 #include <array>

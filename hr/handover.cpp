@@ -64,8 +64,8 @@ uint64_t Hierarchy::divideByOpenness(const std::vector<uint64_t>& fresh,
             // sampled link is its judged estimate, not a bound, and
             // 0 means none is known.
             double k = double(l.K) * (den[f] / num[f]);
-            const double bound = std::max(double(l.K), double(l.Fupper));
-            if (!(l.flags & Link::kSampled) && l.Fupper > 0.f && k > bound) {
+            const double bound = std::max(double(l.K), double(l.upperF()));
+            if (!(l.flags & Link::kSampled) && l.upperF() > 0.f && k > bound) {
                 k = bound;
                 ++capped;
             }

@@ -353,12 +353,12 @@ void Hierarchy::compactStandIns() {
     std::vector<cluster::StandInSample> kept;
     for (Link& l : links_) {
         if (!(l.flags & Link::kStandIn) || !isCluster(l.sender)) continue;
-        const uint32_t b = std::bit_cast<uint32_t>(l.Fupper);
+        const uint32_t b = l.sampleBlock();
         HRAD_DCHECK(size_t(b) + 1 < standInBegin_.size());
         kept.insert(kept.end(), standInSamples_.begin() + ptrdiff_t(standInBegin_[b]),
                     standInSamples_.begin() + ptrdiff_t(standInBegin_[b + 1]));
         begin.push_back(kept.size());
-        l.Fupper = std::bit_cast<float>(uint32_t(begin.size() - 2));
+        l.setSampleBlock(uint32_t(begin.size() - 2));
     }
     kept.shrink_to_fit();
     standInSamples_ = std::move(kept);
@@ -375,7 +375,7 @@ uint32_t Hierarchy::addStandIn(std::span<const cluster::StandInSample> samples, 
 
 RGB Hierarchy::standInSent(const Link& l) const {
     if (!isCluster(l.sender)) return double(l.K) * B_[l.sender];
-    const uint32_t block = std::bit_cast<uint32_t>(l.Fupper);
+    const uint32_t block = l.sampleBlock();
     HRAD_DCHECK(size_t(block) + 1 < standInBegin_.size());
     RGB sum(0.0);
     for (uint64_t k = standInBegin_[block] + 1; k < standInBegin_[block + 1]; ++k)
@@ -418,8 +418,8 @@ RGB Hierarchy::standInReflected(uint32_t r, uint64_t i) const {
 }
 
 double Hierarchy::standInJudged(const Link& l) const {
-    if (!isCluster(l.sender)) return l.Fupper;
-    const uint32_t block = std::bit_cast<uint32_t>(l.Fupper);
+    if (!isCluster(l.sender)) return l.judgedF();
+    const uint32_t block = l.sampleBlock();
     HRAD_DCHECK(size_t(block) + 1 < standInBegin_.size());
     return standInSamples_[standInBegin_[block]].weight;
 }

@@ -29,6 +29,7 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <bit>
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -62,7 +63,13 @@ inline constexpr uint32_t kNone = UINT32_MAX;
 struct Link {
     uint32_t sender = kNone;
     float K = 0.f;       ///< transfer coefficient: F_rs with visibility
-    float Fupper = 0.f;  ///< upper bound on the unoccluded F_rs
+    /// One float, three meanings by kind; read and write it through the
+    /// accessors below: upperF() for a surface or point-approximation link
+    /// (a bound on the unoccluded F_rs; the unoccluded F itself under judged
+    /// visibility), judgedF() for a sampled link (kSampled: the judged
+    /// estimate of F), sampleBlock() for a stand-in from a sending cluster
+    /// (the index of its samples in the hierarchy).
+    float Fupper = 0.f;
     /// Visibility fraction, quantised to 1/65535. For links touching a
     /// cluster it is the estimate the oracle judges with, from rays
     /// independent of those in K (hr/solver.h).
@@ -120,6 +127,13 @@ struct Link {
     bool byArea() const { return (flags & kStandIn) && !(flags & kHandedOver); }
     /// A by-area stand-in handed over by what each surface sees of the sender.
     bool bySeen() const { return byArea() && (flags & kOpenHandOver); }
+
+    float upperF() const { return Fupper; }
+    void setUpperF(double f) { Fupper = float(f); }
+    float judgedF() const { return Fupper; }
+    void setJudgedF(double f) { Fupper = float(f); }
+    uint32_t sampleBlock() const { return std::bit_cast<uint32_t>(Fupper); }
+    void setSampleBlock(uint32_t b) { Fupper = std::bit_cast<float>(b); }
 
     double vis() const { return visibility / 65535.0; }
     void setVis(double v) {
@@ -313,13 +327,13 @@ class Hierarchy {
     /// A surface-to-surface link's unoccluded form factor and the visibility
     /// fraction K carries (K = unoccluded x carried), in either layout.
     double unoccludedF(const Link& l) const {
-        if (judgedSurfaceVis_) return l.Fupper;
+        if (judgedSurfaceVis_) return l.upperF();
         const double v = l.vis();
         return v > 0 ? double(l.K) / v : 0.0;
     }
     double carriedVisibility(const Link& l) const {
         if (!judgedSurfaceVis_) return l.vis();
-        return l.Fupper > 0 ? std::min(1.0, double(l.K) / double(l.Fupper)) : 0.0;
+        return l.upperF() > 0 ? std::min(1.0, double(l.K) / double(l.upperF())) : 0.0;
     }
     /// The transfer refinement judges stand-in link l by, per unit receiver
     /// area: its independent estimate (cluster.near = stand_in) or K itself.

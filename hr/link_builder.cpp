@@ -76,11 +76,11 @@ Link LinkBuilder::clusterLink(const Hierarchy& h, uint32_t r, uint32_t s, uint32
     if (c.partial) l.flags |= Link::kPartial;
     if (c.uncertain) l.flags |= Link::kUncertain;
     l.K = float(c.K);
-    l.Fupper = float(std::min(c.Fupper, 3.0e38));
+    l.setUpperF(std::min(c.Fupper, 3.0e38));
     l.setVis(c.judged);
     if (c.sampled) {
         l.flags |= Link::kSampled;
-        l.Fupper = float(c.judgedF);
+        l.setJudgedF(c.judgedF);
         l.uncertainty = uint8_t(std::min(255.0, std::ceil(100.0 * c.relativeError)));
     }
     return l;
@@ -102,7 +102,9 @@ Link LinkBuilder::standIn(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& 
     if (c.partial) l.flags |= Link::kPartial;
     if (c.uncertain) l.flags |= Link::kUncertain;
     l.K = float(c.K > 0 ? c.K : 0.0);
-    l.Fupper = float(c.judgedF);  // a sending cluster's: its sample block (standIns)
+    // The judged F; from a sending cluster it moves into the stand-in's
+    // sample block and its index takes its place (standIns).
+    l.setJudgedF(c.judgedF);
     l.setVis(c.judged);
     l.uncertainty = uint8_t(std::min(255.0, std::ceil(100.0 * c.relativeError)));
     return l;
@@ -127,7 +129,7 @@ uint64_t LinkBuilder::standIns(Hierarchy& h, const std::vector<uint32_t>& recv,
     for (size_t j = 0; j < open.size(); ++j) {
         Link& l = links[open[j]];
         if (!(l.flags & Link::kStandIn) || !h.isCluster(l.sender)) continue;
-        l.Fupper = std::bit_cast<float>(h.addStandIn(samples[j], l.Fupper));
+        l.setSampleBlock(h.addStandIn(samples[j], l.judgedF()));
         std::vector<cluster::StandInSample>().swap(samples[j]);
     }
     return rays.load();
@@ -146,7 +148,7 @@ void LinkBuilder::fillBounds(const Hierarchy& h, uint32_t r, const Link& l,
         // The point approximation of a cluster transfer has no receiver
         // points: use the widest interval the link knows, [0, upper bound].
         e.Fmin = 0.0;
-        e.Fmax = std::max(e.F, double(l.Fupper));
+        e.Fmax = std::max(e.F, double(l.upperF()));
         return;
     }
     uint32_t s = l.sender;
@@ -203,7 +205,7 @@ Link LinkBuilder::evaluate(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t&
     if (judgeVisibility_) {
         // The oracle judges an independent visibility estimate (hr/solver.h,
         // "Judged visibility"); Fupper keeps the unoccluded form factor.
-        l.Fupper = float(f.unoccludedF);
+        l.setUpperF(f.unoccludedF);
         bool partial = false;
         uint32_t cast = 0;
         const double judged =
@@ -218,7 +220,7 @@ Link LinkBuilder::evaluate(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t&
         if (f.rays > 0 && judged == 0.0 && f.F > 0.0) l.flags |= Link::kUncertain;
         return l;
     }
-    l.Fupper = float(std::max(engine_->upperBound(er, es), f.unoccludedF));
+    l.setUpperF(std::max(engine_->upperBound(er, es), f.unoccludedF));
     l.setVis(f.visibility);
     if (f.partial) l.flags |= Link::kPartial;
     return l;

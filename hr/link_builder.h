@@ -61,7 +61,7 @@ class LinkBuilder {
     /// whose judged one did (hr.judge_visibility): kept, carrying 0, so that
     /// what the oracle decides does not depend on the carried estimate.
     bool keepSurfaceLink(const Link& l) const {
-        return judgeVisibility_ && l.vis() > 0 && l.Fupper > 0;
+        return judgeVisibility_ && l.vis() > 0 && l.upperF() > 0;
     }
 
     /// The stand-in for a link from s to r that had to be opened (cluster/

@@ -34,12 +34,12 @@ void HrSolver::judgedTransfer(const Hierarchy& h, uint32_t r, const Link& l, boo
     double v = l.vis();
     e.visibility = v;
     e.unoccludedF = v > 0 ? l.K / v : l.K;
-    e.Fupper = l.Fupper;
+    e.Fupper = l.upperF();
     if (s_.judgeVisibility && !h.isCluster(r) && !h.isCluster(s)) {
         // Judged visibility (header): F from the independent estimate; the
         // link keeps the unoccluded F in Fupper, the bound is made here when
         // the oracle reads it.
-        e.unoccludedF = l.Fupper;
+        e.unoccludedF = l.upperF();
         if (l.flags & Link::kUncertain)
             e.visibility = cluster::ClusterLinker::blockedVisibilityBound(s_.ff.visRays);
         e.F = e.unoccludedF * e.visibility;
@@ -54,9 +54,9 @@ void HrSolver::judgedTransfer(const Hierarchy& h, uint32_t r, const Link& l, boo
     if (l.flags & Link::kSampled) {
         // A near cluster pair estimated by sampling (cluster/link.h): the
         // judged estimate, receiver factor included, and its error bound (a
-        // stand-in's is Hierarchy::standInJudged: its Fupper may hold a
+        // stand-in's is Hierarchy::standInJudged: it may hold a
         // sample block).
-        e.F = (l.flags & Link::kStandIn) ? h.standInJudged(l) : double(l.Fupper);
+        e.F = (l.flags & Link::kStandIn) ? h.standInJudged(l) : double(l.judgedF());
         e.unoccludedF = v > 0 ? e.F / v : e.F;
         e.Fupper = e.F * (1.0 + l.uncertainty / 100.0);
         e.partialVisibility = (l.flags & (Link::kPartial | Link::kUncertain)) != 0;

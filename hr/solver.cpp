@@ -181,7 +181,7 @@ void HrSolver::initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vect
         Link self;
         self.sender = h.rootCluster();
         self.K = 0.f;
-        self.Fupper = 3.0e38f;
+        self.setUpperF(3.0e38f);
         self.setVis(1.0);
         self.flags = Link::kOpen;
         recv.push_back(h.rootCluster());
