@@ -26,7 +26,6 @@ class ReceiverCheck final : public RefinementCheck {
     const char* name() const override { return "receiver"; }
     bool beginPass(const CheckPass& pass) override {
         eps_ = pass.guardEps;
-        epsPower_ = pass.epsPower;
         return eps_ > 0.0;
     }
     CheckNeeds needs() const override { return {.receiverErrors = true}; }
@@ -43,7 +42,6 @@ class ReceiverCheck final : public RefinementCheck {
 
   private:
     double eps_ = 0.0;
-    double epsPower_ = 1.0;
 };
 
 }  // namespace
