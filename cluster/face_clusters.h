@@ -34,12 +34,8 @@
 // for a square, 6 / (pi n) for a 1 x n strip) at least face_compactness. The plane fit uses Eigen's
 // 3x3 self-adjoint solver.
 //
-// Settings (read by ClusterSettings, cluster/tree.h):
-//   cluster.faces            bool    false  face clusters under the bvh
-//   cluster.face_cone        double  30     largest normal-cone half-angle, degrees (0..89)
-//   cluster.face_planarity   double  0.1    largest relative distance from the plane
-//   cluster.face_shape       double  0.5    weight of the shape term
-//   cluster.face_compactness double  0      smallest compactness of a merged cluster (0..1)
+// Settings: cluster.faces and cluster.face_* (read by ClusterSettings;
+// `hrad settings cluster.face` lists them).
 #pragma once
 
 #include <array>

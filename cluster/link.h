@@ -25,23 +25,8 @@
 // the balance heuristic (Veach & Guibas 1995); the sender drawn by a
 // defensive mixture (Hesterberg 1995); the samples kept by root patch.
 //
-// Settings (key, type, default):
-//   cluster.vis_rays int 8             rays per visibility estimate (two per link)
-//   cluster.separation double 1.5      cluster-cluster validity, times the radii sum
-//   cluster.surface_separation double 1  the same, surface-cluster (1: spheres apart)
-//   cluster.face_separation double 1.5 the same, planar face clusters and surfaces
-//   cluster.face_kernel string point   point | disc (pi r^2 + A_r + A_s below)
-//   cluster.near string stand_in       open | sample | stand_in, for near pairs
-//   cluster.near_overlapping bool true stand_in also for overlapping pairs, self-links
-//   cluster.near_open_pairs int 8192   pairs of at most this many surface pairs: opened
-//   cluster.near_rays int 32           rays per sampled near estimate
-//   cluster.defer_dark bool true       links from dark clusters made when lit
-//   cluster.ambient bool true          sender points drawn by B_k + rho_k a
-//   cluster.handover string visible    visible | cosine (oriented, cluster/openness.h)
-//   cluster.stand_in bool true         stand-ins for links left unopened
-//   cluster.stand_in_rays int 128      point pairs per stand-in estimate
-//   cluster.stand_in_handover string area  area | seen (Hierarchy::handOverStandIns)
-//   cluster.stand_in_pairs int 0       overlapping pairs summed over surface pairs
+// Settings: the cluster.* keys (`hrad settings cluster.` lists them with
+// their types, defaults and docs).
 #pragma once
 
 #include <cstdint>

@@ -2,46 +2,34 @@
 // (oracles::LinkEstimate::receiverRange and friends).
 //
 // Hierarchical radiosity gives every point of a receiver element the same
-// gathered radiosity rho_r sum_l K_l B_l, and pushes it unchanged to the
-// element's leaves. The exact irradiance from the same senders (B constant on
-// each sender) at a point x is rho_r sum_l v_l F_l(x) B_l. The difference,
-//     D(x) = rho_r sum_l B_l v_l (F_l(x) - F_l),
-// is the error of the receiver's piecewise-constant irradiance, and it is the
-// sum over links that matters: judged link by link, the variation of each
-// kernel over a receiver is large near every shared edge even where the links
-// of one receiver compensate each other (in a closed room sum_l F_l(x) = 1 at
-// every x), while many links whose variations have the same sign (a coarse
-// receiver next to a finely linked wall) each pass a per-link threshold and
-// add up to an error of several per cent (measured: papers/notes/
-// 2026-11-29-receiver-error.md). The aggregate is the error estimate of Holzschuch & Sillion 1998 and
-// Lischinski, Smits & Greenberg 1994 taken over all links of a receiver
-// rather than per link, sampled at the receiver's corners, edge midpoints and
-// centroid (transport FormFactorEngine::kernelSamples), where the kernel of a
-// planar receiver takes its extremes.
+// gathered radiosity rho_r sum_l K_l B_l. The exact irradiance from the same
+// senders (B constant on each) at x is rho_r sum_l v_l F_l(x) B_l, so
+//     D(x) = rho_r sum_l B_l v_l (F_l(x) - F_l)
+// is the receiver's error, and it is the sum over links that matters: per
+// link the kernel varies a lot near shared edges even where a receiver's
+// links compensate (in a closed room sum_l F_l(x) = 1), while many links of
+// one sign each pass a per-link threshold and add up to several per cent
+// (papers/notes/2026-11-29-receiver-error.md). This is the estimate of
+// Holzschuch & Sillion 1998 and Lischinski, Smits & Greenberg 1994 taken over
+// all links of a receiver, sampled at its corners, edge midpoints and
+// centroid (FormFactorEngine::kernelSamples), where a planar receiver's
+// kernel takes its extremes.
 //
-// The sender side is aggregated the same way. A link from a subdivided sender
-// s carries K B_s, the sender's area average, while the receiver gathers
-// sum_c K_c B_c from its parts; the difference sum_c (K_c - K A_c/A_s)(B_c -
-// B_s) is at most K max_c |B_c - B_s|. Its sign is not random: the parts of a
-// sender a receiver sees best (near it, or unoccluded) are mostly the parts
-// the light reaches too, and the shadowed parts the average includes are
-// often the ones the receiver cannot see, and a per-link test lets the
-// loss through at every eps (same page). The receiver's sum over its
-// links of K_l max_c |B_c - B_l| is therefore held to eps as a whole, like
-// the kernel term (papers/README.md, "Where the darkness came from").
+// The sender side is aggregated the same way: a link from a subdivided
+// sender s carries K B_s where the receiver would gather sum_c K_c B_c; the
+// difference is at most K max_c |B_c - B_s|, and its sign is not random (the
+// parts a receiver sees best are mostly the lit ones), so the receiver's sum
+// over its links of K_l max_c |B_c - B_l| is held to eps as a whole
+// (papers/README.md, "Where the darkness came from").
 //
-// Polynomial bases (hr.basis above constant, scene/basis.h). A receiver then
-// gets, from each surface link, the projection P_l(x) of the link's kernel
-// onto its basis (Galerkin: Zatz 1993; Bekaert & Willems 1995), not the
-// average F_l, so what it misses is
+// Polynomial bases (hr.basis above constant, scene/basis.h): a receiver gets
+// from each surface link the projection P_l(x) of its kernel onto the basis
+// (Galerkin: Zatz 1993; Bekaert & Willems 1995), so it misses
 //     D(x) = rho_r sum_l B_l v_l (F_l(x) - P_l(x)),
-// sampled at the same points (linkResidualSamples; the sender's polynomial
-// beyond its mean is not judged here, as the sender side above bounds the
-// sender's variation by its leaves' means). For the constant basis P_l = F_l
-// and this is the aggregate above. In a closed room the residuals of all
-// links of a receiver still sum to zero at every point (the projection of
-// sum_l F_l(x) = 1 is 1), so the furnace stays exact, and a smooth transfer
-// that the basis represents is not refined.
+// sampled at the same points (linkResidualSamples). For the constant basis
+// P_l = F_l. In a closed room the residuals still sum to zero at every point,
+// so the furnace stays exact, and a transfer the basis represents is not
+// refined.
 #pragma once
 
 #include <algorithm>

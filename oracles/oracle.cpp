@@ -67,7 +67,9 @@ VariationOracle::Settings VariationOracle::Settings::fromParams(const Params& p)
                             s.minArea, 0.0, 1e300);
     s.refineReceiver =
         p.getEnum(
-            {"side", "which side an error oracle refines: receiver, sender or both by their error"},
+            {"side", "links touching a cluster: a refused link subdivides the element that looks "
+                     "larger from the other (HSA91), or the receiver (which never resolves the "
+                     "sender's own variation)"},
             "larger", {"larger", "receiver"}) == "receiver";
     return s;
 }

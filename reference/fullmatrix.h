@@ -7,71 +7,27 @@
 //
 //     B_i = E_i + rho_i sum_j F_ij B_j        (per RGB channel)
 //
-// is then solved by one of three stationary methods (Cohen & Wallace 1993,
-// ch. 5): Jacobi (§5.3.1), Gauss-Seidel (§5.3.2, in place, rows in element
-// order) or Southwell / progressive refinement (§5.3.3, Cohen, Chen, Wallace &
-// Greenberg 1988: "shoot" the unshot radiosity of the element with the largest
-// unshot power). All three converge to the same solution of the same matrix.
+// is then solved by Jacobi (§5.3.1), Gauss-Seidel (§5.3.2, in place, rows in
+// element order) or Southwell / progressive refinement (§5.3.3, Cohen, Chen,
+// Wallace & Greenberg 1988: shoot the unshot radiosity of the element with
+// the largest unshot power). All three converge to the same solution. The
+// iteration stops at a relative residual of the unbalanced power,
+//     res(B) = sum_i A_i |r_i|_1 / sum_i A_i |B_i|_1,  r = E + rho (F B) - B.
+// The form factors use the adaptive rule by default (ff.adaptive_depth 3,
+// fullMatrixFormFactorDefaults): the mesh is fixed, so near pairs need an
+// accurate rule (papers/notes/2026-12-02-header-notes.md).
 //
-// Settings (Params keys below a prefix, "fm" by default):
-//   level           int     3       uniform subdivision level of every patch
-//                                   (4^level elements per patch); ignored when
-//                                   max_area > 0
-//   max_area        double  0       subdivide each patch until every element has
-//                                   area <= max_area (0: use level)
-//   max_level       int     12      cap on the level chosen by max_area
-//   solver          string  "gauss-seidel"   "jacobi" | "gauss-seidel" | "southwell"
-//   tolerance       double  1e-7    relative residual at which iteration stops:
-//                                   res(B) = sum_i A_i |r_i|_1 / sum_i A_i |B_i|_1
-//                                   with r = E + rho (F B) - B, |.|_1 the sum of
-//                                   the absolute RGB channels: the relative L1
-//                                   norm of the unbalanced *power* A_i r_i
-//   max_iterations  int     10000   Jacobi / Gauss-Seidel sweeps; for Southwell
-//                                   the cap is max_iterations * n shots
-//   ambient         bool    false   Southwell only: add the ambient term of
-//                                   Cohen et al. 1988 (Cohen & Wallace 1993
-//                                   §5.3.3) to the returned field. It is a
-//                                   display estimate of the not yet shot light;
-//                                   it vanishes as the residual does, so a
-//                                   converged solution differs from the others
-//                                   by O(tolerance). Leave false for references.
-//   ff.*                            transport::FormFactorSettings (rule, points,
-//                                   sender_points, vis_rays, adaptive_depth,
-//                                   adaptive_tol); here adaptive_depth defaults
-//                                   to 3 (fullMatrixFormFactorDefaults): the mesh is
-//                                   fixed, so near pairs (lamps next to their
-//                                   fixtures, walls meeting) need an accurate
-//                                   rule. RenderPark's corridor, fixed 3 x 3
-//                                   rule vs adaptive: total power 3.97 vs 3.74
-//                                   MW (green) at level 0, 3.90 vs 3.82 at
-//                                   level 1; the adaptive levels 0-2 converge
-//                                   (3.74, 3.82, 3.84) towards the Monte Carlo
-//                                   reference (papers/README.md)
-//   ff.method       string  "quadrature"  "hemicube": each row F_i* from
-//                                   hemicubes on element i (transport/hemicube.h;
-//                                   ff.hemicube_res, ff.hemicube_points); the
-//                                   quadrature keys are then unused. Part of
-//                                   describe(), hence of the cache key, only
-//                                   when it is "hemicube".
+// Storage: sparse rows (CSR), double values and 32-bit column indices, 12
+// bytes per non-zero plus 8 per row; pairs that cannot exchange energy and
+// the diagonal (planar elements, F_ii = 0) are not stored. Southwell builds
+// the transpose (reciprocity holds only up to quadrature error, so using it
+// instead would solve a slightly different system). Cost grows as n^2 in
+// time and memory (measured limits: the notes page above). solveFullMatrix()
+// does not cache; reference/cache.h's cachedFullMatrix() does, keyed by a
+// hash of the scene and the settings.
 //
-// Storage: the form factors are kept as sparse rows (CSR) with double values
-// and 32-bit column indices, 12 bytes per non-zero plus 8 bytes per row; pairs
-// that cannot exchange energy (FormFactorEngine::facing false, or F == 0
-// because fully occluded) and the diagonal (planar elements, F_ii = 0) are not
-// stored. Southwell needs columns of F and builds the transpose (a second copy;
-// reciprocity A_i F_ij = A_j F_ji holds only up to quadrature error, so using it
-// instead would solve a slightly different system).
-//
-// Practical limits, measured with the fixed 3x3 rule and 16 visibility rays
-// on the 2-core development machine (the adaptive rule adds 7 % on Cornell
-// level 3: 1.41 -> 1.51 s; 40 % on RenderPark's corridor at level 1): Cornell
-// box level 3 (1,088 elements) 2.2 s; furnace level 4 (1,536) 4.5 s; a 19-patch box with
-// a blocker at level 4 (4,864 elements, 11.0 M non-zeros, 132 MB CSR) 62 CPU-s
-// (~30 s wall on two idle cores); the solve itself takes < 0.5 s (Southwell
-// 1.5 s). Cost grows as n^2: 20k elements are ~17x the 4.9k case (~20 CPU-min)
-// and ~2 GB of matrix (twice that for Southwell). solveFullMatrix() itself
-// does not cache; reference/cache.h's cachedFullMatrix() stores converged
-// solutions on disk keyed by a hash of the scene contents and the settings.
+// Settings: the keys below a prefix, "fm" by default (`hrad settings fm.`;
+// a study's reference: `hrad settings reference.fm.`).
 #pragma once
 
 #include <cstdint>

@@ -29,9 +29,8 @@
 //
 // Two-scale relations. A child covers 1/4 of its parent's parametric domain
 // (quads and triangles alike), and a polynomial of degree p restricted to a
-// child is a polynomial of degree p there, so with
-//   T_c[a][b] = integral over the child's reference domain of
-//               phi_a(parent local coordinates of eta) phi_b(eta) d eta
+// child is a polynomial of degree p there, so with T_c[a][b] = integral over
+// the child's reference domain of phi_a(parent coordinates of eta) phi_b(eta)
 // pushing (restriction) is exact: child_b = sum_a T_c[a][b] parent_a, and
 // pulling (the L2 projection of the children's piecewise polynomial onto the
 // parent's) is parent_a = 1/4 sum_c sum_b T_c[a][b] child_b; pull after push

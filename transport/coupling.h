@@ -1,66 +1,39 @@
 // Galerkin coupling coefficients between two surface elements for a
 // polynomial basis (scene/basis.h).
 //
-// With B on an element expanded as sum_b c_b phi_b in a basis orthonormal for
-// the normalised measure of its local domain (phi_0 = 1, c_0 the mean), the
-// Galerkin projection of the radiosity equation onto receiver r gives
+// With B on an element expanded in a basis orthonormal for the normalised
+// measure of its local domain (phi_0 = 1, c_0 the mean), the Galerkin
+// projection of the radiosity equation onto receiver r gives
 //   c^r_a = E_a + rho_r sum_s sum_b K_rs^{ab} c^s_b,
 //   K_rs^{ab} = integral_{xi in r} phi_a(xi)
 //               integral_{y in s} phi_b(y) cos t_x cos t_y / (pi |x - y|^2) V dA_y dxi
-// (Zatz 1993 eq. 9; Bekaert & Willems 1995, the Galerkin coupling
-// coefficients), so K^{00} is the form factor F_rs and reciprocity reads
-// A_r K_rs^{ab} = A_s K_sr^{ba} (elements with a constant Jacobian).
+// (Zatz 1993 eq. 9; Bekaert & Willems 1995), so K^{00} is the form factor
+// F_rs and reciprocity reads A_r K_rs^{ab} = A_s K_sr^{ba}.
 //
-// Quadrature (Gauss-Legendre n x n on quads, collapsed Gauss n x n on
-// triangles: scene::referenceRule) on both elements; n follows the basis
-// (hr.basis_points, default degree + 2: exact for the polynomial part of the
-// integrand on either side). The column b = 0 uses the exact point-to-element
-// form factor as inner integral (transport pointToElement, Lambert's contour
-// integral), which stays accurate for adjacent elements where the
-// point-to-point kernel is nearly singular; the other columns use the
-// point-to-point kernel.
+// Quadrature: Gauss-Legendre n x n on quads, collapsed Gauss on triangles
+// (scene::referenceRule), n = hr.basis_points (default degree + 2). Column
+// b = 0 uses the exact point-to-element form factor (Lambert's contour
+// integral) as inner integral, accurate for adjacent elements; the other
+// columns use the point-to-point kernel.
 //
-// Near pairs (centroid distance below 1.5 times the sum of the elements'
-// radii: adjacent elements meeting at an edge, or neighbours) make the
-// point-to-point kernel nearly singular where the quadrature points of one
-// element come close to the other: with a plain n x n rule the higher-order
-// coefficients of the Cornell box's corner links came out wrong enough to stop
-// the Jacobi iteration from converging (uniform level 1, quadratic: L2 0.036
-// against 0.010 with 8 x 8 points). Near pairs therefore use a composite rule
-// on both elements for the columns b >= 1: the n x n rule on each of the 4^k
-// sub-elements of the quadtree (k = hr.basis_near_levels, default 1: L2 0.0102
-// there; k = 2, 0.0095, costs 16 times more), the same on both sides so that
-// reciprocity is kept. The column b = 0 keeps the base rule on the receiver
-// whatever the sender, so that the point form factors to all senders sum to
-// one at the same points (exact furnace; a rule depending on the sender broke
-// that by 1e-5).
+// Near pairs (centroid distance below 1.5 times the radii sum) use a
+// composite rule for the columns b >= 1 (the n x n rule on each of 4^k
+// sub-elements, k = hr.basis_near_levels, the same on both sides to keep
+// reciprocity); column 0 keeps the base receiver rule so the point form
+// factors to all senders sum to one at the same points (exact furnace).
 //
-// A check on the point-to-point rule (hr.basis_check, default 0.5). The
-// columns b >= 1 rest on the point-to-point kernel; where its rule cannot
-// follow the kernel (a sliver 7 mm wide and 1.2 m long next to another at a
-// right angle, as the chamfers of RenderPark's classroom tables: the kernel
-// varies over millimetres along the long side, sampled every 30 cm) they are
-// wrong, and a wrong higher-order coupling can make the Jacobi iteration
-// diverge (classroom, linear and quadratic: a mode growing up to 18x per
-// iteration). The same sender points also give the point-kernel estimate of
-// the point form factor at the column-0 receiver points, which the exact
-// contour integral checks at no extra cost: when sum_i w_i |F_rule(x_i) -
-// F(x_i)| exceeds the tolerance times sum_i w_i F(x_i), the link keeps its
-// exact column 0 and no higher columns (the sender's mean only). Measured
-// relative errors: cornell's near pairs median 4e-6, 99th percentile 0.30;
-// classroom's near pairs 99th percentile 0.81, largest 15 (2,967 of 149,781
-// above 0.5). With 0.5 the classroom converges for linear and quadratic,
-// and every point of the bases study on cornell and the plates is unchanged
-// but one (cornell quadratic bfa 1e-3: L2 0.00372 -> 0.00380).
+// A check on the point-to-point rule (hr.basis_check): where the rule cannot
+// follow the kernel (slivers meeting at right angles), the point-kernel
+// estimate of the column-0 point form factors, free from the same samples, is
+// compared with the exact ones; above the tolerance the link keeps column 0
+// only, since a wrong higher coupling can make the iteration diverge.
 //
-// Visibility: a link whose visibility estimate is not partial has V = its
-// (0 or 1) visibility fraction everywhere. For a partially visible link that
-// is not near, a ray is cast between every pair of quadrature points (V_ik),
-// so that shadow boundaries inside the link shape the higher-order terms; the
-// exact b = 0 column is then scaled per receiver point by the kernel-weighted
-// fraction of visible sender points. For a partially visible near pair
-// (whose composite rules would need 4^{2k} times the rays) V(x_i, y_k) is the
-// ray from x_i to the centroid of the sender sub-element holding y_k.
+// Visibility: a link that is not partially visible has V equal to its 0/1
+// fraction. A partially visible far link casts a ray between every pair of
+// quadrature points, and column 0 is scaled per receiver point by the
+// kernel-weighted visible fraction; a partially visible near pair casts from
+// x_i to the centroid of the sender sub-element holding y_k. Measurements
+// behind these rules: papers/notes/2026-12-02-header-notes.md.
 #pragma once
 
 #include <atomic>
