@@ -27,6 +27,7 @@ class HrEntry final : public Solver {
     SolveOutput solve(const scene::Scene& sc, const transport::Visibility& vis,
                       const SolveContext& ctx) const override {
         hr::HrSolver s(sc, vis, settings_);
+        s.setCancelToken(ctx.cancel);
         if (ctx.historyError)
             s.setIterationHook([&](const hr::Hierarchy& hh, hr::IterationRecord& rec) {
                 hr::HierarchyField f(hh);
