@@ -1,8 +1,9 @@
-// The module's functions around runs: the settings reference (`hrad
-// settings`), the results store's checks before pandas reads it
+// The module's functions around runs: the log level (`hrad --log`), the
+// settings reference (`hrad settings`), the results store's checks before pandas reads it
 // (experiments/store.h), and a study's validation before `hrad sweep` runs it.
 #include <pybind11/stl.h>
 
+#include "core/log.h"
 #include "experiments/settings_reference.h"
 #include "experiments/store.h"
 #include "experiments/study.h"
@@ -11,6 +12,10 @@
 namespace hrad::python {
 
 void bindRuns(py::module_& m) {
+    initLogging("info");  // the command line's format, on stderr
+    m.def("log_level", &initLogging, py::arg("level"), R"doc(
+The log's level on stderr: "quiet" (warnings only), "info" (the default) or
+"debug"; the command line's --log.)doc");
     m.def(
         "settings_help",
         [](const std::string& prefix) {

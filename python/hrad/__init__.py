@@ -24,10 +24,10 @@ import subprocess
 import sys
 
 from . import _hrad
-from ._hrad import Error, InputError, Scene, Solution, settings_help
+from ._hrad import Error, InputError, Scene, Solution, log_level, settings_help
 
 __all__ = ["load", "solve", "reference", "error", "render", "read_solution", "open_store",
-           "sweep", "settings_help", "Scene", "Solution", "Store", "Error", "InputError"]
+           "sweep", "settings_help", "log_level", "Scene", "Solution", "Store", "Error", "InputError"]
 
 
 def _caller():

@@ -121,6 +121,12 @@ def test_reference_error_and_render(cache_dir):
         assert sol.summary["error"][k] == pytest.approx(v, rel=1e-12), k
     assert 0 < err["l2_lum"] < 0.5
     assert hrad.error(ref, ref)["l2_lum"] == 0.0
+    # A full-matrix solve through the API is that reference.
+    hrad.log_level("quiet")
+    fm = hrad.solve(scene, solver="full-matrix", **{"fm.level": 2})
+    hrad.log_level("info")
+    assert fm.summary["solver"] == "full-matrix"
+    assert hrad.error(fm, ref)["l2_lum"] < 1e-6
     image = hrad.render(sol, {"render.width": 40, "render.height": 30})
     assert image.shape == (30, 40, 3) and image.dtype == np.float64
     assert np.isfinite(image).all() and image.max() > 0
