@@ -174,6 +174,12 @@ scenes = ["cornell"]
     # The store's links for eps = 3e-3 are those of the same solve in Python.
     sol = hrad.solve("cornell", CORNELL)
     assert int(runs[runs["oracle.eps"] == 3e-3]["links"].iloc[0]) == sol.summary["counts"]["links"]
+    # A bad study is refused before anything runs, at its file:line.
+    bad = tmp_path / "bad.toml"
+    bad.write_text(study.read_text().replace('"hr.oracle" = "error"', '"hr.oracle" = "error"\n"oracle.epz" = 1'))
+    with pytest.raises(hrad.InputError, match=f"{bad}:.*oracle.epz"):
+        hrad.sweep(bad, tmp_path / "bad.sqlite")
+    assert not (tmp_path / "bad.sqlite").exists()
     # Not a store: hrad's check, with the file's name.
     (tmp_path / "no.sqlite").write_text("not a database")
     with pytest.raises(hrad.InputError, match="no.sqlite"):
@@ -190,6 +196,7 @@ def test_ctrl_c_stops_a_solve():
     timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
     t0 = time.monotonic()
     timer.start()
+    # The timer thread runs only because the solve has released the GIL.
     with pytest.raises(KeyboardInterrupt):
         hrad.solve("office:2", settings)
     elapsed = time.monotonic() - t0
@@ -203,3 +210,17 @@ def test_help_points_to_the_settings():
     assert "hrad settings" in hrad.solve.__doc__
     text = hrad.settings_help("oracle.eps")
     assert "oracle.eps" in text
+
+
+def test_a_shared_scene_file():
+    # The real scenes beside the repository (../shared/scenes), when present.
+    scenes = os.environ.get("HRAD_SCENES") or os.path.join(
+        os.path.dirname(__file__), "..", "..", "..", "shared", "scenes")
+    path = os.path.join(scenes, "cornell-box", "CornellBox-Original.obj")
+    if not os.path.exists(path):
+        pytest.skip(f"{path} absent")
+    scene = hrad.load(path)
+    assert scene.num_patches == len(scene.area) > 0
+    assert scene.area.sum() == pytest.approx(scene.total_area, rel=1e-9)
+    assert (scene.E.max(axis=1) > 0).any()
+    np.testing.assert_allclose(np.linalg.norm(scene.normal, axis=1), 1.0, rtol=1e-9)
