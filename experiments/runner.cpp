@@ -443,6 +443,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         };
     }
     solveCtx.cancel = ctx.cancel;
+    solveCtx.onRecord = ctx.onRecord;
     SolveOutput solved = r.solverImpl->solve(sc, vis, solveCtx);
     field = solved.field;
     if (ctx.keep) ctx.keep(RunOutput{scene, visibility, solved, {}});

@@ -116,6 +116,9 @@ struct RunContext {
     /// Called with the solution (runPoint, right after the solve) or the
     /// reference (prepareReference) that the run would otherwise drop.
     std::function<void(const RunOutput&)> keep;
+    /// Handed to the solve (SolveContext::onRecord): every history record
+    /// as it is made.
+    std::function<void(const nlohmann::json&)> onRecord;
 };
 
 /// Builds every component's settings from the point's Params exactly as

@@ -57,6 +57,10 @@ struct SolveContext {
     /// (hr/budget.h) and throws hrad::Cancelled; full-matrix and progressive
     /// do not poll it yet and finish their solve.
     const CancelToken* cancel = nullptr;
+    /// If set, called with every history record as it is made (the fields
+    /// of summary.history[i], l2_lum included with historyError): progress
+    /// for a caller that shows it (the Python module's on_iteration).
+    std::function<void(const nlohmann::json&)> onRecord;
 };
 
 /// What both callers need from a solve.

@@ -13,7 +13,7 @@ namespace hrad::python {
 
 namespace py = pybind11;
 
-void runInterruptible(const std::function<void(const CancelToken&)>& work) {
+void runInterruptible(const std::function<void(CancelToken&)>& work) {
     CancelToken token;
     std::exception_ptr failure;
     std::optional<py::error_already_set> interrupt;  // KeyboardInterrupt, held with the GIL

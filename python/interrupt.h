@@ -17,9 +17,10 @@
 
 namespace hrad::python {
 
-/// Runs work(token) as above. C++ exceptions of the work are rethrown here
+/// Runs work(token) as above (the work may request the token itself, e.g.
+/// when a Python callback it calls raises). C++ exceptions of the work are rethrown here
 /// (pybind11 turns them into hrad.InputError / hrad.Error); Ctrl-C raises
 /// KeyboardInterrupt once the work has returned.
-void runInterruptible(const std::function<void(const CancelToken&)>& work);
+void runInterruptible(const std::function<void(CancelToken&)>& work);
 
 }  // namespace hrad::python

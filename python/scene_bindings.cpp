@@ -72,7 +72,7 @@ std::shared_ptr<SceneHandle> load(const std::string& spec, const py::dict& setti
     handle->spec = spec;
     handle->settings = settings;
     Params params = toParams(settings, {file, line, 0});
-    runInterruptible([&](const CancelToken&) {
+    runInterruptible([&](CancelToken&) {
         handle->scene = std::make_shared<scene::Scene>(transport::loadScene(spec, params));
         params.reportUnused();
     });

@@ -4,6 +4,8 @@
 // hrad.read_solution (reference::loadSolution, `hrad render`'s reader),
 // hrad.error (reference::computeError, the summary's error block) and
 // hrad.render (render::renderField, `hrad render`'s image).
+#include <optional>
+
 #include <fmt/format.h>
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
@@ -135,23 +137,51 @@ experiments::PointSpec pointFor(const SceneHandle& scene, const py::dict& settin
     return point;
 }
 
+/// SolveContext::onRecord for a Python callable, called on the solve's
+/// thread with the GIL: the first exception it raises is kept and stops the
+/// solve (the token), to be raised by solve() once the solve has unwound.
+struct RecordCallback {
+    py::object fn;
+    std::optional<py::error_already_set> raised;
+
+    void operator()(const json& record, CancelToken& token) {
+        py::gil_scoped_acquire gil;
+        if (raised) return;
+        try {
+            fn(toPython(record));
+        } catch (py::error_already_set& e) {
+            raised.emplace(std::move(e));
+            token.request();
+        }
+    }
+};
+
 std::shared_ptr<Solution> solve(const std::shared_ptr<SceneHandle>& scene,
                                 const py::dict& settings, const py::dict& reference,
-                                bool historyError, bool progress, bool cache,
-                                const std::string& cacheDir, const std::string& file, int line) {
+                                bool historyError, const py::object& onIteration, bool progress,
+                                bool cache, const std::string& cacheDir, const std::string& file,
+                                int line) {
     experiments::PointSpec point =
         pointFor(*scene, settings, reference, historyError, {file, line, 0});
     experiments::RunOutput kept;
     json summary;
-    runInterruptible([&](const CancelToken& token) {
-        experiments::RunContext ctx;
-        ctx.progress = progress;
-        ctx.useCache = cache;
-        ctx.cacheDir = cacheDir;
-        ctx.cancel = &token;
-        ctx.keep = [&](const experiments::RunOutput& r) { kept = r; };
-        summary = experiments::runPoint(point, ctx);
-    });
+    RecordCallback callback{onIteration, {}};
+    try {
+        runInterruptible([&](CancelToken& token) {
+            experiments::RunContext ctx;
+            ctx.progress = progress;
+            ctx.useCache = cache;
+            ctx.cacheDir = cacheDir;
+            ctx.cancel = &token;
+            ctx.keep = [&](const experiments::RunOutput& r) { kept = r; };
+            if (!onIteration.is_none())
+                ctx.onRecord = [&](const json& r) { callback(r, token); };
+            summary = experiments::runPoint(point, ctx);
+        });
+    } catch (const Cancelled&) {
+        if (!callback.raised) throw;
+    }
+    if (callback.raised) throw *callback.raised;
     return solutionOf(kept, summary, scene);
 }
 
@@ -162,7 +192,7 @@ std::shared_ptr<Solution> computeReference(const std::shared_ptr<SceneHandle>& s
     experiments::PointSpec point = pointFor(*scene, settings, reference, false, {file, line, 0});
     experiments::RunOutput kept;
     json description;
-    runInterruptible([&](const CancelToken&) {
+    runInterruptible([&](CancelToken&) {
         experiments::validatePoint(point);  // unknown keys, as `hrad reference`
         experiments::RunContext ctx;
         ctx.progress = progress;
@@ -203,7 +233,7 @@ py::array render(Solution& s, const py::dict& settings, const std::string& file,
     params.reportUnused();
     const transport::Visibility& vis = visibilityOf(*s.scene);
     auto img = std::make_unique<render::Image>();
-    runInterruptible([&](const CancelToken&) {
+    runInterruptible([&](CancelToken&) {
         scene::Camera cam = render::chooseCamera(*s.scene->scene, vis, rs);
         *img = render::renderField(*s.scene->scene, vis, *s.field, cam, rs);
     });

@@ -56,7 +56,7 @@ def load(scene, settings=None, **more):
 
 
 def solve(scene, settings=None, *, solver=None, reference=None, history_error=False,
-          progress=False, cache=True, cache_dir=None, **more):
+          on_iteration=None, progress=False, cache=True, cache_dir=None, **more):
     """Solves `scene` (an hrad.Scene, or what hrad.load takes) and returns an
     hrad.Solution: summary (the dict `hrad solve` writes as summary.json),
     per-leaf arrays (patch, key, level, corners, area, B, coefficients) and
@@ -73,6 +73,9 @@ def solve(scene, settings=None, *, solver=None, reference=None, history_error=Fa
       history_error=True adds the L2 error after every iteration.
     cache, cache_dir: the reference cache (hrad reference's; default
       $HRAD_CACHE or ~/.cache/hrad).
+    on_iteration: called with every history record as it is made (the dict
+      of summary["history"][i]: iteration, links, residual, ...; hr and
+      progressive); an exception it raises stops the solve and is raised.
     progress: progress bars on stderr (the log always goes there).
 
     The scene is loaded again from its spec by the solve (as `hrad solve`
@@ -86,8 +89,8 @@ def solve(scene, settings=None, *, solver=None, reference=None, history_error=Fa
     s.update(_merge(settings, more))
     if solver is not None:
         s["solver"] = solver
-    return _hrad._solve(scene, s, dict(reference or {}), history_error, progress, cache,
-                        os.fspath(cache_dir or ""), *where)
+    return _hrad._solve(scene, s, dict(reference or {}), history_error, on_iteration, progress,
+                        cache, os.fspath(cache_dir or ""), *where)
 
 
 def reference(scene, settings=None, *, kind="full-matrix", progress=False, cache=True,

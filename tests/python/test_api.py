@@ -224,3 +224,20 @@ def test_a_shared_scene_file():
     assert scene.area.sum() == pytest.approx(scene.total_area, rel=1e-9)
     assert (scene.E.max(axis=1) > 0).any()
     np.testing.assert_allclose(np.linalg.norm(scene.normal, axis=1), 1.0, rtol=1e-9)
+
+
+def test_on_iteration_sees_every_record_and_can_stop():
+    seen = []
+    sol = hrad.solve("cornell", CORNELL, on_iteration=seen.append)
+    assert seen == sol.summary["history"] and len(seen) > 1
+
+    class Enough(Exception):
+        pass
+
+    def stop_after_two(record):
+        if record["iteration"] >= 2:
+            raise Enough(record["links"])
+
+    with pytest.raises(Enough):
+        hrad.solve("cornell", {"hr.oracle": "error", "oracle.eps": 1e-4},
+                   on_iteration=stop_after_two)
