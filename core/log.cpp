@@ -9,7 +9,9 @@
 namespace hrad {
 
 void initLogging(const std::string& level) {
-    auto logger = spdlog::stderr_color_mt("hrad");
+    // Callable again (the Python module's hrad.log_level): the logger is made once.
+    auto logger = spdlog::get("hrad");
+    if (!logger) logger = spdlog::stderr_color_mt("hrad");
     logger->set_pattern("[%l] %v");
     if (level == "quiet")
         logger->set_level(spdlog::level::warn);

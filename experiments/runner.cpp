@@ -63,7 +63,9 @@ json paramsJson(const Params& p) {
     return j;
 }
 
-json metricsJson(const reference::ErrorMetrics& m) {
+}  // namespace
+
+json errorMetricsJson(const reference::ErrorMetrics& m) {
     return json{{"l1_lum", m.l1Lum},
                 {"l2_lum", m.l2Lum},
                 {"linf_lum", m.linfLum},
@@ -79,6 +81,8 @@ json metricsJson(const reference::ErrorMetrics& m) {
                 {"dark_regions", m.darkRegions},
                 {"regions", m.regions}};
 }
+
+namespace {
 
 /// Every setting of a point, read once and validated (shared by validatePoint
 /// and runPoint so that a dry run checks exactly what a run reads).
@@ -316,9 +320,11 @@ json prepareReference(const PointSpec& p, const RunContext& ctx) {
     json out = json::object();
     if (r.refKind == "none") return out;
     Timer t;
-    scene::Scene sc = transport::loadScene(p.scene, p.settings);
+    auto scene = std::make_shared<scene::Scene>(transport::loadScene(p.scene, p.settings));
+    const scene::Scene& sc = *scene;
     requireSolvable(sc, p.settings);
-    transport::Visibility vis(sc);
+    auto visibility = std::make_shared<transport::Visibility>(sc);
+    const transport::Visibility& vis = *visibility;
     Reference ref = computeReference(sc, vis, r, ctx);
     out["reference"] = referenceDescription(r);
     out["cached"] = ref.cached;
@@ -356,6 +362,14 @@ json prepareReference(const PointSpec& p, const RunContext& ctx) {
             out["reflected_power_stderr"] =
                 json::array({std::sqrt(var.r), std::sqrt(var.g), std::sqrt(var.b)});
     }
+    if (ctx.keep) {
+        RunOutput kept{scene, visibility, {}, ref.stdError};
+        std::shared_ptr<const scene::UniformField> field = std::move(ref.field);
+        kept.solved.field = field.get();
+        kept.solved.owner = field;
+        kept.solved.summary = out;
+        ctx.keep(kept);
+    }
     return out;
 }
 
@@ -372,7 +386,8 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     // ---- settings: read and validate everything before any work ----------------
     Resolved r = resolve(p);
     Timer tLoad;
-    scene::Scene sc = transport::loadScene(p.scene, p.settings);
+    auto scene = std::make_shared<scene::Scene>(transport::loadScene(p.scene, p.settings));
+    const scene::Scene& sc = *scene;
     requireSolvable(sc, p.settings);
     double loadSeconds = tLoad.seconds();
     // The scene's film (Mitsuba sensor) sets the image size the user left
@@ -397,7 +412,8 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         throw Error("outputs requested but no artefact folder given");
 
     Timer tVis;
-    transport::Visibility vis(sc);
+    auto visibility = std::make_shared<transport::Visibility>(sc);
+    const transport::Visibility& vis = *visibility;
     double visSeconds = tVis.seconds();
 
     json timings = {{"load", loadSeconds}, {"visibility_build", visSeconds}};
@@ -426,8 +442,11 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
             return l2;
         };
     }
+    solveCtx.cancel = ctx.cancel;
+    solveCtx.onRecord = ctx.onRecord;
     SolveOutput solved = r.solverImpl->solve(sc, vis, solveCtx);
     field = solved.field;
+    if (ctx.keep) ctx.keep(RunOutput{scene, visibility, solved, {}});
     // cluster.model = auto is resolved by the solve (hr/solver.cpp solveOnce).
     if (solved.summary.contains("cluster_model") && solved.summary["cluster_model"].is_string())
         p.settings.recordResolved("cluster.model",
@@ -488,6 +507,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     }
 
     // ---- error against the reference --------------------------------------------
+    if (ctx.cancel) ctx.cancel->throwIfRequested();
     std::optional<Reference> ref;
     if (r.refKind != "none") {
         Timer tRef;
@@ -495,7 +515,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         timings["reference"] = earlyRef ? earlyRefSeconds : tRef.seconds();
         Timer tErr;
         reference::ErrorMetrics err = reference::computeError(*field, *ref->field);
-        json e = metricsJson(err);
+        json e = errorMetricsJson(err);
         e["reference"] = referenceDescription(r);
         e["reference_seconds"] = timings["reference"];
         e["reference_cached"] = ref->cached;

@@ -70,13 +70,33 @@
 
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "core/cancel.h"
+#include "experiments/solvers.h"
 #include "experiments/study.h"
 
+namespace hrad::reference {
+struct ErrorMetrics;
+}
+
 namespace hrad::experiments {
+
+/// What a run computed, for a caller that keeps it in memory (the Python
+/// module, python/): the scene and its visibility, which the field refers
+/// to, and the field with its owner. runPoint hands over the solve's output;
+/// prepareReference the reference (solved.field, kept alive by
+/// solved.owner) and, for Monte Carlo, its standard errors per region.
+struct RunOutput {
+    std::shared_ptr<const scene::Scene> scene;
+    std::shared_ptr<const transport::Visibility> visibility;
+    SolveOutput solved;
+    std::vector<RGB> stdError;
+};
 
 struct RunContext {
     /// Reference cache folder; "" = reference::defaultCacheDir().
@@ -90,6 +110,15 @@ struct RunContext {
     /// (hrad solve writes summary.json each time: nothing is lost if a later
     /// step fails).
     std::function<void(const nlohmann::json&)> checkpoint;
+    /// A caller's stop request (core/cancel.h): handed to the solve (which
+    /// throws hrad::Cancelled) and polled between the run's phases.
+    const CancelToken* cancel = nullptr;
+    /// Called with the solution (runPoint, right after the solve) or the
+    /// reference (prepareReference) that the run would otherwise drop.
+    std::function<void(const RunOutput&)> keep;
+    /// Handed to the solve (SolveContext::onRecord): every history record
+    /// as it is made.
+    std::function<void(const nlohmann::json&)> onRecord;
 };
 
 /// Builds every component's settings from the point's Params exactly as
@@ -105,6 +134,10 @@ nlohmann::json runPoint(const PointSpec& point, const RunContext& context);
 /// description {"reference": ..., "cached": bool, "cache_dir": ..., "seconds": ...,
 /// "stats": {...}} and, for Monte Carlo, mc_stderr_l2_lum / mc_stderr_l2_rgb.
 nlohmann::json prepareReference(const PointSpec& point, const RunContext& context);
+
+/// The error block of a summary (summary["error"]'s metrics: l1_lum ...
+/// regions), the CLI's and the store's field names.
+nlohmann::json errorMetricsJson(const reference::ErrorMetrics& metrics);
 
 /// Same key the cache uses for the point's reference: scene label + kind +
 /// settings description ("" when kind = none).

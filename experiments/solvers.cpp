@@ -19,6 +19,34 @@ namespace {
 json rgbJson(const RGB& c) { return json::array({c.r, c.g, c.b}); }
 json nanToNull(double v) { return std::isnan(v) ? json(nullptr) : json(v); }
 
+/// One hr history record as summary.history holds it.
+json hrRecordJson(const hr::IterationRecord& it) {
+    return json{{"iteration", it.iteration},
+                {"stage", it.stage},
+                {"eps", nanToNull(it.eps)},
+                {"links", it.links},
+                {"elements", it.elements},
+                {"leaves", it.leaves},
+                {"refined_links", it.refinedLinks},
+                {"judged", it.judged},
+                {"rays", it.rays},
+                {"form_factors", it.formFactors},
+                {"residual", it.residual},
+                {"iteration_error",
+                 std::isfinite(it.iterationError) ? json(it.iterationError) : json(nullptr)},
+                {"extrapolation", it.extrapolation},
+                {"relaxed_patches", it.relaxedPatches},
+                {"relax_sweeps", it.relaxSweeps},
+                {"reflected_power", rgbJson(it.reflectedPower)},
+                {"refine_s", it.refineSeconds},
+                {"gather_s", it.gatherSeconds},
+                {"push_pull_s", it.pushPullSeconds},
+                {"element_bytes", it.elementBytes},
+                {"link_bytes", it.linkBytes},
+                {"peak_rss", it.peakRss},
+                {"l2_lum", nanToNull(it.l2Lum)}};
+}
+
 // ---- hr: hierarchical radiosity (hr/solver.h) ------------------------------------
 class HrEntry final : public Solver {
   public:
@@ -27,10 +55,14 @@ class HrEntry final : public Solver {
     SolveOutput solve(const scene::Scene& sc, const transport::Visibility& vis,
                       const SolveContext& ctx) const override {
         hr::HrSolver s(sc, vis, settings_);
-        if (ctx.historyError)
+        s.setCancelToken(ctx.cancel);
+        if (ctx.historyError || ctx.onRecord)
             s.setIterationHook([&](const hr::Hierarchy& hh, hr::IterationRecord& rec) {
-                hr::HierarchyField f(hh);
-                rec.l2Lum = ctx.historyError(f);
+                if (ctx.historyError) {
+                    hr::HierarchyField f(hh);
+                    rec.l2Lum = ctx.historyError(f);
+                }
+                if (ctx.onRecord) ctx.onRecord(hrRecordJson(rec));
             });
         auto res = std::make_shared<hr::HrResult>(s.solve(ctx.progress));
         SolveOutput out;
@@ -134,32 +166,7 @@ class HrEntry final : public Solver {
         if (res->nearStandInsMade > 0) t["near_stand_in"] = res->nearStandInSeconds;
         for (const auto& [k, v] : res->memory.all()) out.memory.set(k, v);
         json hist = json::array();
-        for (const auto& it : res->history)
-            hist.push_back(
-                json{{"iteration", it.iteration},
-                     {"stage", it.stage},
-                     {"eps", nanToNull(it.eps)},
-                     {"links", it.links},
-                     {"elements", it.elements},
-                     {"leaves", it.leaves},
-                     {"refined_links", it.refinedLinks},
-                     {"judged", it.judged},
-                     {"rays", it.rays},
-                     {"form_factors", it.formFactors},
-                     {"residual", it.residual},
-                     {"iteration_error",
-                      std::isfinite(it.iterationError) ? json(it.iterationError) : json(nullptr)},
-                     {"extrapolation", it.extrapolation},
-                     {"relaxed_patches", it.relaxedPatches},
-                     {"relax_sweeps", it.relaxSweeps},
-                     {"reflected_power", rgbJson(it.reflectedPower)},
-                     {"refine_s", it.refineSeconds},
-                     {"gather_s", it.gatherSeconds},
-                     {"push_pull_s", it.pushPullSeconds},
-                     {"element_bytes", it.elementBytes},
-                     {"link_bytes", it.linkBytes},
-                     {"peak_rss", it.peakRss},
-                     {"l2_lum", nanToNull(it.l2Lum)}});
+        for (const auto& it : res->history) hist.push_back(hrRecordJson(it));
         sm["history"] = hist;
         if (h.numLinks())
             sm["bytes_per_link"] =
@@ -205,6 +212,20 @@ class FullMatrixEntry final : public Solver {
     reference::FullMatrixSettings settings_;
 };
 
+/// One progressive history record as summary.history holds it.
+json progressiveRecordJson(const reference::ProgressiveRecord& it) {
+    return json{{"iteration", it.shots},
+                {"shooter", it.shooter},
+                {"residual", it.unshotFraction},
+                {"elements", it.elements},
+                {"leaves", it.elements},
+                {"form_factors", it.formFactors},
+                {"rays", it.rays},
+                {"seconds", it.seconds},
+                {"element_bytes", it.bytes},
+                {"l2_lum", nanToNull(it.l2Lum)}};
+}
+
 // ---- progressive: progressive refinement (reference/progressive.h) ----------------
 class ProgressiveEntry final : public Solver {
   public:
@@ -214,9 +235,10 @@ class ProgressiveEntry final : public Solver {
     SolveOutput solve(const scene::Scene& sc, const transport::Visibility& vis,
                       const SolveContext& ctx) const override {
         reference::ProgressiveHook hook;
-        if (ctx.historyError)
+        if (ctx.historyError || ctx.onRecord)
             hook = [&](const scene::RadiosityField& f, reference::ProgressiveRecord& rec) {
-                rec.l2Lum = ctx.historyError(f);
+                if (ctx.historyError) rec.l2Lum = ctx.historyError(f);
+                if (ctx.onRecord) ctx.onRecord(progressiveRecordJson(rec));
             };
         auto res = std::make_shared<reference::ProgressiveResult>(
             reference::solveProgressive(sc, vis, settings_, ctx.progress, hook));
@@ -231,17 +253,7 @@ class ProgressiveEntry final : public Solver {
         out.timings["solve"] = res->seconds;
         out.memory.set("progressive", res->bytes);
         json hist = json::array();
-        for (const auto& it : res->history)
-            hist.push_back(json{{"iteration", it.shots},
-                                {"shooter", it.shooter},
-                                {"residual", it.unshotFraction},
-                                {"elements", it.elements},
-                                {"leaves", it.elements},
-                                {"form_factors", it.formFactors},
-                                {"rays", it.rays},
-                                {"seconds", it.seconds},
-                                {"element_bytes", it.bytes},
-                                {"l2_lum", nanToNull(it.l2Lum)}});
+        for (const auto& it : res->history) hist.push_back(progressiveRecordJson(it));
         out.summary["history"] = hist;
         out.owner = std::move(res);
         return out;

@@ -37,6 +37,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/cancel.h"
 #include "core/memory.h"
 #include "core/params.h"
 #include "scene/field.h"
@@ -52,6 +53,14 @@ struct SolveContext {
     /// solution and stores the returned relative L2 error (luminance) in the
     /// record's l2_lum. Only solvers with SolverInfo::keepsHistory call it.
     std::function<double(const scene::RadiosityField&)> historyError;
+    /// A caller's stop request (core/cancel.h). The hr solver polls it
+    /// (hr/budget.h) and throws hrad::Cancelled; full-matrix and progressive
+    /// do not poll it yet and finish their solve.
+    const CancelToken* cancel = nullptr;
+    /// If set, called with every history record as it is made (the fields
+    /// of summary.history[i], l2_lum included with historyError): progress
+    /// for a caller that shows it (the Python module's on_iteration).
+    std::function<void(const nlohmann::json&)> onRecord;
 };
 
 /// What both callers need from a solve.

@@ -15,6 +15,7 @@
 
 #include <cstdint>
 
+#include "core/cancel.h"
 #include "core/timer.h"
 #include "hr/hierarchy.h"
 #include "hr/settings.h"
@@ -40,7 +41,14 @@ class RefinementBudget {
     RefinementBudget(const HrSettings& s, const Timer& solveTimer, uint64_t couplingBytes)
         : s_(s), timer_(solveTimer), couplingBytes_(couplingBytes) {}
 
-    bool outOfTime() const { return s_.maxSeconds > 0 && timer_.seconds() > s_.maxSeconds; }
+    /// Stops on request: outOfTime() then throws Cancelled. nullptr: never.
+    void setCancelToken(const CancelToken* token) { cancel_ = token; }
+
+    /// hr.max_seconds passed; throws Cancelled when the token was requested.
+    bool outOfTime() const {
+        if (cancel_) cancel_->throwIfRequested();
+        return s_.maxSeconds > 0 && timer_.seconds() > s_.maxSeconds;
+    }
     /// hr.max_seconds before a round: true (warned once, flagged) when past it.
     bool stopForTime(HrResult& res) const;
     /// hr.max_links: true (warned once, flagged) when judging a round of
@@ -61,6 +69,7 @@ class RefinementBudget {
     const HrSettings& s_;
     const Timer& timer_;
     uint64_t couplingBytes_;
+    const CancelToken* cancel_ = nullptr;
 };
 
 }  // namespace hrad::hr

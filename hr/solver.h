@@ -234,6 +234,10 @@ class HrSolver {
     /// store it in rec.l2Lum). Its time is not counted in any phase.
     using IterationHook = std::function<void(const Hierarchy&, IterationRecord&)>;
     void setIterationHook(IterationHook hook) { hook_ = std::move(hook); }
+    /// A caller's stop request (core/cancel.h), polled by the budget
+    /// (hr/budget.h) before every refinement round and after every
+    /// iteration: solve() then throws hrad::Cancelled.
+    void setCancelToken(const CancelToken* token) { budget_->setCancelToken(token); }
 
     /// The LinkEstimate that refinement gives the oracle for link l of
     /// receiver r in h (a link not marked Link::kOpen). For a link touching

@@ -11,7 +11,8 @@ PACKAGES=(
   libtinyobjloader-dev libsqlite3-dev sqlite3 libpng-dev zlib1g-dev libpugixml-dev
   libtinygltf-dev libstb-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  python3 python3-matplotlib python3-numpy python3-pandas python3-pytest
+  python3 python3-dev python3-matplotlib python3-numpy python3-pandas python3-pytest
+  pybind11-dev python3-pybind11
   clang libclang-rt-14-dev
   slurm-wlm munge
 )
