@@ -7,6 +7,7 @@
 #include <cstring>
 #include <fstream>
 
+#include "core/safe_file.h"
 #include "core/error.h"
 
 namespace hrad::scene {
@@ -39,6 +40,7 @@ class Reader {
     }
 
     void load() {
+        requireRegularFile(path_, "serialized mesh file");
         std::ifstream in(path_, std::ios::binary);
         if (!in) throw InputError(SourceLocation{path_, 0, 0}, "cannot open serialized mesh file" +
                                                               (context_.empty() ? "" : " (" + context_ + ")"));
