@@ -15,6 +15,7 @@
 
 #include <cstdint>
 
+#include "core/interrupt.h"
 #include "core/timer.h"
 #include "hr/hierarchy.h"
 #include "hr/settings.h"
@@ -40,8 +41,12 @@ class RefinementBudget {
     RefinementBudget(const HrSettings& s, const Timer& solveTimer, uint64_t couplingBytes)
         : s_(s), timer_(solveTimer), couplingBytes_(couplingBytes) {}
 
-    bool outOfTime() const { return s_.maxSeconds > 0 && timer_.seconds() > s_.maxSeconds; }
-    /// hr.max_seconds before a round: true (warned once, flagged) when past it.
+    /// Past hr.max_seconds, or asked to stop by SIGINT/SIGTERM (core/interrupt.h).
+    bool outOfTime() const {
+        return interruptSignal() != 0 || (s_.maxSeconds > 0 && timer_.seconds() > s_.maxSeconds);
+    }
+    /// hr.max_seconds or a signal before a round: true (warned once, flagged
+    /// timeLimitHit or interrupted) when past it.
     bool stopForTime(HrResult& res) const;
     /// hr.max_links: true (warned once, flagged) when judging a round of
     /// `pending` links besides `kept` would pass the cap; the round is then
