@@ -1127,6 +1127,18 @@ class Loader {
         return id;
     }
 
+    /// The face budget before an analytic shape's faces are made (a few
+    /// spheres at mitsuba.resolution = 4096 made 25 M faces, then failed it).
+    void checkAnalyticBudget(const Node& s, const std::string& type, int n) const {
+        const uint64_t expected = type == "sphere" ? uint64_t(n) * uint64_t(std::max(2, n / 2))
+                                  : type == "cube" ? 6
+                                  : type == "rectangle" ? 1
+                                                        : uint64_t(n);
+        if (faces_ + expected > opt_.maxFaces)
+            fail(s, "this {} at mitsuba.resolution = {} makes {} faces: the scene would pass "
+                    "mitsuba.max_faces = {}", type, n, expected, opt_.maxFaces);
+    }
+
     std::vector<std::vector<Vec3>> geometry(const Node& s, const std::string& type) {
         std::vector<std::vector<Vec3>> polys;
         const int n = opt_.resolution;
@@ -1169,6 +1181,7 @@ class Loader {
                 polys.emplace_back(p.v.begin(), p.v.begin() + p.numVertices());
             return polys;
         }
+        checkAnalyticBudget(s, type, n);
         if (type == "rectangle") {
             polys.push_back({{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}});
         } else if (type == "cube") {

@@ -140,6 +140,20 @@ TEST(HostileInput, SkippedInstancesAreCountedAndBounded) {
         e = x.what();
     }
     EXPECT_NE(e.find("instantiates more than 100 shapes (setting mitsuba.max_faces"), std::string::npos) << e;
+    // The face budget is checked before an analytic shape's faces are made.
+    auto sphere = test::writeFile(dir / "sphere.xml", "<scene version=\"3.0.0\">\n" + std::string(kLight) +
+                                                          "  <shape type=\"sphere\"/>\n</scene>\n");
+    Params fine;
+    fine.set("mitsuba.resolution", int64_t(4096));
+    fine.set("mitsuba.max_faces", int64_t(1000000));
+    e = "no error";
+    try {
+        loadScene(sphere.string(), fine);
+    } catch (const InputError& x) {
+        e = x.what();
+    }
+    EXPECT_NE(e.find("sphere.xml:6: error: this sphere at mitsuba.resolution = 4096 makes 8388608 faces"),
+              std::string::npos) << e;
 }
 
 // Each emission finite, their power still overflowed: emitted_power null, exit 0.
