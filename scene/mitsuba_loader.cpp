@@ -221,6 +221,7 @@ class Loader {
     std::set<std::string> warnedOnce_;
     std::map<std::string, std::pair<size_t, uint64_t>> warnings_;  ///< text -> (index, count)
     uint64_t shapesVisited_ = 0;  ///< shapes met, through instances included
+    uint64_t inflated_ = 0;       ///< bytes .serialized meshes inflated to so far
     bool haveCamera_ = false;
     /// (file, raw) -> the texture's mean, or why it could not be read.
     std::map<std::pair<std::string, bool>, std::pair<std::optional<RGB>, std::string>> textureCache_;
@@ -1156,8 +1157,10 @@ class Loader {
                     shapeIndex != std::floor(shapeIndex))
                     fail(s, "shape_index must be a whole number in [0, 2^32), not {}", shapeIndex);
                 const uint64_t index = uint64_t(shapeIndex);
-                SerializedMesh mesh = readSerialized(file, index, opt_.maxFaces - std::min(faces_, opt_.maxFaces),
-                                                     "shape at " + where(s));
+                SerializedMesh mesh = readSerialized(
+                    file, index, opt_.maxFaces - std::min(faces_, opt_.maxFaces), "shape at " + where(s),
+                    opt_.maxInflatedBytes - std::min(inflated_, opt_.maxInflatedBytes));
+                inflated_ += mesh.inflatedBytes;
                 polys.reserve(mesh.triangles.size());
                 for (const auto& t : mesh.triangles)
                     polys.push_back({mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]});
