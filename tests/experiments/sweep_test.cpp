@@ -430,7 +430,13 @@ ply = true
     test::writeFile(dir / "a.sqlite.work" / "mine.json", "mine");
     fs::create_symlink(dir / "victim.json", dir / "a.sqlite.work" / "link.json");
     test::writeFile(dir / "a.sqlite.work" / "hrad-result-stale.json", "{}");
-    SweepReport r = runSweep(study, options(dir, "a.sqlite"));
+    SweepOptions first = options(dir, "a.sqlite");
+    // Each committed run is checkpointed into the database file (it stayed
+    // at 4 KB beside a growing WAL).
+    uintmax_t dbBytes = 0;
+    first.onPointDone = [&](const PointSpec&, bool) { dbBytes = fs::file_size(first.store); };
+    SweepReport r = runSweep(study, first);
+    EXPECT_GT(dbBytes, 4096u);
     EXPECT_EQ(r.finished, 1u);
     EXPECT_EQ(readText(dir / "a.sqlite.work" / "mine.json"), "mine");
     EXPECT_TRUE(fs::is_symlink(dir / "a.sqlite.work" / "link.json"));
