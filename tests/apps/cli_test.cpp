@@ -451,7 +451,12 @@ TEST(Cli, HostileOutputsInputsAndOptionsExitTwo) {
         EXPECT_EQ(e.code, 2) << c.args << ": " << e.output;
         EXPECT_NE(e.output.find(c.expect), std::string::npos) << c.args << ": " << e.output;
     }
-    if (::geteuid() != 0) {
+    // A reference cache that cannot be written: no "cache file:" that does not exist.
+    Result c = run("--set fm.level=1 reference furnace --no-progress --cache " + file);
+    EXPECT_EQ(c.code, 0) << c.output;
+    EXPECT_NE(c.output.find("cache file: none, the cache " + file + " could not be written"),
+              std::string::npos) << c.output;
+    if (::geteuid() != 0) {  // permissions do not stop root
         fs::create_directories(dir / "ro");
         fs::permissions(dir / "ro", fs::perms::owner_read | fs::perms::owner_exec);
         Result e = run("solve furnace --no-progress -o " + (dir / "ro").string());
