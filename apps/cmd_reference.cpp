@@ -49,8 +49,12 @@ int runReference(const ReferenceCliOptions& o, Params& params) {
         }
         fmt::print(" [sum of A (B - E), RGB]\n");
     }
-    fmt::print("cache file: {} ({:.2f} s)\n", r.value("cache_file", r.value("cache_dir", "")),
-               r.value("seconds", 0.0));
+    if (r.contains("cache_file") && r["cache_file"].is_string())
+        fmt::print("cache file: {} ({:.2f} s)\n", r["cache_file"].get<std::string>(),
+                   r.value("seconds", 0.0));
+    else
+        fmt::print("cache file: none, the cache {} could not be written (see the warning above) "
+                   "({:.2f} s)\n", r.value("cache_dir", ""), r.value("seconds", 0.0));
     return 0;
 }
 

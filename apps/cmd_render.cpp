@@ -7,6 +7,7 @@
 #include <spdlog/spdlog.h>
 
 #include "apps/commands.h"
+#include "core/safe_file.h"
 #include "core/timer.h"
 #include "reference/cache.h"
 #include "render/gltf_export.h"
@@ -33,7 +34,7 @@ int runRender(const RenderCliOptions& opt, Params& params) {
     transport::Visibility vis(sc);
     scene::Camera cam = render::chooseCamera(sc, vis, rs);
     render::Image img = render::renderField(sc, vis, *field, cam, rs);
-    fs::create_directories(opt.outDir);
+    ensureOutputFolder(opt.outDir, "command line (-o)");
     fs::path exr = fs::path(opt.outDir) / "image.exr", png = fs::path(opt.outDir) / "image.png";
     render::writeExr(img, exr.string());
     render::writePng(img, png.string(), exposure);

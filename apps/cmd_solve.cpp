@@ -8,6 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/commands.h"
+#include "core/interrupt.h"
+#include "core/safe_file.h"
 #include "experiments/runner.h"
 #include "experiments/solvers.h"
 
@@ -18,11 +20,7 @@ using nlohmann::json;
 
 namespace {
 
-void writeJson(const fs::path& path, const json& j) {
-    std::ofstream out(path);
-    if (!out) throw Error(fmt::format("cannot write {}", path.string()));
-    out << j.dump(2) << "\n";
-}
+void writeJson(const fs::path& path, const json& j) { writeFileSafely(path, j.dump(2) + "\n"); }
 
 }  // namespace
 
@@ -65,7 +63,7 @@ int runSolve(const SolveOptions& opt, Params& params) {
     point.outputs.solution = opt.writeSolution;
     point.outputs.errorMapWhere = SourceLocation{"command line (--error-map)", 0, 0};
 
-    fs::create_directories(opt.outDir);
+    ensureOutputFolder(opt.outDir, "command line (-o)");
     fs::path out(opt.outDir);
     experiments::RunContext ctx;
     ctx.useCache = false;  // hrad solve computes its reference in memory
@@ -74,11 +72,21 @@ int runSolve(const SolveOptions& opt, Params& params) {
     // Written after the solve and after the error: nothing computed so far is
     // lost if a later step fails.
     ctx.checkpoint = [&](const json& s) { writeJson(out / "summary.json", s); };
+    // Ctrl-C or SIGTERM: the solver stops at its next safe point and what it
+    // has is written, marked interrupted (core/interrupt.h); exit 128 + signal.
+    catchInterrupts();
     json summary = experiments::runPoint(point, ctx);
+    const int sig = interruptSignal();
+    if (sig != 0) summary["interrupted"] = true;
     writeJson(out / "summary.json", summary);
     fmt::print("wrote {}\n", (out / "summary.json").string());
     for (const auto& [k, v] : summary["artefacts"].items())
         fmt::print("wrote {}\n", v.get<std::string>());
+    if (sig != 0) {
+        fmt::print(stderr, "hrad: interrupted by signal {}: the outputs hold the solution so far "
+                           "(summary.json: interrupted = true)\n", sig);
+        return 128 + sig;
+    }
     return 0;
 }
 

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "apps/commands.h"
+#include "core/safe_file.h"
 #include "experiments/slurm.h"
 #include "experiments/sweep.h"
 
@@ -15,6 +16,11 @@ namespace hrad::app {
 namespace fs = std::filesystem;
 
 int runSweepCommand(const SweepCliOptions& o) {
+    // Every numeric option is checked first, whatever the mode (--dry-run and
+    // --status used to return before reading them: issue 64).
+    if (!o.shard.empty()) experiments::parseShard(o.shard);
+    experiments::checkMaxSeconds(o.maxSeconds);
+    if (!o.maxMemory.empty()) experiments::parseBytes(o.maxMemory);
     experiments::Study study = experiments::loadStudy(o.study);
     if (o.maxPoints > 0) {
         study.limits.maxPoints = uint64_t(o.maxPoints);
@@ -28,11 +34,7 @@ int runSweepCommand(const SweepCliOptions& o) {
         experiments::StoreStatus st = experiments::storeStatus(study, store);
         std::string text = experiments::describeStatus(study, st) + fmt::format("store: {}\n", store.string());
         fmt::print("{}", text);
-        if (!o.report.empty()) {
-            std::ofstream out(o.report, std::ios::binary | std::ios::trunc);
-            out << text;
-            if (!out) throw Error(fmt::format("cannot write the report {}", o.report));
-        }
+        if (!o.report.empty()) writeFileSafely(o.report, text);
         return !st.missing.empty() ? 4 : !st.failed.empty() ? 3 : 0;
     }
     if (o.slurm) {

@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "core/memory.h"
+#include "core/safe_file.h"
 #include "core/timer.h"
 #include "core/version.h"
 #include "experiments/settings_reference.h"
@@ -332,9 +333,12 @@ json prepareReference(const PointSpec& p, const RunContext& ctx) {
     std::string key =
         r.refFm ? reference::referenceCacheKey(sc, reference::kFullMatrixKind, r.refFm->describe())
                 : reference::referenceCacheKey(sc, reference::kMonteCarloKind, r.refMc->describe());
-    out["cache_file"] =
-        reference::referenceCacheFile(cacheDirFor(ctx), r.refFm ? "fullmatrix" : "montecarlo", key)
-            .string();
+    // Null when the cache could not be written (full, read-only: the save
+    // warned): never a file name that does not exist (issue 64).
+    const fs::path cacheFile =
+        reference::referenceCacheFile(cacheDirFor(ctx), r.refFm ? "fullmatrix" : "montecarlo", key);
+    std::error_code ec;
+    out["cache_file"] = fs::is_regular_file(cacheFile, ec) ? json(cacheFile.string()) : json(nullptr);
     out["seconds"] = t.seconds();
     out["stats"] = ref.stats;
     if (r.refMc) {
@@ -477,7 +481,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     summary["memory"] = memoryJson();
     // The solution itself first: nothing computed is lost if a later step fails.
     if (p.outputs.solution) {
-        fs::create_directories(ctx.artefactDir);
+        ensureOutputFolder(ctx.artefactDir, "the point's output folder");
         fs::path sol = ctx.artefactDir / "solution.hrsol";
         reference::saveSolution(sol.string(), *field);
         summary["artefacts"]["solution"] = sol.string();
@@ -498,7 +502,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
             "{:.4f}",
             res.l1, res.l1Noise, res.ratio());
         if (!ctx.artefactDir.empty()) {
-            fs::create_directories(ctx.artefactDir);
+            ensureOutputFolder(ctx.artefactDir, "the point's output folder");
             fs::path csv = ctx.artefactDir / "residual.csv";
             render::writeResidualCsv(csv.string(), res);
             summary["artefacts"]["residual"] = csv.string();
@@ -532,7 +536,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         }
         e["reflected_by_material"] = byMaterial;
         if (p.outputs.regions) {
-            fs::create_directories(ctx.artefactDir);
+            ensureOutputFolder(ctx.artefactDir, "the point's output folder");
             fs::path csv = ctx.artefactDir / "regions.csv";
             reference::writeRegionsCsv(csv.string(), *field, *ref->field, ref->stdError);
             summary["artefacts"]["regions"] = csv.string();
@@ -569,7 +573,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     const bool errorMap = p.outputs.errorMap && (ref || r.errorVsPathTraced);
     bool images = p.outputs.exr || errorMap;
     if (images || p.outputs.ply || p.outputs.glb) {
-        fs::create_directories(ctx.artefactDir);
+        ensureOutputFolder(ctx.artefactDir, "the point's output folder");
         if (p.outputs.ply) {
             fs::path ply = ctx.artefactDir / "solution.ply";
             render::writePly(*field, ply.string(), r.exposure);

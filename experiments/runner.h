@@ -19,7 +19,8 @@
 // Summary JSON (the fields of summary.json and of a results-store row):
 //   hrad_version, build_type, host, date, scene, scene_label, settings,
 //   reference_settings, scene_info{...}, solver, solver_settings, oracle,
-//   converged, link_cap_hit, memory_budget_hit, time_limit_hit, min_area,
+//   converged, link_cap_hit, memory_budget_hit, time_limit_hit, interrupted
+//   (SIGINT/SIGTERM, core/interrupt.h), min_area,
 //   error_estimate (each receiver's kernel range and averaged senders, summed:
 //   an upper estimate), error_estimate_leaves and error_estimate_points
 //   (hr/receiver_error.h leafAverageError: the error of the leaves' averages

@@ -97,6 +97,19 @@ std::string sq(const std::string& s) {
 }
 std::string sq(const fs::path& p) { return sq(p.string()); }
 
+/// Text for a '#' comment line: control characters (a newline would end the
+/// comment and start a command) shown as \xNN.
+std::string commentText(const std::string& s) {
+    std::string out;
+    for (char c : s) {
+        auto u = static_cast<unsigned char>(c);
+        if (u < 0x20 || u == 0x7f) out += fmt::format("\\x{:02x}", u);
+        else out += c;
+    }
+    return out;
+}
+std::string commentText(const fs::path& p) { return commentText(p.string()); }
+
 std::string readFile(const fs::path& p) {
     std::ifstream in(p, std::ios::binary);
     std::stringstream ss;
@@ -312,7 +325,7 @@ SlurmScripts makeSlurmScripts(const Study& study, const SlurmSettings& s, const 
     const fs::path shards = r.dir / "shards";
     std::string round = r.pointsFile.empty() ? std::string("every point of the study")
                                              : fmt::format("the {} point(s) listed in {}", r.points,
-                                                           r.pointsFile.string());
+                                                           commentText(r.pointsFile));
 
     // Lines shared by the three jobs.
     auto common = [&](std::string& t) {
@@ -327,7 +340,8 @@ SlurmScripts makeSlurmScripts(const Study& study, const SlurmSettings& s, const 
         "# written by `hrad sweep --slurm` for {}.\n"
         "# A plain script: edit it if needed, then submit the pipeline with\n"
         "#   bash {}\n",
-        study.name, r.study.string(), round, (r.scriptDir / "submit.sh").string());
+        commentText(study.name), commentText(r.study), round,
+        commentText(r.scriptDir / "submit.sh"));
 
     // ---- references -----------------------------------------------------------------
     if (r.references > 0) {
@@ -426,11 +440,11 @@ SlurmScripts makeSlurmScripts(const Study& study, const SlurmSettings& s, const 
             "# --resume reads them). If a submission fails, the jobs already submitted\n"
             "# are cancelled.\n"
             "set -euo pipefail\n"
-            "cd {}\n"
+            "cd -- {}\n"
             "submitted=()\n"
             "trap 'rc=$?; if [ $rc -ne 0 ] && [ ${{#submitted[@]}} -gt 0 ]; then scancel \"${{submitted[@]}}\"; "
             "echo \"submission failed; cancelled job(s) ${{submitted[*]}}\" >&2; fi' EXIT\n",
-            study.name, sq(r.scriptDir));
+            commentText(study.name), sq(r.scriptDir));
         // sbatch --parsable prints "jobid" or "jobid;cluster".
         if (r.references > 0) {
             t += "refs=$(sbatch --parsable references.sbatch); refs=${refs%%;*}; submitted+=(\"$refs\")\n";

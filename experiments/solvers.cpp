@@ -80,6 +80,7 @@ class HrEntry final : public Solver {
         sm["link_cap_hit"] = res->linkCapHit;
         sm["memory_budget_hit"] = res->memoryBudgetHit;
         sm["time_limit_hit"] = res->timeLimitHit;
+        sm["interrupted"] = res->interrupted;
         sm["eps_power"] =
             json{{"of", hr::epsPowerName(res->epsPowerOf)}, {"value", res->epsPower}};
         sm["min_area"] = res->minArea;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
+#include <unistd.h>
 
 #include <sqlite3.h>
 
@@ -11,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "core/safe_file.h"
 #include "experiments/runner.h"
 #include "hr/solver.h"
 
@@ -114,6 +116,21 @@ std::pair<json, json> slurmProvenance() {
     return {j, t};
 }
 
+/// Disk full, I/O errors, a read-only file: the machine's failure, reported as
+/// IoError naming the database (exit 2; a sweep records kind "io").
+bool isIoCode(int rc) {
+    const int primary = rc & 0xff;
+    return primary == SQLITE_FULL || primary == SQLITE_IOERR || primary == SQLITE_READONLY ||
+           primary == SQLITE_CANTOPEN;
+}
+
+[[noreturn]] void throwSqlite(sqlite3* db, int rc, const std::string& what) {
+    const char* file = db ? sqlite3_db_filename(db, "main") : nullptr;
+    if (isIoCode(rc))
+        throw IoError(file && *file ? file : "results store", fmt::format("{}: {}", what, sqlite3_errstr(rc)));
+    throw Error("sqlite: " + what);
+}
+
 /// A prepared statement with positional binding of JSON values.
 class Stmt {
   public:
@@ -143,7 +160,7 @@ class Stmt {
         int rc = sqlite3_step(st_);
         if (rc == SQLITE_ROW) return true;
         if (rc == SQLITE_DONE) return false;
-        throw Error(fmt::format("sqlite: {}", sqlite3_errmsg(db_)));
+        throwSqlite(db_, rc, sqlite3_errmsg(db_));
     }
     void reset() {
         sqlite3_reset(st_);
@@ -206,8 +223,15 @@ ResultStore::ResultStore(const fs::path& path, bool readOnly) : path_(path) {
     // Not SQLite at all (or cut short inside its 100-byte header): say so
     // before SQLite answers with "file is not a database" to a statement.
     std::error_code ec;
+    if (path.empty()) throwInputError({"command line (--store)", 0, 0}, "the store name is empty");
+    if (fs::exists(path, ec) && !fs::is_regular_file(path, ec))
+        throwInputError(where, "is not a results store: it is {}, expected an SQLite file",
+                        fs::is_directory(path, ec) ? "a folder" : "not a regular file");
     if (fs::exists(path, ec) && fs::is_regular_file(path, ec)) {
         uintmax_t size = fs::file_size(path, ec);
+        if (size == 0 && readOnly)
+            throwInputError(where, "the results store is empty (0 bytes): not an hrad results "
+                                   "store, or one cut short before its first write");
         if (size > 0) {
             char head[16] = {};
             std::ifstream in(path, std::ios::binary);
@@ -223,7 +247,16 @@ ResultStore::ResultStore(const fs::path& path, bool readOnly) : path_(path) {
         throwInputError(where, "no such results store");
     }
     int flags = readOnly ? SQLITE_OPEN_READONLY : (SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE);
-    if (!readOnly && path.has_parent_path()) fs::create_directories(path.parent_path());
+    if (!readOnly) {
+        // A folder that cannot be written: SQLite could not create its
+        // journal and would call a sound store corrupt (issue 64).
+        fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
+        fs::create_directories(dir, ec);
+        if (::access(dir.c_str(), W_OK | X_OK) != 0)
+            throw IoError(dir, fmt::format("cannot write into the folder of the results store "
+                                           "{} ({}); it is needed for the store's journal",
+                                           path.string(), std::strerror(errno)));
+    }
     if (sqlite3_open_v2(path.string().c_str(), &db_, flags, nullptr) != SQLITE_OK) {
         std::string msg = db_ ? sqlite3_errmsg(db_) : "out of memory";
         sqlite3_close(db_);
@@ -389,9 +422,11 @@ ResultStore::~ResultStore() {
 
 void ResultStore::exec(const std::string& sql) const {
     char* err = nullptr;
-    if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
+    const int rc = sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err);
+    if (rc != SQLITE_OK) {
         std::string msg = err ? err : "?";
         sqlite3_free(err);
+        if (isIoCode(rc)) throw IoError(path_, fmt::format("cannot write the results store: {}", msg));
         throw Error(fmt::format("sqlite ({}): {}", path_.string(), msg));
     }
 }
@@ -573,8 +608,14 @@ void ResultStore::addRun(const std::string& key, const std::string& study, int64
         Stmt fdel(db_, "DELETE FROM failures WHERE key = ?");
         fdel.bind(1, key).step();
         exec("COMMIT");
+        // Each run copied into the database at once (SQLite checkpoints
+        // only past 1000 pages: a sweep's WAL grew while the file stayed
+        // at 4 KB, issue 64); passive: never waits for a reader.
+        sqlite3_wal_checkpoint_v2(db_, nullptr, SQLITE_CHECKPOINT_PASSIVE, nullptr, nullptr);
     } catch (...) {
-        exec("ROLLBACK");
+        // A failed COMMIT (disk full) may have rolled back already: a second
+        // ROLLBACK would replace the real error with "no transaction is active".
+        if (!sqlite3_get_autocommit(db_)) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
         throw;
     }
 }
@@ -601,7 +642,7 @@ std::set<std::string> ResultStore::runKeys() const {
 
 std::set<std::string> ResultStore::failureKeys() const {
     std::set<std::string> out;
-    Stmt st(db_, "SELECT key FROM failures");
+    Stmt st(db_, "SELECT key FROM failures WHERE kind IS NOT 'io'");
     while (st.step()) out.insert(reinterpret_cast<const char*>(sqlite3_column_text(st.get(), 0)));
     return out;
 }
@@ -613,19 +654,24 @@ int64_t ResultStore::count(const std::string& table) const {
 }
 
 void ResultStore::exportCsv(const fs::path& dir) const {
-    fs::create_directories(dir);
+    ensureOutputFolder(dir, "command line (--csv)");
     for (const char* table : kTables) {
         fs::path file = dir / (std::string(table) + ".csv");
-        std::ofstream out(file, std::ios::binary);
-        if (!out) throw Error(fmt::format("cannot write {}", file.string()));
-        Stmt st(db_, fmt::format("SELECT * FROM {} ORDER BY rowid", table));
-        int n = sqlite3_column_count(st.get());
-        for (int c = 0; c < n; ++c) out << (c ? "," : "") << sqlite3_column_name(st.get(), c);
-        out << "\n";
-        while (st.step()) {
-            for (int c = 0; c < n; ++c) out << (c ? "," : "") << csvField(st.get(), c);
+        // A temporary file renamed over the target: never through a symlink,
+        // and a full disk is an error naming the file, not a 0-byte CSV.
+        writeThroughTemp(file, [&](const fs::path& tmp) {
+            std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+            Stmt st(db_, fmt::format("SELECT * FROM {} ORDER BY rowid", table));
+            int n = sqlite3_column_count(st.get());
+            for (int c = 0; c < n; ++c) out << (c ? "," : "") << sqlite3_column_name(st.get(), c);
             out << "\n";
-        }
+            while (st.step()) {
+                for (int c = 0; c < n; ++c) out << (c ? "," : "") << csvField(st.get(), c);
+                out << "\n";
+            }
+            out.close();
+            if (!out) throw IoError(file, "cannot write the CSV export (disk full?)");
+        });
     }
 }
 

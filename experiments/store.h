@@ -76,6 +76,8 @@ class ResultStore {
     void addFailure(const FailureRecord& f);
 
     std::set<std::string> runKeys() const;
+    /// Keys of failed points, without those of kind "io" (disk full, I/O
+    /// errors: the machine's failure, not the point's), which --resume reruns.
     std::set<std::string> failureKeys() const;
     int64_t count(const std::string& table) const;
 

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <toml++/toml.h>
 
+#include "core/safe_file.h"
 #include "experiments/runner.h"
 #include "experiments/slurm.h"
 #include "scene/loader.h"
@@ -194,6 +195,7 @@ void checkTomlDepth(const std::string& text, const std::string& file) {
 }  // namespace
 
 Study loadStudy(const fs::path& path) {
+    requireRegularFile(path, "study file");
     std::ifstream in(path, std::ios::binary);
     if (!in) throwInputError(SourceLocation{path.string(), 0, 0}, "cannot read study file");
     std::stringstream ss;

@@ -22,6 +22,7 @@
 #include <sstream>
 #include <thread>
 
+#include "core/safe_file.h"
 #include "core/timer.h"
 #include "experiments/runner.h"
 #include "experiments/store.h"
@@ -41,7 +42,17 @@ std::pair<int, int> parseShard(const std::string& text) {
     return {i, n};
 }
 
+double checkMaxSeconds(double seconds) {
+    // 0 means none; an itimerval holds a time_t, and beyond a year is a typo.
+    if (!std::isfinite(seconds) || seconds < 0 || seconds > 366.0 * 86400)
+        throwInputError({"command line (--max-seconds)", 0, 0},
+                        "--max-seconds must be a number of seconds from 0 (none) to 31622400, "
+                        "got {}", seconds);
+    return seconds;
+}
+
 std::vector<uint64_t> readPointList(const fs::path& file, const Study& study) {
+    requireRegularFile(file, "point list");
     std::ifstream in(file, std::ios::binary);
     if (!in) throwInputError(SourceLocation{file.string(), 0, 0}, "cannot read the point list");
     // Streamed token by token: memory is bounded by the number of distinct
@@ -107,12 +118,20 @@ uint64_t parseBytes(const std::string& text) {
         mult = 1024.0 * 1024;
     else if (unit == "G" || unit == "GiB")
         mult = 1024.0 * 1024 * 1024;
+    else if (unit == "T" || unit == "TiB")
+        mult = 1024.0 * 1024 * 1024 * 1024;
     else
         v = -1;
-    if (!(v >= 0) || end == text.c_str())
+    // Finite and in range before the conversion (a double beyond 2^64 cast
+    // to an integer is undefined); below 1 MiB no point can even start.
+    const double bytes = v * mult;
+    if (!(v >= 0) || end == text.c_str() || !std::isfinite(bytes))
         throwInputError({"command line (--max-memory)", 0, 0},
                         "expected a size such as 512M or 4G, got '{}'", text);
-    return uint64_t(v * mult);
+    if (bytes < 1024.0 * 1024 || bytes > 0x1p60)
+        throwInputError({"command line (--max-memory)", 0, 0},
+                        "--max-memory {} is out of range (1M to 1024P)", text);
+    return uint64_t(bytes);
 }
 
 namespace {
@@ -157,6 +176,9 @@ struct Running {
                   {"kind", "memory"},
                   {"message", fmt::format("out of memory (std::bad_alloc; --max-memory {} bytes)",
                                           maxMemory)}};
+    } catch (const IoError& e) {
+        // Disk full, a read-only folder: not the point's fault; --resume reruns it.
+        result = {{"ok", false}, {"kind", "io"}, {"message", e.what()}};
     } catch (const InputError& e) {
         result = {{"ok", false}, {"kind", "input"}, {"message", e.what()}};
     } catch (const std::exception& e) {
@@ -165,20 +187,40 @@ struct Running {
         result = {{"ok", false}, {"kind", "error"}, {"message", "unknown exception"}};
     }
     try {
-        fs::path tmp = task.resultFile;
-        tmp += ".tmp";
-        {
-            std::ofstream out(tmp, std::ios::binary);
-            out << result.dump();
-            if (!out) _exit(3);
-        }
-        fs::rename(tmp, task.resultFile);
+        writeFileSafely(task.resultFile, result.dump());
     } catch (...) {
         _exit(3);
     }
     // _exit: no atexit handlers, no destructors of state shared with the
     // parent (its SQLite connection, its logger).
     _exit(0);
+}
+
+/// The prefix of the result files a sweep writes into <store>.work: the only
+/// files it ever removes there.
+const std::string kResultPrefix = "hrad-result-";
+
+/// <store>.work: created, or reused when a killed sweep left it. Only result
+/// files this code writes (regular files named hrad-result-*.json, and their
+/// temporaries) are removed: their points were not committed (the store is the
+/// record), so they rerun. A symlink in its place is refused.
+void prepareWorkFolder(const fs::path& work) {
+    std::error_code ec;
+    if (fs::is_symlink(fs::symlink_status(work, ec)))
+        throwInputError(SourceLocation{work.string(), 0, 0},
+                        "is a symbolic link; the sweep keeps its result files in this folder and "
+                        "does not follow links (remove it)");
+    fs::create_directories(work, ec);
+    if (!fs::is_directory(fs::symlink_status(work, ec)))
+        throw IoError(work, "cannot create the sweep's work folder" +
+                                (ec ? ": " + ec.message() : std::string(" (a file is in the way)")));
+    for (const auto& e : fs::directory_iterator(work)) {
+        std::string name = e.path().filename().string();
+        bool ours = name.rfind(kResultPrefix, 0) == 0 ||
+                    name.rfind("." + kResultPrefix, 0) == 0;  // a temporary of writeFileSafely
+        bool json = name.size() > 5 && (name.ends_with(".json") || name.find(".json.tmp.") != std::string::npos);
+        if (ours && json && e.symlink_status().type() == fs::file_type::regular) fs::remove(e.path());
+    }
 }
 
 std::string signalName(int sig) {
@@ -205,6 +247,7 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
                         "combined with --no-cache");
     // References only: no store; the children's result files go to a private
     // temporary folder (node-local on a cluster, removed at the end).
+    FileLock storeLock;  // declared first: released after the store is closed
     std::unique_ptr<ResultStore> storePtr;
     std::string studyHash;
     std::set<std::string> done, failed;
@@ -217,6 +260,13 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
         work = tmpl;
     } else {
         storePtr = std::make_unique<ResultStore>(opt.store);
+        // One writer per store: a second sweep refuses instead of running
+        // every point again (flock on the database file; SQLite's own locks
+        // are per transaction).
+        if (!storeLock.tryLock(opt.store))
+            throwInputError(SourceLocation{opt.store.string(), 0, 0},
+                            "another hrad sweep is writing this results store; wait for it to "
+                            "end (or stop it), then run again with --resume");
         ResultStore& st = *storePtr;
         int64_t existing = st.count("runs") + st.count("failures");
         if (existing > 0 && !opt.resume)
@@ -237,16 +287,16 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
         failed = st.failureKeys();
         work = opt.store;
         work += ".work";
-        fs::create_directories(work);
-        // Result files left by a sweep that was killed: their points were not
-        // committed (the store is the record), so they are rerun; remove them.
-        for (const auto& e : fs::directory_iterator(work))
-            if (e.path().extension() == ".json") fs::remove(e.path());
+        prepareWorkFolder(work);
     }
     fs::path artefactRoot =
         (opt.store.has_parent_path() ? opt.store.parent_path() : fs::path(".")) /
         (study.pointCount() == 0 ? fs::path("runs") : fs::path(study.point(0).outputs.dir)) /
         study.name;
+    // Artefacts go below the store's folder: a planted symlink there (runs ->
+    // elsewhere) would take every point's outputs out of it.
+    requireNoSymlinkBelow(opt.store.has_parent_path() ? opt.store.parent_path() : fs::path("."),
+                          artefactRoot);
 
     double maxSeconds = opt.maxSeconds > 0 ? opt.maxSeconds : study.limits.maxSeconds;
     uint64_t maxMemory = opt.maxMemoryBytes > 0 ? opt.maxMemoryBytes : study.limits.maxMemoryBytes;
@@ -282,7 +332,7 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
             ++report.skipped;
             continue;
         }
-        todo.push_back(Task{false, &p, key, work / (key + ".json")});
+        todo.push_back(Task{false, &p, key, work / (kResultPrefix + key + ".json")});
         std::string refId = referenceId(p);
         if (!refId.empty()) byReference[refId].push_back(&p);
     }
@@ -319,6 +369,7 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
                         // covers a parent that died before the call, the same way.
                         prctl(PR_SET_PDEATHSIG, SIGKILL);
                         if (getppid() != parent) raise(SIGKILL);
+                        storeLock.closeInChild();
                     }
                     if (pid == 0)
                         childMain(t, ctx, threads, limited ? maxSeconds : 0.0,
@@ -403,7 +454,8 @@ SweepReport runSweep(const Study& study, const SweepOptions& opt) {
         report.references = byReference.size();
         for (const auto& [refId, pts] : byReference)
             refTasks.push_back(
-                Task{true, pts.front(), refId, work / fmt::format("reference-{}.json", n++)});
+                Task{true, pts.front(), refId,
+                     work / fmt::format("{}reference-{}.json", kResultPrefix, n++)});
         runTasks(
             refTasks,
             [&](const Task& t, const json& r, uint64_t, double secs) {

@@ -37,6 +37,9 @@
 
 namespace hrad::experiments {
 
+/// --max-seconds: finite, 0 (none) to a year; throws InputError naming it.
+double checkMaxSeconds(double seconds);
+
 struct SweepOptions {
     std::filesystem::path store;
     int jobs = 1;
@@ -81,7 +84,7 @@ std::pair<int, int> parseShard(const std::string& text);
 /// by whitespace or commas, '#' starts a comment. Throws InputError with
 /// FILE:LINE for a bad or out-of-range index or a duplicate.
 std::vector<uint64_t> readPointList(const std::filesystem::path& file, const Study& study);
-/// "512M", "4G", "1000000" -> bytes; throws InputError.
+/// "512M", "4G", "1T", "1000000" -> bytes, 1 MiB to 2^60; throws InputError.
 uint64_t parseBytes(const std::string& text);
 
 }  // namespace hrad::experiments

@@ -12,6 +12,13 @@ namespace hrad::hr {
 
 bool RefinementBudget::stopForTime(HrResult& res) const {
     if (!outOfTime()) return false;
+    if (interruptSignal() != 0) {
+        if (!res.interrupted)
+            spdlog::warn("signal {} received: refinement and iteration stop; the solution so far "
+                         "is written, marked interrupted", interruptSignal());
+        res.interrupted = true;
+        return true;
+    }
     if (!res.timeLimitHit)
         spdlog::warn(
             "hr.max_seconds = {} reached: refinement and iteration stop; the solution so far "

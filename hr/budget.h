@@ -16,6 +16,7 @@
 #include <cstdint>
 
 #include "core/cancel.h"
+#include "core/interrupt.h"
 #include "core/timer.h"
 #include "hr/hierarchy.h"
 #include "hr/settings.h"
@@ -44,12 +45,16 @@ class RefinementBudget {
     /// Stops on request: outOfTime() then throws Cancelled. nullptr: never.
     void setCancelToken(const CancelToken* token) { cancel_ = token; }
 
-    /// hr.max_seconds passed; throws Cancelled when the token was requested.
+    /// Past hr.max_seconds, or asked to stop by SIGINT/SIGTERM (core/interrupt.h,
+    /// the command line: stop at this safe point and keep the result); throws
+    /// Cancelled when the token was requested (core/cancel.h, the Python module:
+    /// nothing half-done is returned).
     bool outOfTime() const {
         if (cancel_) cancel_->throwIfRequested();
-        return s_.maxSeconds > 0 && timer_.seconds() > s_.maxSeconds;
+        return interruptSignal() != 0 || (s_.maxSeconds > 0 && timer_.seconds() > s_.maxSeconds);
     }
-    /// hr.max_seconds before a round: true (warned once, flagged) when past it.
+    /// hr.max_seconds or a signal before a round: true (warned once, flagged
+    /// timeLimitHit or interrupted) when past it.
     bool stopForTime(HrResult& res) const;
     /// hr.max_links: true (warned once, flagged) when judging a round of
     /// `pending` links besides `kept` would pass the cap; the round is then

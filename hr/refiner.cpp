@@ -410,7 +410,7 @@ void RefinementPass::finish() {
     for (size_t k = 0; k < checks_.size(); ++k) res_.checks[checkIndex_[k]].amended += amended_[k];
     // Refinement stopped early: the links it was about to open get a
     // stand-in transfer instead of none (cluster/link.h "Stand-ins").
-    if (res_.linkCapHit || res_.memoryBudgetHit || res_.timeLimitHit)
+    if (res_.linkCapHit || res_.memoryBudgetHit || res_.stoppedEarly())
         solver_.standInUnopened(h_, finalRecv_, finalLinks_, res_, rec_);
     if (aggregate_)
         h_.setLinks(finalRecv_, std::move(finalLinks_), std::move(finalS_));

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <unordered_map>
 
+#include "core/interrupt.h"
 #include "core/log.h"
 #include "core/memory.h"
 #include "core/rng.h"
@@ -263,7 +264,7 @@ HrResult HrSolver::solve(bool progress) {
     while (res.noise.relative > s_.noiseTarget && rounds < s_.noiseRounds) {
         // A solve stopped early is not solved again: more rays would only
         // stop it earlier.
-        if (res.timeLimitHit || res.linkCapHit || res.memoryBudgetHit) break;
+        if (res.stoppedEarly() || res.linkCapHit || res.memoryBudgetHit) break;
         const double noise = res.noise.relative;
         if (prevFactor > 0.0 && prevNoise > noise && noise > 0.0)
             a = std::clamp(std::log(prevNoise / noise) / std::log(factor / prevFactor), 0.25, 2.0);
@@ -427,8 +428,8 @@ void HrSolver::iterate(Hierarchy& h, HrResult& res, bool progress) {
     res.converged = false;
     for (size_t stage = 0; stage < stages.size(); ++stage) {
         const bool stageConverged = runStage(h, res, int(stage), stages[stage], st, progress);
-        res.converged = stageConverged && !res.timeLimitHit;
-        if (res.timeLimitHit) break;
+        res.converged = stageConverged && !res.stoppedEarly();
+        if (res.stoppedEarly()) break;
     }
 }
 
@@ -473,6 +474,14 @@ bool HrSolver::runStage(Hierarchy& h, HrResult& res, int stage, double eps, Loop
         // next gather rather than at the next convergence (the leaf
         // estimate is linear in B, which a push changes little).
         if (checkPass && rec.refinedLinks > 0 && mayRefine()) checksAtConvergence(h, *oracle, res);
+        if (outOfTime() && interruptSignal() != 0) {
+            if (!res.interrupted)
+                spdlog::warn("signal {} received after iteration {}: the solution so far is the "
+                             "result, marked interrupted",
+                             interruptSignal(), rec.iteration);
+            res.interrupted = true;
+            return false;
+        }
         if (outOfTime()) {
             if (!res.timeLimitHit)
                 spdlog::warn(

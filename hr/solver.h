@@ -118,6 +118,9 @@ struct HrResult {
     bool linkCapHit = false;
     bool memoryBudgetHit = false;  ///< refinement stopped at memory.budget_mb
     bool timeLimitHit = false;     ///< stopped at hr.max_seconds
+    bool interrupted = false;      ///< stopped by SIGINT/SIGTERM (core/interrupt.h)
+    /// Stopped by the clock or a signal before converging.
+    bool stoppedEarly() const { return timeLimitHit || interrupted; }
     /// The power eps was a fraction of in the last judging pass
     /// (hr.eps_power: the emitted power, the reflected power so far, or the
     /// smaller of the emitted and the predicted reflected power).

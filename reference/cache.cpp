@@ -16,6 +16,7 @@
 #include <system_error>
 
 #include "core/error.h"
+#include "core/safe_file.h"
 #include "core/log.h"
 
 namespace hrad::reference {
@@ -159,26 +160,7 @@ void writeFileAtomically(const std::string& path, const std::string& bytes) {
     if (ec)
         throw Error(fmt::format("cannot create directory {}: {}", target.parent_path().string(),
                                 ec.message()));
-    // Unique temporary name in the same directory, then an atomic rename.
-    std::filesystem::path tmp = target;
-    tmp += fmt::format(".tmp{:x}",
-                       uint64_t(reinterpret_cast<uintptr_t>(&bytes)) ^
-                           uint64_t(std::chrono::steady_clock::now().time_since_epoch().count()));
-    {
-        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-        if (!out) throw Error(fmt::format("cannot write {}", tmp.string()));
-        out.write(bytes.data(), std::streamsize(bytes.size()));
-        out.close();
-        if (!out) {
-            std::filesystem::remove(tmp, ec);
-            throw Error(fmt::format("error writing {}", tmp.string()));
-        }
-    }
-    std::filesystem::rename(tmp, target, ec);
-    if (ec) {
-        std::filesystem::remove(tmp, ec);
-        throw Error(fmt::format("cannot rename {} to {}", tmp.string(), target.string()));
-    }
+    writeFileSafely(target, bytes);  // a temporary file beside it, then a rename
 }
 
 }  // namespace
@@ -442,6 +424,7 @@ std::unique_ptr<scene::LeafField> loadSolution(const std::string& path, const sc
     auto fail = [&](const std::string& why) -> std::unique_ptr<scene::LeafField> {
         throw InputError(SourceLocation{path, 0, 0}, "not a usable hrad solution: " + why);
     };
+    requireRegularFile(path, "solution file");  // a FIFO would block, /dev/zero never end
     std::ifstream in(path, std::ios::binary);
     if (!in) throw InputError(SourceLocation{path, 0, 0}, "cannot open the solution file");
     std::string buf((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

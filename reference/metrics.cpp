@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "core/error.h"
+#include "core/safe_file.h"
 
 namespace hrad::reference {
 
@@ -135,12 +136,10 @@ void writeRegionsCsv(const std::string& path, const scene::RadiosityField& solut
     std::unique_ptr<scene::UniformField> avg = averageOnRegions(solution, reference);
     const scene::Scene& scene = reference.scene();
     const bool withError = stdError.size() == reference.numElements();
-    std::FILE* f = std::fopen(path.c_str(), "w");
-    if (!f) throw Error(fmt::format("cannot write {}", path));
-    std::fputs(
+    std::string f;
+    f.append(
         "region,patch,element,material,area,E_r,E_g,E_b,S_r,S_g,S_b,R_r,R_g,R_b,"
-        "R_stderr_r,R_stderr_g,R_stderr_b\n",
-        f);
+        "R_stderr_r,R_stderr_g,R_stderr_b\n");
     for (uint32_t p = 0; p < scene.patches.size(); ++p) {
         const scene::Patch& patch = scene.patches[p];
         const std::string& material =
@@ -169,10 +168,10 @@ void writeRegionsCsv(const std::string& path, const scene::RadiosityField& solut
                                    stdError[k].b);
             else
                 row += ",,,\n";
-            std::fputs(row.c_str(), f);
+            f += row;
         }
     }
-    if (std::fclose(f) != 0) throw Error(fmt::format("cannot write {}", path));
+    writeFileSafely(path, f);
 }
 
 }  // namespace hrad::reference

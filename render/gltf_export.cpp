@@ -16,6 +16,7 @@
 #include <tiny_gltf.h>
 
 #include "core/error.h"
+#include "core/safe_file.h"
 #include "render/image.h"
 #include "render/render.h"
 #include "scene/element.h"
@@ -207,12 +208,13 @@ GltfCounts writeGlb(const scene::RadiosityField& field, const std::string& path,
     m.defaultScene = 0;
 
     // Our own stream, so that a failed open or write (full disk) is reported.
-    std::ofstream out(path, std::ios::binary);
-    if (!out) throwInputError(SourceLocation{path, 0, 0}, "cannot open the glTF file for writing");
-    tinygltf::TinyGLTF writer;
-    bool ok = writer.WriteGltfSceneToStream(&m, out, /*prettyPrint=*/false, /*writeBinary=*/true);
-    out.close();
-    if (!ok || !out) throwInputError(SourceLocation{path, 0, 0}, "error writing the glTF file");
+    writeThroughTemp(path, [&](const std::filesystem::path& tmp) {
+        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+        tinygltf::TinyGLTF writer;
+        bool ok = writer.WriteGltfSceneToStream(&m, out, /*prettyPrint=*/false, /*writeBinary=*/true);
+        out.close();
+        if (!ok || !out) throw IoError(path, "cannot write the glTF file (disk full?)");
+    });
     return counts;
 }
 

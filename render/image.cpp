@@ -10,6 +10,7 @@
 #include <numeric>
 
 #include "core/error.h"
+#include "core/safe_file.h"
 
 namespace hrad::render {
 
@@ -75,13 +76,15 @@ void writeExr(const Image& image, const std::string& path) {
         const RGB& c = image.pixels[i];
         px[i] = Imf::Rgba(half(float(c.r)), half(float(c.g)), half(float(c.b)), half(1.0f));
     }
-    try {
-        Imf::RgbaOutputFile file(path.c_str(), image.width, image.height, Imf::WRITE_RGB);
-        file.setFrameBuffer(px.data(), 1, size_t(image.width));
-        file.writePixels(image.height);
-    } catch (const std::exception& e) {
-        throw InputError(SourceLocation{path, 0, 0}, std::string("cannot write EXR: ") + e.what());
-    }
+    writeThroughTemp(path, [&](const std::filesystem::path& tmp) {
+        try {
+            Imf::RgbaOutputFile file(tmp.c_str(), image.width, image.height, Imf::WRITE_RGB);
+            file.setFrameBuffer(px.data(), 1, size_t(image.width));
+            file.writePixels(image.height);
+        } catch (const std::exception& e) {
+            throw IoError(path, std::string("cannot write EXR: ") + e.what());
+        }
+    });
 }
 
 Image readExr(const std::string& path) {
@@ -109,11 +112,13 @@ void writePngPixels(const std::string& path, int width, int height, uint32_t for
     png.width = png_uint_32(width);
     png.height = png_uint_32(height);
     png.format = format;
-    if (!png_image_write_to_file(&png, path.c_str(), 0, pixels, 0, nullptr)) {
-        std::string msg = png.message;
-        png_image_free(&png);
-        throw InputError(SourceLocation{path, 0, 0}, "cannot write PNG: " + msg);
-    }
+    writeThroughTemp(path, [&](const std::filesystem::path& tmp) {
+        if (!png_image_write_to_file(&png, tmp.c_str(), 0, pixels, 0, nullptr)) {
+            std::string msg = png.message;
+            png_image_free(&png);
+            throw IoError(path, "cannot write PNG: " + msg);
+        }
+    });
 }
 
 void writePng(const Image& image, const std::string& path, double exposure) {

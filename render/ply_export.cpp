@@ -6,9 +6,11 @@
 #include <bit>
 #include <cstring>
 #include <fstream>
+#include <sstream>
 #include <vector>
 
 #include "core/error.h"
+#include "core/safe_file.h"
 #include "render/image.h"
 #include "scene/element.h"
 
@@ -52,8 +54,7 @@ PlyCounts writePly(const scene::RadiosityField& field, const std::string& path, 
     }
     HRAD_CHECK_MSG(counts.vertices < uint64_t(INT32_MAX), "too many vertices for PLY int indices");
 
-    std::ofstream out(path, std::ios::binary);
-    if (!out) throw InputError(SourceLocation{path, 0, 0}, "cannot open PLY file for writing");
+    std::ostringstream out;
     out << "ply\nformat binary_little_endian 1.0\n"
         << "comment hrad radiosity field of " << scene.name << ": one face per leaf element\n"
         << "comment vertex colours: sRGB of exposure * B, exposure "
@@ -66,9 +67,14 @@ PlyCounts writePly(const scene::RadiosityField& field, const std::string& path, 
         << "property list uchar int vertex_indices\n"
         << "property float radiosity_r\nproperty float radiosity_g\nproperty float radiosity_b\n"
         << "end_header\n";
-    out.write(vtx.data(), std::streamsize(vtx.size()));
-    out.write(faces.data(), std::streamsize(faces.size()));
-    if (!out) throw InputError(SourceLocation{path, 0, 0}, "error writing PLY file");
+    writeThroughTemp(path, [&](const std::filesystem::path& tmp) {
+        std::ofstream file(tmp, std::ios::binary | std::ios::trunc);
+        file << out.str();
+        file.write(vtx.data(), std::streamsize(vtx.size()));
+        file.write(faces.data(), std::streamsize(faces.size()));
+        file.close();
+        if (!file) throw IoError(path, "cannot write the PLY file (disk full?)");
+    });
     return counts;
 }
 

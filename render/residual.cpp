@@ -6,8 +6,10 @@
 #include <atomic>
 #include <cmath>
 #include <fstream>
+#include <sstream>
 
 #include "core/error.h"
+#include "core/safe_file.h"
 #include "core/log.h"
 #include "core/rng.h"
 #include "core/timer.h"
@@ -118,14 +120,14 @@ ResidualSummary computeResidual(const scene::Scene& scene, const transport::Visi
 }
 
 void writeResidualCsv(const std::string& path, const ResidualSummary& r) {
-    std::ofstream o(path);
-    if (!o) throwInputError(SourceLocation{path, 0, 0}, "cannot write the residual table");
+    std::ostringstream o;
     o << "patch,key,area,B_r,B_g,B_b,gathered_r,gathered_g,gathered_b,se_r,se_g,se_b\n";
     o.precision(9);
     for (const auto& l : r.leaves)
         o << l.patch << ',' << l.key << ',' << l.area << ',' << l.B.r << ',' << l.B.g << ','
           << l.B.b << ',' << l.gathered.r << ',' << l.gathered.g << ',' << l.gathered.b << ','
           << l.stdError.r << ',' << l.stdError.g << ',' << l.stdError.b << '\n';
+    writeFileSafely(path, o.str());
 }
 
 }  // namespace hrad::render

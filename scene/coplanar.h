@@ -28,8 +28,8 @@
 //
 // Detection: patches are bucketed by their quantised plane (unit normal to
 // 1e-3, offset to `planeTolerance`, neighbouring offset cells probed); within
-// a bucket, faces whose 2-D bounding boxes overlap are clipped against each
-// other (Sutherland & Hodgman 1974, convex polygons) and a pair counts when
+// a bucket, faces whose 2-D bounding boxes overlap (a box tree: O(n log n)
+// plus the pairs) are clipped against each other (Sutherland & Hodgman 1974, convex polygons) and a pair counts when
 // the common area exceeds 1e-6 of the smaller face. Faces that only share an
 // edge (the tiles of a floor) have no common area and are not pairs. Normals
 // must agree to 1e-6 in their dot product and offsets to `planeTolerance`,

@@ -126,6 +126,37 @@ size_t checkGlb(const std::string& path, const std::vector<unsigned char>& b) {
     return jsonData;
 }
 
+/// Throws when arrays and objects nest deeper than kMaxJsonDepth: tinygltf
+/// converts "extras" and "extensions" values recursively, so 200,000 nested
+/// arrays would overflow the stack (issue 64). A linear scan outside strings.
+constexpr int kMaxJsonDepth = 256;
+void checkJsonDepth(const std::string& path, const std::vector<unsigned char>& text, size_t begin,
+                    size_t end, bool binary) {
+    int depth = 0, line = 1;
+    bool inString = false;
+    for (size_t i = begin; i < end; ++i) {
+        const unsigned char c = text[i];
+        if (c == '\n') ++line;
+        if (inString) {
+            if (c == '\\') ++i;
+            else if (c == '"') inString = false;
+        } else if (c == '"') {
+            inString = true;
+        } else if (c == '[' || c == '{') {
+            if (++depth > kMaxJsonDepth) {
+                if (binary)
+                    throwInputError(SourceLocation{path, 0, 0},
+                                    "JSON arrays and objects nested deeper than {} levels (at byte "
+                                    "offset {}, in the GLB JSON chunk)", kMaxJsonDepth, i);
+                throwInputError(SourceLocation{path, line, 0},
+                                "JSON arrays and objects nested deeper than {} levels", kMaxJsonDepth);
+            }
+        } else if (c == ']' || c == '}') {
+            --depth;
+        }
+    }
+}
+
 /// nlohmann-json's parse errors read "... parse error at line L, column C: ...".
 int jsonErrorLine(const std::string& err) {
     static const std::regex re("at line ([0-9]+)");
@@ -385,10 +416,12 @@ void Loader::parse() {
         jsonEnd = jsonBegin + le32(&bytes[jsonBegin - 8]);
         if (bytes.size() > size_t(std::numeric_limits<unsigned int>::max()))
             fail("GLB files of 4 GiB or more are not supported");
+        checkJsonDepth(path_, bytes, jsonBegin, std::min(jsonEnd, bytes.size()), true);
         ok = gltf.LoadBinaryFromMemory(&model_, &err, &warnText, bytes.data(), unsigned(bytes.size()), baseDir);
     } else {
         if (bytes.size() > size_t(std::numeric_limits<unsigned int>::max()))
             fail(".gltf files of 4 GiB or more are not supported");
+        checkJsonDepth(path_, bytes, 0, bytes.size(), false);
         ok = gltf.LoadASCIIFromString(&model_, &err, &warnText, reinterpret_cast<const char*>(bytes.data()),
                                       unsigned(bytes.size()), baseDir);
     }

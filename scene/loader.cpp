@@ -107,6 +107,12 @@ MitsubaOptions mitsubaOptions(const Params& params) {
     m.maxFaces =
         uint64_t(params.getInt({"mitsuba.max_faces", "Mitsuba: faces at most (a resource bound)"},
                                int64_t(m.maxFaces), 1, int64_t(1) << 40));
+    m.maxInflatedBytes =
+        uint64_t(params.getInt({"mitsuba.max_inflated_mb",
+                                "Mitsuba: MiB the scene's .serialized meshes may inflate to (a "
+                                "resource bound)"},
+                               int64_t(m.maxInflatedBytes >> 20), 1, int64_t(1) << 24))
+        << 20;
     Params sub = params.subset("mitsuba.param");
     for (const auto& [key, entry] : sub.entries())
         m.params[key] = Params::valueToString(entry.value);

@@ -682,6 +682,11 @@ class MgfLoader {
             Vec3 c = xf.point(vert(f, s, s.tok[1]).p);
             double r = num(f, s, 2) * sc;
             if (r == 0) fail(f, s, "sph: radius must be non-zero");
+            // Past 1e150 the faces' areas overflow and they were dropped as
+            // degenerate without a word (issue 64).
+            if (!(std::fabs(r) <= 1e150) || !(glm::length(c) <= 1e150))
+                fail(f, s, fmt::format("sph: radius {:.3g} or centre beyond 1e150: face areas would "
+                                       "overflow", r));
             double sign = r > 0 ? 1.0 : -1.0;
             r = std::fabs(r);
             int nb = mgfSphereBands(R);

@@ -12,6 +12,7 @@
 #include <deque>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <numbers>
 #include <optional>
@@ -193,6 +194,9 @@ class Loader {
             if (std::string(n.n.name()) == "emitter" && !usedEmitters_.count(n.key()) &&
                 attr(n, "type") == "area")
                 warn(n, fmt::format("area emitter '{}' is attached to no shape: ignored", id));
+        for (const auto& [text, at] : warnings_)
+            if (at.second > 1)
+                scene_.stats.warnings[at.first] += fmt::format(" ({} times in all)", at.second);
         if (scene_.patches.empty())
             throwInputError(SourceLocation{path, 0, 0}, "the scene has no shape hrad can use");
         return std::move(scene_);
@@ -203,6 +207,11 @@ class Loader {
     Scene scene_;
     std::map<std::string, std::string> params_;
     std::deque<std::unique_ptr<XmlFile>> files_;
+    static constexpr int kMaxXmlDepth = 128;       ///< element nesting, any file
+    static constexpr int kMaxXmlParses = 10000;    ///< files parsed, includes counted each time
+    static constexpr uint64_t kMaxXmlBytes = uint64_t(512) << 20;  ///< bytes parsed, likewise
+    int parses_ = 0;
+    uint64_t parsedBytes_ = 0;
     std::vector<std::string> includeStack_;
     std::vector<Node> top_;
     std::map<std::string, Node> ids_;
@@ -210,6 +219,9 @@ class Loader {
     std::map<std::pair<const void*, const void*>, uint32_t> materials_;
     std::set<const void*> usedEmitters_;
     std::set<std::string> warnedOnce_;
+    std::map<std::string, std::pair<size_t, uint64_t>> warnings_;  ///< text -> (index, count)
+    uint64_t shapesVisited_ = 0;  ///< shapes met, through instances included
+    uint64_t inflated_ = 0;       ///< bytes .serialized meshes inflated to so far
     bool haveCamera_ = false;
     /// (file, raw) -> the texture's mean, or why it could not be read.
     std::map<std::pair<std::string, bool>, std::pair<std::optional<RGB>, std::string>> textureCache_;
@@ -225,8 +237,14 @@ class Loader {
     [[noreturn]] void fail(const Node& n, fmt::format_string<Args...> f, Args&&... args) const {
         throwInputError(loc(n), f, std::forward<Args>(args)...);
     }
+    /// One warning per element and message: an element seen again through
+    /// instances is counted, not repeated (10^8 instances of a skipped shape
+    /// held 7.6 GiB of warnings, issue 64); run() appends the counts.
     void warn(const Node& n, const std::string& msg) {
-        scene_.stats.warnings.push_back(fmt::format("{}: warning: {}", where(n), msg));
+        std::string text = fmt::format("{}: warning: {}", where(n), msg);
+        auto [it, inserted] = warnings_.try_emplace(std::move(text), scene_.stats.warnings.size(), 0);
+        if (inserted) scene_.stats.warnings.push_back(it->first);
+        ++it->second.second;
     }
 
     // --- parsing and includes --------------------------------------------
@@ -237,6 +255,11 @@ class Loader {
         std::ifstream in(path, std::ios::binary);
         if (!in) throwInputError(from.known() ? from : SourceLocation{path, 0, 0}, "cannot open '{}'", path);
         std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        parsedBytes_ += text.size();
+        if (parsedBytes_ > kMaxXmlBytes)
+            throwInputError(from.known() ? from : SourceLocation{path, 0, 0},
+                            "more than {} MiB of XML parsed through <include> (an include fan-out?)",
+                            kMaxXmlBytes >> 20);
         file->lineStarts.push_back(0);
         for (size_t i = 0; i < text.size(); ++i)
             if (text[i] == '\n') file->lineStarts.push_back(i + 1);
@@ -245,6 +268,27 @@ class Loader {
         if (!r)
             throwInputError(SourceLocation{path, file->lineOf(r.offset), 0}, "malformed XML: {}",
                             r.description());
+        // The loader's passes recurse over elements: bound the nesting
+        // first (pugixml's walker is iterative; 200,000 nested elements
+        // overflowed the stack, issue 64).
+        struct DepthWalker : pugi::xml_tree_walker {
+            ptrdiff_t offset = -1;
+            bool for_each(pugi::xml_node& n) override {
+                if (depth() < kMaxXmlDepth) return true;
+                offset = n.offset_debug();
+                return false;
+            }
+        } walker;
+        file->doc.traverse(walker);
+        if (walker.offset >= 0)
+            throwInputError(SourceLocation{path, file->lineOf(walker.offset), 0},
+                            "elements nested deeper than {} levels", kMaxXmlDepth);
+        // Each include is parsed where it appears: a tree of files each
+        // including the next twice would parse 2^depth files.
+        if (++parses_ > kMaxXmlParses)
+            throwInputError(from.known() ? from : SourceLocation{path, 0, 0},
+                            "more than {} files parsed through <include> (an include fan-out?)",
+                            kMaxXmlParses);
         pugi::xml_node root = file->doc.document_element();
         if (!root || std::string(root.name()) != "scene")
             throwInputError(SourceLocation{path, root ? file->lineOf(root.offset_debug()) : 1, 0},
@@ -464,6 +508,9 @@ class Loader {
         Samples s;
         if (p.n.attribute("filename")) {
             std::string file = filePath(p, attr(p, "filename"));
+            std::error_code ec;
+            if (fs::exists(file, ec) && !fs::is_regular_file(file, ec))
+                fail(p, "spectrum file '{}' is not a regular file (a FIFO, device or folder)", file);
             std::ifstream in(file);
             if (!in) fail(p, "spectrum file '{}' not found", file);
             std::string line;
@@ -964,6 +1011,11 @@ class Loader {
     // --- shapes ----------------------------------------------------------------
 
     void shape(const Node& s, const glm::dmat4& parent, int depth) {
+        // Bounded before anything is made: shapes that yield no face (skipped
+        // types, transparent ones) add nothing to the face budget.
+        if (++shapesVisited_ > opt_.maxFaces)
+            fail(s, "the scene instantiates more than {} shapes (setting mitsuba.max_faces; shapes "
+                    "that yield no face count too)", opt_.maxFaces);
         std::string type = attr(s, "type");
         if (contains(kUnsupportedShapes, type)) {
             warn(s, fmt::format("'{}' shapes cannot be made into polygons: ignored", type));
@@ -1024,7 +1076,16 @@ class Loader {
         std::vector<Vec3> w;
         for (const auto& p : polys) {
             w.clear();
-            for (const Vec3& v : p) w.push_back(Vec3(m * glm::dvec4(v, 1.0)));
+            for (const Vec3& v : p) {
+                w.push_back(Vec3(m * glm::dvec4(v, 1.0)));
+                // Areas are products of coordinates: past 1e150 they overflow
+                // and the face was dropped as degenerate, without a word
+                // (a sphere of radius 1e200, an instance scale that overflows).
+                const Vec3 a = glm::abs(w.back());
+                if (!(std::max({a.x, a.y, a.z}) <= 1e150))
+                    fail(s, "the shape's coordinates reach {:.3g} after its transform: beyond 1e150 "
+                            "face areas overflow", std::max({a.x, a.y, a.z}));
+            }
             if (flip) std::reverse(w.begin(), w.end());
             addPolygon(scene_, w, material);
         }
@@ -1067,6 +1128,18 @@ class Loader {
         return id;
     }
 
+    /// The face budget before an analytic shape's faces are made (a few
+    /// spheres at mitsuba.resolution = 4096 made 25 M faces, then failed it).
+    void checkAnalyticBudget(const Node& s, const std::string& type, int n) const {
+        const uint64_t expected = type == "sphere" ? uint64_t(n) * uint64_t(std::max(2, n / 2))
+                                  : type == "cube" ? 6
+                                  : type == "rectangle" ? 1
+                                                        : uint64_t(n);
+        if (faces_ + expected > opt_.maxFaces)
+            fail(s, "this {} at mitsuba.resolution = {} makes {} faces: the scene would pass "
+                    "mitsuba.max_faces = {}", type, n, expected, opt_.maxFaces);
+    }
+
     std::vector<std::vector<Vec3>> geometry(const Node& s, const std::string& type) {
         std::vector<std::vector<Vec3>> polys;
         const int n = opt_.resolution;
@@ -1084,8 +1157,10 @@ class Loader {
                     shapeIndex != std::floor(shapeIndex))
                     fail(s, "shape_index must be a whole number in [0, 2^32), not {}", shapeIndex);
                 const uint64_t index = uint64_t(shapeIndex);
-                SerializedMesh mesh = readSerialized(file, index, opt_.maxFaces - std::min(faces_, opt_.maxFaces),
-                                                     "shape at " + where(s));
+                SerializedMesh mesh = readSerialized(
+                    file, index, opt_.maxFaces - std::min(faces_, opt_.maxFaces), "shape at " + where(s),
+                    opt_.maxInflatedBytes - std::min(inflated_, opt_.maxInflatedBytes));
+                inflated_ += mesh.inflatedBytes;
                 polys.reserve(mesh.triangles.size());
                 for (const auto& t : mesh.triangles)
                     polys.push_back({mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]});
@@ -1109,6 +1184,7 @@ class Loader {
                 polys.emplace_back(p.v.begin(), p.v.begin() + p.numVertices());
             return polys;
         }
+        checkAnalyticBudget(s, type, n);
         if (type == "rectangle") {
             polys.push_back({{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}});
         } else if (type == "cube") {

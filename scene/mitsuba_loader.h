@@ -100,6 +100,7 @@
 //                                    are not evaluated (e.g. bitmap-driven
 //                                    procedural types other than checkerboard)
 //   mitsuba.max_faces   int    2e7   most faces the scene may yield
+//   mitsuba.max_inflated_mb int 1024 most bytes .serialized meshes inflate to
 //   mitsuba.param.NAME  string       value of $NAME (overrides <default>)
 #pragma once
 
@@ -117,6 +118,7 @@ struct MitsubaOptions {
     double defaultRho = 0.5;
     double textureRho = 0.5;
     uint64_t maxFaces = 20000000;
+    uint64_t maxInflatedBytes = uint64_t(1024) << 20;  ///< mitsuba.max_inflated_mb
     std::map<std::string, std::string> params;  ///< $NAME values from settings
 };
 

@@ -34,12 +34,16 @@ struct SerializedMesh {
     std::string name;
     std::vector<Vec3> positions;
     std::vector<std::array<uint32_t, 3>> triangles;
+    uint64_t inflatedBytes = 0;  ///< bytes the mesh's data inflate to (normals etc. included)
 };
 
 /// Reads mesh number `shapeIndex` of a `.serialized` file. At most `maxFaces`
 /// triangles are accepted. `context` (e.g. "shape at scene.xml:12") is added
 /// to error messages so the user finds the XML element that named the file.
+/// The data may inflate to `maxInflatedBytes` at most (mitsuba.max_inflated_mb),
+/// checked from the declared counts before anything is inflated.
 SerializedMesh readSerialized(const std::string& path, uint64_t shapeIndex, uint64_t maxFaces,
-                              const std::string& context = {});
+                              const std::string& context = {},
+                              uint64_t maxInflatedBytes = UINT64_MAX);
 
 }  // namespace hrad::scene

@@ -192,6 +192,13 @@ void Scene::validate() const {
     }
     if (numEmitters() == 0)
         throwInputError(where, "scene has no emitter (no face with emission > 0)");
+    // Each emission finite, their power may still overflow (Ke 1e308 on a
+    // face of area 2): the solve would write emitted_power null and exit 0.
+    const RGB power = emittedPower();
+    for (int c = 0; c < 3; ++c)
+        if (!std::isfinite(power[c]))
+            throwInputError(where, "the emitted power (emission x area, summed) overflows a double; "
+                                   "scale the emission or the geometry down");
 }
 
 }  // namespace hrad::scene

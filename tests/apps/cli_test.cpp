@@ -11,7 +11,9 @@
 #include <fstream>
 
 #include <nlohmann/json.hpp>
+#include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include "tests/test_util.h"
 
@@ -398,6 +400,91 @@ TEST(Cli, ForeignAndCorruptStoresExitTwo) {
     r = run("results merge " + out + " " + (dir / "absent.sqlite").string());
     EXPECT_EQ(r.code, 2) << r.output;
     EXPECT_NE(r.output.find("no such results store"), std::string::npos) << r.output;
+}
+
+// Issue 64: outputs never go through a planted symlink; an output that cannot
+// be a folder, a store that cannot be a store, an input that is not a regular
+// file and every out-of-range numeric option exit 2 with the path or option.
+TEST(Cli, HostileOutputsInputsAndOptionsExitTwo) {
+    namespace fs = std::filesystem;
+    auto dir = hrad::test::tempDir("cli_hostile");
+    hrad::test::writeFile(dir / "victim", "precious");
+    fs::create_directories(dir / "o");
+    for (const char* f : {"summary.json", "image.png", "solution.hrsol"})
+        fs::create_symlink(dir / "victim", dir / "o" / f);
+    Result r = run("solve furnace --no-progress --width 16 --height 16 --no-ply -o " + (dir / "o").string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_EQ(fileBytes(dir / "victim"), "precious");
+    for (const char* f : {"summary.json", "image.png", "solution.hrsol"})
+        EXPECT_FALSE(fs::is_symlink(dir / "o" / f)) << f;
+
+    const std::string file = (dir / "victim").string();
+    fs::create_directories(dir / "folder.hrsol");
+    ASSERT_EQ(::mkfifo((dir / "fifo.hrsol").c_str(), 0600), 0);
+    auto study = hrad::test::writeFile(dir / "s.toml", "scenes = [\"furnace\"]\n");
+    hrad::test::writeFile(dir / "empty.sqlite", "");
+    struct Case {
+        std::string args, expect;
+    } cases[] = {
+        {"solve furnace -o " + file, "is not a folder"},
+        {"solve furnace -o ''", "output folder name is empty"},
+        {"solve furnace -o /dev/null", "/dev/null: error: is not a folder"},
+        {"render furnace " + (dir / "folder.hrsol").string(), "not a regular file (a folder)"},
+        {"render furnace " + (dir / "fifo.hrsol").string(), "not a regular file (a FIFO)"},
+        {"render furnace /dev/zero", "not a regular file (a device)"},
+        {"sweep " + study.string() + " --store " + dir.string(), "is not a results store: it is a folder"},
+        {"sweep " + study.string() + " --store /dev/null", "is not a results store"},
+        {"results export " + (dir / "empty.sqlite").string() + " --csv " + (dir / "csv").string(),
+         "the results store is empty"},
+        {"sweep " + study.string() + " --dry-run --max-seconds nan", "--max-seconds"},
+        {"sweep " + study.string() + " --dry-run --max-seconds -5", "--max-seconds"},
+        {"sweep " + study.string() + " --dry-run --max-seconds 1e300", "--max-seconds"},
+        {"sweep " + study.string() + " --dry-run --max-memory lots", "--max-memory"},
+        {"sweep " + study.string() + " --dry-run --max-memory 99999999999T", "--max-memory"},
+        {"sweep " + study.string() + " --dry-run --max-memory 1e-3", "--max-memory"},
+        {"sweep " + study.string() + " --dry-run --max-memory inf", "--max-memory"},
+        {"sweep " + study.string() + " --dry-run --shard 5/3", "--shard"},
+        {"sweep " + study.string() + " --status --shard 0/0", "--shard"},
+    };
+    for (const auto& c : cases) {
+        Result e = run(c.args);
+        EXPECT_EQ(e.code, 2) << c.args << ": " << e.output;
+        EXPECT_NE(e.output.find(c.expect), std::string::npos) << c.args << ": " << e.output;
+    }
+    // A reference cache that cannot be written: no "cache file:" that does not exist.
+    Result c = run("--set fm.level=1 reference furnace --no-progress --cache " + file);
+    EXPECT_EQ(c.code, 0) << c.output;
+    EXPECT_NE(c.output.find("cache file: none, the cache " + file + " could not be written"),
+              std::string::npos) << c.output;
+    if (::geteuid() != 0) {  // permissions do not stop root
+        fs::create_directories(dir / "ro");
+        fs::permissions(dir / "ro", fs::perms::owner_read | fs::perms::owner_exec);
+        Result e = run("solve furnace --no-progress -o " + (dir / "ro").string());
+        EXPECT_EQ(e.code, 2) << e.output;
+        e = run("sweep " + study.string() + " --store " + (dir / "ro" / "s.sqlite").string());
+        EXPECT_EQ(e.code, 2) << e.output;
+        EXPECT_EQ(e.output.find("corrupt"), std::string::npos) << e.output;
+        fs::permissions(dir / "ro", fs::perms::owner_all);
+    }
+}
+
+// Issue 64: SIGINT and SIGTERM during a solve stop it at the next safe point;
+// what it has is written, marked interrupted, and the exit is 128 + signal.
+TEST(Cli, InterruptedSolveWritesItsSolutionMarkedInterrupted) {
+    auto dir = hrad::test::tempDir("cli_interrupt");
+    for (auto [sig, code] : {std::pair{"INT", 130}, std::pair{"TERM", 143}}) {
+        const std::string out = (dir / sig).string();
+        // cornell at eps 1e-7 runs for minutes; the signal comes after 1.5 s.
+        Result r = shell(std::string(HRAD_BINARY) + " --log quiet solve cornell --eps 1e-7 --no-images "
+                         "--no-ply --no-progress -o " + out + " 2>&1 & pid=$!; sleep 1.5; kill -" + sig +
+                         " $pid; wait $pid; echo \"rc=$?\"");
+        EXPECT_NE(r.output.find("rc=" + std::to_string(code)), std::string::npos) << sig << ": " << r.output;
+        nlohmann::json s;
+        std::ifstream(std::filesystem::path(out) / "summary.json") >> s;
+        EXPECT_EQ(s.value("interrupted", false), true) << sig;
+        EXPECT_EQ(s.value("converged", true), false) << sig;
+        EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(out) / "solution.hrsol")) << sig;
+    }
 }
 
 // Issue 12: glTF out (--glb on solve and render) and glTF bad input (exit 2).

@@ -4,8 +4,11 @@
 // Slurm.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <sstream>
+
+#include <sys/wait.h>
 
 #include <fmt/format.h>
 
@@ -266,6 +269,65 @@ TEST(SlurmPipeline, ListedPointsStatusAndResumeList) {
     EXPECT_NE(readText(d / "resume-1" / "points.sbatch").find("#SBATCH --array=0-5%2"), std::string::npos);
     EXPECT_TRUE(fs::exists(d / "resume-1" / "references.sbatch"));
     EXPECT_FALSE(fs::exists(d / "resume-1" / "jobs.txt"));
+}
+
+// Issue 64: every user string reaches the shell quoted. The generated scripts
+// are run by bash with a stand-in hrad that records its arguments; the paths
+// hold a newline, quotes, $() and spaces, and nothing they spell is executed.
+TEST(SlurmScripts, HostilePathsReachTheProgramIntactAndRunNothing) {
+    TempDir dir = tempDir("slurm_hostile");
+    const std::string evil = "a b'c\"d$(touch PWNED)`touch PWNED2`\n#SBATCH --wrap=x\ntouch PWNED3;";
+    fs::path hostile = dir / evil;
+    fs::create_directories(hostile);
+    fs::path args = dir / "args";
+    fs::path fake = writeFile(hostile / "hrad", "#!/bin/sh\nfor a in \"$@\"; do printf '%s\\0' \"$a\"; done >> \"$ARGS_OUT\"\n");
+    fs::permissions(fake, fs::perms::owner_all);
+    Study s = parseStudy("scenes = [\"furnace\"]\n", "study.toml", ".");
+    s.name = "hostile";
+    SlurmRound r = round(1, 1);
+    r.binary = fake;
+    r.study = hostile / "s\n$(touch PWNED4).toml";
+    r.store = hostile / "s.sqlite";
+    r.cache = hostile / "cache";
+    r.dir = dir / "slurm";  // checkScriptPath keeps the folder plain (#SBATCH lines)
+    r.scriptDir = r.dir;
+    r.pointsFile = hostile / "points.txt";
+    SlurmScripts sc = makeSlurmScripts(s, slurmSettingsFromParams(s.slurm), r);
+    for (const std::string* script : {&sc.references, &sc.points, &sc.merge}) {
+        writeFile(dir / "job.sh", *script);
+        std::string cmd = fmt::format("cd '{}' && SLURM_ARRAY_TASK_ID=0 ARGS_OUT='{}' bash job.sh",
+                                      dir.string(), args.string());
+        int rc = std::system(cmd.c_str());
+        EXPECT_TRUE(WIFEXITED(rc)) << *script;
+    }
+    // Every script called the stand-in with the study path as one argument.
+    std::string recorded = readText(args);
+    std::vector<std::string> argv;
+    for (size_t at = 0, nul; (nul = recorded.find('\0', at)) != std::string::npos; at = nul + 1)
+        argv.push_back(recorded.substr(at, nul - at));
+    EXPECT_EQ(std::count(argv.begin(), argv.end(), r.study.string()), 3) << recorded;
+    EXPECT_EQ(std::count(argv.begin(), argv.end(), r.pointsFile.string()), 2);
+    EXPECT_EQ(std::count(argv.begin(), argv.end(), r.cache.string()), 2);
+    EXPECT_EQ(std::count(argv.begin(), argv.end(), r.store.string()), 1);
+    for (const char* f : {"PWNED", "PWNED2", "PWNED3", "PWNED4"}) {
+        EXPECT_FALSE(fs::exists(dir / f)) << f;
+        EXPECT_FALSE(fs::exists(dir / "slurm" / f)) << f;
+    }
+    // No line of the header comment starts a command, nor an #SBATCH line:
+    // the first line that is not a comment is the exec (sbatch reads
+    // directives only up to it; later newlines are inside quotes).
+    std::istringstream lines(sc.points);
+    std::string first;
+    int directives = 0;
+    for (std::string l; std::getline(lines, l);) {
+        if (!l.empty() && l[0] != '#') {
+            first = l;
+            break;
+        }
+        directives += l.rfind("#SBATCH", 0) == 0 ? 1 : 0;
+    }
+    EXPECT_EQ(first.rfind("exec ", 0), 0u) << sc.points;
+    EXPECT_EQ(directives, 4) << sc.points;  // job name, array, cpus, output
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include <fstream>
 #include <set>
 
+#include "core/safe_file.h"
 #include "experiments/store.h"
 #include "render/error_map.h"
 #include "tests/test_util.h"
@@ -54,6 +55,11 @@ std::set<std::string> keysOf(const fs::path& store, const char* sql = "SELECT ke
         out.insert(reinterpret_cast<const char*>(sqlite3_column_text(st, 0)));
     sqlite3_finalize(st);
     return out;
+}
+
+std::string readText(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
 TEST(Sweep, RunsEveryPointWithMetricsAndHistory) {
@@ -402,6 +408,83 @@ scenes = [{ scene = "furnace", solver = { "oracle.eps" = 0.5 } },
     EXPECT_EQ(r.failed, 1u);
     auto kinds = keysOf(o.store, "SELECT kind || ':' || scene FROM failures");
     EXPECT_TRUE(kinds.count("timeout:cornell"));
+}
+
+// Issue 64: a sweep removes only the result files it writes, follows no
+// symlink planted where it keeps files, refuses a store another sweep
+// holds, and records disk and folder failures as "io", which --resume reruns.
+TEST(Sweep, WritesOnlyWhatItOwnsAndOneSweepPerStore) {
+    auto dir = test::tempDir("sweep_hostile");
+    Study study = parseStudy(R"(
+scenes = ["furnace"]
+[solver]
+"hr.max_iterations" = 2
+[outputs]
+ply = true
+)",
+                             "h.toml", dir);
+    test::writeFile(dir / "victim.json", "precious");
+    // A folder of the work folder's name with the user's files, a symlink
+    // and a result file a killed sweep left.
+    fs::create_directories(dir / "a.sqlite.work");
+    test::writeFile(dir / "a.sqlite.work" / "mine.json", "mine");
+    fs::create_symlink(dir / "victim.json", dir / "a.sqlite.work" / "link.json");
+    test::writeFile(dir / "a.sqlite.work" / "hrad-result-stale.json", "{}");
+    SweepOptions first = options(dir, "a.sqlite");
+    // Each committed run is checkpointed into the database file (it stayed
+    // at 4 KB beside a growing WAL).
+    uintmax_t dbBytes = 0;
+    first.onPointDone = [&](const PointSpec&, bool) { dbBytes = fs::file_size(first.store); };
+    SweepReport r = runSweep(study, first);
+    EXPECT_GT(dbBytes, 4096u);
+    EXPECT_EQ(r.finished, 1u);
+    EXPECT_EQ(readText(dir / "a.sqlite.work" / "mine.json"), "mine");
+    EXPECT_TRUE(fs::is_symlink(dir / "a.sqlite.work" / "link.json"));
+    EXPECT_FALSE(fs::exists(dir / "a.sqlite.work" / "hrad-result-stale.json"));
+    EXPECT_EQ(readText(dir / "victim.json"), "precious");
+    // The CSV export replaces a planted symlink, never writes through it.
+    fs::create_directories(dir / "csv");
+    fs::create_symlink(dir / "victim.json", dir / "csv" / "runs.csv");
+    ResultStore(dir / "a.sqlite", true).exportCsv(dir / "csv");
+    EXPECT_EQ(readText(dir / "victim.json"), "precious");
+    EXPECT_FALSE(fs::is_symlink(dir / "csv" / "runs.csv"));
+
+    // A symlink as the work folder, or in the artefacts' path: refused.
+    fs::create_directories(dir / "elsewhere");
+    fs::create_symlink(dir / "elsewhere", dir / "b.sqlite.work");
+    EXPECT_THROW(runSweep(study, options(dir, "b.sqlite")), InputError);
+    fs::create_directories(dir / "c");
+    fs::create_symlink(dir / "elsewhere", dir / "c" / "runs");
+    EXPECT_THROW(runSweep(study, options(dir, "c/c.sqlite")), InputError);
+    EXPECT_TRUE(fs::is_empty(dir / "elsewhere"));
+
+    // A second sweep on a store another one holds.
+    {
+        FileLock other;
+        ASSERT_TRUE(other.tryLock(dir / "a.sqlite"));
+        SweepOptions o = options(dir, "a.sqlite");
+        o.resume = true;
+        try {
+            runSweep(study, o);
+            ADD_FAILURE() << "no error";
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("another hrad sweep is writing this results store"),
+                      std::string::npos) << e.what();
+        }
+    }
+
+    // An output folder that cannot be made (a file in its place; permissions
+    // would not stop root): kind "io", and --resume runs the point again.
+    test::writeFile(dir / "d" / "runs" / "h", "in the way");
+    SweepReport f = runSweep(study, options(dir, "d/d.sqlite"));
+    EXPECT_EQ(f.failed, 1u);
+    EXPECT_EQ(keysOf(dir / "d" / "d.sqlite", "SELECT kind FROM failures"), std::set<std::string>{"io"});
+    fs::remove(dir / "d" / "runs" / "h");
+    SweepOptions again = options(dir, "d/d.sqlite");
+    again.resume = true;
+    SweepReport g = runSweep(study, again);
+    EXPECT_EQ(g.finished, 1u);
+    EXPECT_EQ(g.skipped, 0u);
 }
 
 TEST(Sweep, ShardsMergeToTheUnshardedRows) {

@@ -82,6 +82,21 @@ TEST(MitsubaSerialized, ReadsTheIndexedMeshAndSkipsNormals) {
     EXPECT_THROW(readSerialized(path.string(), 2, 1000), InputError);
 }
 
+// Issue 64: the bytes the data inflate to are a budget of their own
+// (mitsuba.max_inflated_mb), checked from the declared counts first.
+TEST(MitsubaSerialized, InflatedBytesAreBudgeted) {
+    auto dir = test::tempDir("mts_ser_inflate");
+    auto path = test::writeFile(dir / "m.serialized", serializedFile({meshRecord(kTriPos, kTriIdx, true)}));
+    SerializedMesh m = readSerialized(path.string(), 0, 1000);
+    EXPECT_EQ(m.inflatedBytes, 3u * 3 * 4 + 3 * 4 + 3u * 3 * 4);  // positions, indices, normals
+    try {
+        readSerialized(path.string(), 0, 1000, "shape at s.xml:3", m.inflatedBytes - 1);
+        ADD_FAILURE() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("setting mitsuba.max_inflated_mb"), std::string::npos) << e.what();
+    }
+}
+
 TEST(MitsubaSerialized, LoadsThroughTheXmlShape) {
     auto dir = test::tempDir("mts_ser_xml");
     test::writeFile(dir / "m.serialized",
