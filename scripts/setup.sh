@@ -23,6 +23,27 @@ for p in "${PACKAGES[@]}"; do
   fi
 done
 
+# The Khronos glTF validator (npm `gltf-validator`), with which the tests check
+# every .glb they write (tests/gltf_validate.h; they skip the check without
+# it). Installed globally when npm is present; node/npm themselves are left to
+# the machine (a distribution's or NodeSource's nodejs).
+have_validator() {
+  for d in /usr/lib/node_modules /usr/local/lib/node_modules; do
+    [ -f "$d/gltf-validator/package.json" ] && return 0
+  done
+  [ -f "$(npm root -g 2>/dev/null)/gltf-validator/package.json" ]
+}
+if command -v npm >/dev/null 2>&1; then
+  if ! have_validator; then
+    echo "setup: npm install -g gltf-validator" >&2
+    NPM_SUDO=""
+    if [ "$(id -u)" -ne 0 ] && [ ! -w "$(npm root -g)" ]; then NPM_SUDO="sudo"; fi
+    $NPM_SUDO npm install -g --no-fund --no-audit gltf-validator >/dev/null
+  fi
+else
+  echo "setup: npm not found; glTF outputs will not be validated (apt-get install npm)" >&2
+fi
+
 if [ ${#missing[@]} -eq 0 ]; then
   exit 0
 fi
