@@ -35,15 +35,24 @@ nlohmann::json compareImages(const render::Image& img, const std::string& refPat
         throwInputError(SourceLocation{refPath, 0, 0}, "--compare: {}x{} pixels, the render has {}x{}",
                         ref.width, ref.height, img.width, img.height);
     // Against the EXR's half floats, the render is rounded the same way.
+    // Half floats overflow above 65504 (bright lamps in W/m^2): pixels
+    // where either image is not finite in half precision are left out and
+    // counted.
     double lum = 0.0, rgb = 0.0, refLum = 0.0;
+    size_t skipped = 0;
     for (size_t i = 0; i < img.pixels.size(); ++i) {
-        RGB a = RGB(glm::vec3(img.pixels[i])), b = ref.pixels[i];
+        RGB a = img.pixels[i], b = ref.pixels[i];
+        if (!(std::isfinite(luminance(b)) && std::max({a.r, a.g, a.b}) <= 65504.0)) {
+            ++skipped;
+            continue;
+        }
         lum += std::abs(luminance(a) - luminance(b));
         rgb += (std::abs(a.r - b.r) + std::abs(a.g - b.g) + std::abs(a.b - b.b)) / 3.0;
         refLum += luminance(b);
     }
-    const double n = double(img.pixels.size());
+    const double n = std::max(1.0, double(img.pixels.size() - skipped));
     return {{"reference", refPath},
+            {"pixels_left_out", skipped},
             {"mean_abs_lum", lum / n},
             {"mean_abs_rgb", rgb / n},
             {"reference_mean_lum", refLum / n}};

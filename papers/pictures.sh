@@ -43,8 +43,8 @@ index="$OUT/index.md"
   echo "|---|---|---|---|"
 } > "$index"
 
-mae() { sed -n 's/.*"mean_abs_lum": \([^,]*\),*/\1/p' "$1" | head -1; }
-refmean() { sed -n 's/.*"reference_mean_lum": \([^,]*\),*/\1/p' "$1" | head -1; }
+mae() { printf '%.4g' "$(sed -n 's/.*"mean_abs_lum": \([^,]*\),*/\1/p' "$1" | head -1)"; }
+refmean() { printf '%.4g' "$(sed -n 's/.*"reference_mean_lum": \([^,]*\),*/\1/p' "$1" | head -1)"; }
 exposure() { sed -n 's/.*"exposure": \([^,]*\),*/\1/p' "$1" | head -1; }
 
 echo "$SCENES" | while IFS='|' read -r name path flags; do
@@ -57,14 +57,14 @@ echo "$SCENES" | while IFS='|' read -r name path flags; do
   d="$OUT/$name"
   echo "pictures: $name" >&2
   # shellcheck disable=SC2086
-  $HRAD --log warn solve "$scene" $flags --no-ply --no-images --no-progress -o "$d" >/dev/null
-  $HRAD --log warn render "$scene" "$d/solution.hrsol" --width "$W" --height "$H" \
+  $HRAD --log quiet solve "$scene" $flags --no-ply --no-images --no-progress -o "$d" >/dev/null
+  $HRAD --log quiet render "$scene" "$d/solution.hrsol" --width "$W" --height "$H" \
     --set render.reconstruction=path-traced --set render.spp="$SPP" -o "$d/path_traced" >/dev/null
   e=$(exposure "$d/path_traced/render.json")
   for rec in flat smooth; do
     f=""; [ "$rec" = flat ] && f="--flat"
     # shellcheck disable=SC2086
-    $HRAD --log warn render "$scene" "$d/solution.hrsol" --width "$W" --height "$H" $f \
+    $HRAD --log quiet render "$scene" "$d/solution.hrsol" --width "$W" --height "$H" $f \
       --set render.exposure="$e" --compare "$d/path_traced/image.exr" -o "$d/$rec" >/dev/null
   done
   printf '| %s | ![](%s/flat/image.png)<br>%s | ![](%s/smooth/image.png)<br>%s | ![](%s/path_traced/image.png)<br>[%s] |\n' \
