@@ -73,9 +73,10 @@ double maxChannel(const RGB& c) { return std::max({c.r, c.g, c.b}); }
 RGB ToneMap::display(const RGB& b) const {
     RGB c = exposure * b;
     if (curve == ToneCurve::Reinhard) {
-        double l = luminance(c);
+        // Reinhard et al. 2002, eq. 4, on the largest channel: the hue is
+        // kept and no channel passes 1 below the white point.
+        double l = maxChannel(c);
         if (!(l > 0)) return RGB(0.0);
-        // Reinhard et al. 2002, eq. 4.
         double ld = l * (1.0 + l / (white * white)) / (1.0 + l);
         c *= std::min(ld, 1.0) / l;
     }
@@ -88,11 +89,9 @@ bool ToneMap::clips(const RGB& b) const {
     const double limit = 1.0 + 1e-9;
     RGB c = exposure * b;
     if (curve == ToneCurve::Reinhard) {
-        double l = luminance(c);
+        double l = maxChannel(c);
         if (!(l > 0)) return false;
-        double ld = l * (1.0 + l / (white * white)) / (1.0 + l);
-        if (ld > limit) return true;
-        c *= ld / l;
+        return l * (1.0 + l / (white * white)) / (1.0 + l) > limit;
     }
     return maxChannel(c) > limit;
 }
@@ -136,9 +135,7 @@ ToneMap ToneSettings::choose(const std::vector<RGB>& values, const std::vector<d
         for (const auto& [lg, w] : logs) sum += w * lg, total += w;
         t.exposure = key / std::exp(sum / total);
     }
-    auto peaks = weighted(values, weights, [&](const RGB& c) {
-        return curve == ToneCurve::Clip ? maxChannel(c) : luminance(c);
-    });
+    auto peaks = weighted(values, weights, [](const RGB& c) { return maxChannel(c); });
     if (peaks.empty()) return t;
     const double top = quantile(peaks, 1.0 - maxClipped);  // peaks sorted now
     if (curve == ToneCurve::Reinhard) {

@@ -6,8 +6,9 @@
 // function (IEC 61966-2-1) for 8-bit output; glTF's COLOR_0 is the linear
 // display value (viewers encode it). Curves: `clip` clamps each channel to
 // [0, 1] (linear up to white: pixel ratios stay radiosity ratios); `reinhard`
-// is Reinhard et al. 2002 eq. 4 on luminance, L_d = L (1 + L / L_w^2) / (1 + L),
-// RGB scaled by L_d / L, L_w the white point.
+// is Reinhard et al. 2002 eq. 4, L_d = L (1 + L / L_w^2) / (1 + L), applied to
+// the largest channel L (so the hue is kept and no channel passes 1 below the
+// white point), RGB scaled by L_d / L, L_w the white point.
 // Automatic exposure (ToneSettings::choose): Reinhard 2002 eq. 1-2, the
 // log-average luminance L_avg = exp(mean log L) over the non-black values maps
 // to the key a (0.18, "middle grey"): exposure = a / L_avg. With `clip`, when
@@ -58,7 +59,7 @@ enum class ToneCurve { Clip, Reinhard };
 struct ToneMap {
     double exposure = 1.0;
     ToneCurve curve = ToneCurve::Clip;
-    double white = 1.0;  ///< reinhard: the exposed luminance that maps to 1
+    double white = 1.0;  ///< reinhard: the exposed largest channel that maps to 1
     /// Linear display value in [0, 1] per channel (before sRGB encoding).
     RGB display(const RGB& b) const;
     /// display(b), sRGB encoded to 8 bits.
