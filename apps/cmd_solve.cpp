@@ -57,6 +57,7 @@ int runSolve(const SolveOptions& opt, Params& params) {
     point.outputs.exr = opt.writeImages;
     point.outputs.ply = opt.writePly;
     point.outputs.glb = opt.writeGlb;
+    point.outputs.lightmap = opt.writeLightmap;
     point.outputs.errorMap = opt.errorMap;
     point.outputs.regions = opt.writeRegions;
     point.outputs.regionsWhere = SourceLocation{"command line (--regions)", 0, 0};

@@ -18,6 +18,7 @@ struct SolveOptions {
     bool writeImages = true;
     bool writePly = true;
     bool writeGlb = false;  ///< --glb: solution.glb (render/gltf_export.h)
+    bool writeLightmap = false;  ///< --lightmap [RES]: lightmap.exr/png/glb (render/lightmap.h)
     bool errorMap = false;  ///< --error-map (needs --reference-level)
     bool writeRegions = false;  ///< --regions: regions.csv (needs --reference-level)
     bool writeSolution = true;  ///< solution.hrsol (--no-solution turns it off)
@@ -28,6 +29,8 @@ struct RenderCliOptions {
     std::string solution;  ///< a solution.hrsol
     std::string outDir = "out";
     bool writeGlb = false;  ///< --glb: also solution.glb
+    std::string compare;    ///< --compare IMAGE.exr: pixel error against it
+    bool lightmap = false;  ///< --lightmap [RES]: lightmap.exr/png/glb (RES: render.lightmap_size)
 };
 
 struct SweepCliOptions {

@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
     std::string solver, oracle;
     double eps = -1, minArea = -1;
     int refLevel = -1, width = 0, height = 0;
-    bool interpolate = false, noImages = false, noPly = false, quietProgress = false, errorMap = false;
+    bool interpolate = false, flat = false, noImages = false, noPly = false, quietProgress = false, errorMap = false;
     solve->add_option("scene", so.scene, sceneHelp)->required();
     solve->add_option("--solver", solver, "solver: " + app::registryHelp("solver"));
     solve->add_option("--oracle", oracle,
@@ -87,11 +87,19 @@ int main(int argc, char** argv) {
                     "error.png (16-bit signed relative error) and error_fc.png (false colour)");
     auto* widthOpt = solve->add_option("--width", width, "image width");
     auto* heightOpt = solve->add_option("--height", height, "image height");
-    solve->add_flag("--interpolate", interpolate, "vertex-interpolated reconstruction in the image");
+    solve->add_flag("--interpolate", interpolate,
+                    "smooth (C0 vertex) reconstruction in the image and exports (the default)");
+    solve->add_flag("--flat", flat, "flat elements in the image and exports (render.interpolate = false)");
     solve->add_flag("--no-images", noImages, "do not render image.exr / image.png");
     solve->add_flag("--no-ply", noPly, "do not write solution.ply");
     solve->add_flag("--glb", so.writeGlb,
-                    "also write solution.glb (glTF, vertex colours; interpolated with --interpolate)");
+                    "also write solution.glb (glTF, vertex colours; smooth unless --flat)");
+    std::string solveLightmapRes;
+    auto* solveLightmapOpt = solve->add_option(
+        "--lightmap", solveLightmapRes,
+        "also bake lightmap.exr (linear), lightmap.png and lightmap.glb (TEXCOORD_1, unlit "
+        "baked texture); RES: the atlas size (render.lightmap_size, default 1024)");
+    solveLightmapOpt->expected(0, 1);
     bool noSolution = false;
     solve->add_flag("--no-solution", noSolution,
                     "do not write solution.hrsol (the solution for hrad render)");
@@ -102,15 +110,26 @@ int main(int argc, char** argv) {
         "render", "render a saved solution (solution.hrsol) again: other camera, size, reconstruction");
     app::RenderCliOptions rco;
     int renderWidth = 0, renderHeight = 0;
-    bool renderInterpolate = false;
+    bool renderInterpolate = false, renderFlat = false;
     renderCmd->add_option("scene", rco.scene, "the scene the solution was computed on")->required();
     renderCmd->add_option("solution", rco.solution, "solution.hrsol written by hrad solve")->required();
     renderCmd->add_option("-o,--output", rco.outDir, "output folder")->capture_default_str();
     auto* rWidthOpt = renderCmd->add_option("--width", renderWidth, "image width");
     auto* rHeightOpt = renderCmd->add_option("--height", renderHeight, "image height");
-    renderCmd->add_flag("--interpolate", renderInterpolate, "vertex-interpolated reconstruction");
+    renderCmd->add_flag("--interpolate", renderInterpolate,
+                        "smooth (C0 vertex) reconstruction (the default)");
+    renderCmd->add_flag("--flat", renderFlat, "flat elements (render.interpolate = false)");
+    std::string lightmapRes;
+    auto* lightmapOpt = renderCmd->add_option(
+        "--lightmap", lightmapRes,
+        "also bake lightmap.exr (linear), lightmap.png and lightmap.glb (TEXCOORD_1, unlit "
+        "baked texture); RES: the atlas size (render.lightmap_size, default 1024)");
+    lightmapOpt->expected(0, 1);
+    renderCmd->add_option("--compare", rco.compare,
+                          "an image.exr of the same camera and size (e.g. a path-traced one): "
+                          "write its mean absolute pixel error (linear) into render.json");
     renderCmd->add_flag("--glb", rco.writeGlb,
-                        "also write solution.glb (glTF, vertex colours; interpolated with --interpolate)");
+                        "also write solution.glb (glTF, vertex colours; smooth unless --flat)");
 
     // sweep
     auto* sweep = app.add_subcommand("sweep", "run a study (TOML) into a results store (SQLite)");
@@ -209,7 +228,13 @@ int main(int argc, char** argv) {
             if (*refLevelOpt) params.set("metrics.reference_level", int64_t(refLevel), flag("--reference-level"));
             if (*widthOpt) params.set("render.width", int64_t(width), flag("--width"));
             if (*heightOpt) params.set("render.height", int64_t(height), flag("--height"));
+            if (interpolate && flat)
+                throwInputError(flag("--flat"), "--flat contradicts --interpolate");
             if (interpolate) params.set("render.interpolate", true, flag("--interpolate"));
+            if (flat) params.set("render.interpolate", false, flag("--flat"));
+            so.writeLightmap = solveLightmapOpt->count() > 0;
+            if (so.writeLightmap && !solveLightmapRes.empty())
+                params.setFromText("render.lightmap_size", solveLightmapRes, flag("--lightmap"));
             so.threads = threads;
             so.writeImages = !noImages;
             so.writePly = !noPly;
@@ -222,7 +247,13 @@ int main(int argc, char** argv) {
             auto flag = [&](const char* name) { return SourceLocation{std::string("command line (") + name + ")", 0, 0}; };
             if (*rWidthOpt) params.set("render.width", int64_t(renderWidth), flag("--width"));
             if (*rHeightOpt) params.set("render.height", int64_t(renderHeight), flag("--height"));
+            if (renderInterpolate && renderFlat)
+                throwInputError(flag("--flat"), "--flat contradicts --interpolate");
             if (renderInterpolate) params.set("render.interpolate", true, flag("--interpolate"));
+            if (renderFlat) params.set("render.interpolate", false, flag("--flat"));
+            rco.lightmap = lightmapOpt->count() > 0;
+            if (rco.lightmap && !lightmapRes.empty())
+                params.setFromText("render.lightmap_size", lightmapRes, flag("--lightmap"));
             return app::runRender(rco, params);
         }
         if (*sweep) {

@@ -23,6 +23,7 @@
 #include "render/error_map.h"
 #include "render/gltf_export.h"
 #include "render/image.h"
+#include "render/lightmap.h"
 #include "render/ply_export.h"
 #include "render/render.h"
 #include "render/residual.h"
@@ -56,6 +57,15 @@ std::string isoDateUtc() {
 namespace {
 
 json rgbJson(const RGB& c) { return json::array({c.r, c.g, c.b}); }
+
+/// The tone map every output used; clipped: share of the image's pixels that
+/// clip (< 0: no image was rendered).
+json toneJson(const render::ToneMap& t, double clipped) {
+    json j{{"exposure", t.exposure}, {"curve", t.curveName()}};
+    if (t.curve == render::ToneCurve::Reinhard) j["white"] = t.white;
+    if (clipped >= 0) j["clipped_share"] = clipped;
+    return j;
+}
 
 json paramsJson(const Params& p) {
     json j = json::object();
@@ -91,7 +101,8 @@ struct Resolved {
     std::string solver;
     std::shared_ptr<const Solver> solverImpl;  ///< from the registry (experiments/solvers.h)
     render::RenderSettings render;
-    double exposure = 0.0;
+    render::ToneSettings tone;  // render.exposure, tone_curve, key, max_clipped
+    render::LightmapSettings lightmap;  // render.lightmap_size, _density, _gutter
     double errorFloor = 0.01, errorRange = 0.25;       // render.error_floor, render.error_range
     bool errorOnRegions = true;                        // render.error_mode = regions | pixels
     std::optional<render::ResidualSettings> residual;  // metrics.residual = true
@@ -130,8 +141,8 @@ Resolved resolve(const PointSpec& p) {
         s.getString({"solver", "solver: hr (hierarchical), full-matrix, or progressive"}, "hr");
     r.solverImpl = createSolver(r.solver, s, s.where("solver"));
     r.render = render::RenderSettings::fromParams(s, "render");
-    r.exposure = s.getDouble({"render.exposure", "image exposure (0: automatic from the image)"},
-                             0.0, 0.0, 1e300);
+    r.tone = render::ToneSettings::fromParams(s, "render");
+    r.lightmap = render::LightmapSettings::fromParams(s, "render");
     r.errorFloor =
         s.getDouble({"render.error_floor", "error maps: luminance floor as a fraction of the mean"},
                     0.01, 1e-9, 1.0);
@@ -314,6 +325,38 @@ std::string referenceId(const PointSpec& p) {
     Resolved r = resolve(p);
     if (r.refKind == "none") return "";
     return p.sceneLabel + "|" + referenceDescription(r);
+}
+
+/// solution.ply, solution.glb and the lightmap files, with the tone map of
+/// the PNG (issue 60: one tone map for every output).
+static void writeExports(const PointSpec& p, const Resolved& r, const scene::RadiosityField& field,
+                  const render::ToneMap& tone, const fs::path& dir, json& artefacts, json& summary) {
+    if (p.outputs.ply) {
+        fs::path ply = dir / "solution.ply";
+        render::writePly(field, ply.string(), tone, r.render.interpolate, r.render.smooth);
+        artefacts["ply"] = ply.string();
+    }
+    if (p.outputs.glb) {
+        fs::path glb = dir / "solution.glb";
+        render::GltfExportOptions go;
+        go.interpolate = r.render.interpolate;
+        go.smooth = r.render.smooth;
+        go.tone = tone;
+        render::writeGlb(field, glb.string(), go);
+        artefacts["glb"] = glb.string();
+    }
+    if (p.outputs.lightmap) {
+        std::unique_ptr<render::VertexInterpolation> smooth;
+        if (r.render.interpolate)
+            smooth = std::make_unique<render::VertexInterpolation>(field, r.render.smooth);
+        render::Lightmap lm =
+            render::writeLightmapFiles(field, r.lightmap, smooth.get(), tone, dir.string());
+        for (const char* f : {"lightmap.exr", "lightmap.png", "lightmap.glb"})
+            artefacts[std::string(f).replace(8, 1, "_")] = (dir / f).string();
+        summary["lightmap"] = json{{"size", lm.size},          {"texels_per_unit", lm.density},
+                                   {"gutter", lm.gutter},      {"fill", lm.fill()},
+                                   {"charts", lm.charts.size()}, {"smooth", r.render.interpolate}};
+    }
 }
 
 json prepareReference(const PointSpec& p, const RunContext& ctx) {
@@ -572,18 +615,9 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     json artefacts = summary.contains("artefacts") ? summary["artefacts"] : json::object();
     const bool errorMap = p.outputs.errorMap && (ref || r.errorVsPathTraced);
     bool images = p.outputs.exr || errorMap;
-    if (images || p.outputs.ply || p.outputs.glb) {
+    std::optional<render::ToneMap> tone;  // one for the PNGs, the PLY and the glTF
+    if (images || p.outputs.ply || p.outputs.glb || p.outputs.lightmap) {
         ensureOutputFolder(ctx.artefactDir, "the point's output folder");
-        if (p.outputs.ply) {
-            fs::path ply = ctx.artefactDir / "solution.ply";
-            render::writePly(*field, ply.string(), r.exposure);
-            artefacts["ply"] = ply.string();
-        }
-        if (p.outputs.glb) {
-            fs::path glb = ctx.artefactDir / "solution.glb";
-            render::writeGlb(*field, glb.string(), {r.exposure, r.render.interpolate});
-            artefacts["glb"] = glb.string();
-        }
         if (images) {
             Timer tr;
             scene::Camera cam = render::chooseCamera(sc, vis, r.render);
@@ -611,7 +645,6 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
             rs.showProgress = ctx.progress;  // final gather / path tracing take a while
             std::vector<render::Image> imgs = render::renderFields(sc, vis, fields, cam, rs);
             const render::Image& img = imgs[0];
-            double exposure = r.exposure;
             render::Image pathTraced;  // render.error_reference = path-traced
             if (errorMap) {
                 if (r.errorVsPathTraced) {
@@ -626,13 +659,13 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                 // The reference's exposure is used for both PNGs, so every
                 // run of a scene shares one exposure.
                 const render::Image& refImg = r.errorVsPathTraced ? pathTraced : imgs[1];
-                if (!(exposure > 0)) exposure = render::pngAutoExposure(refImg);
+                tone = r.tone.choose(refImg);
                 render::ErrorMap em =
                     render::computeErrorMap(imgs[onRegions ? 2 : 0], refImg, r.errorFloor);
                 fs::path refPng = ctx.artefactDir / "reference.png",
                          data = ctx.artefactDir / "error.png",
                          fc = ctx.artefactDir / "error_fc.png";
-                render::writePng(refImg, refPng.string(), exposure);
+                render::writePng(refImg, refPng.string(), *tone);
                 render::writeErrorData(em, data.string());
                 render::writeErrorFalseColour(em, fc.string(), r.errorRange);
                 artefacts["reference_png"] = refPng.string();
@@ -652,19 +685,26 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                          {"l1", em.l1},
                          {"l2", em.l2},
                          {"false_colour_range", r.errorRange},
-                         {"exposure", exposure}};
+                         {"exposure", tone->exposure}};
                 spdlog::info(
                     "error map: mean |e| = {:.4g}, 95th percentile {:.4g}, image L1 {:.4g}",
                     em.meanAbs, em.p95Abs, em.l1);
             }
             fs::path exr = ctx.artefactDir / "image.exr", png = ctx.artefactDir / "image.png";
             render::writeExr(img, exr.string());
-            render::writePng(img, png.string(), exposure);
+            if (!tone) tone = r.tone.choose(img);
+            render::writePng(img, png.string(), *tone);
+            summary["tone_map"] = toneJson(*tone, render::clippedShare(img.pixels, *tone));
             artefacts["exr"] = exr.string();
             artefacts["png"] = png.string();
             timings["render"] = tr.seconds();
             summary["timings"] = timings;
         }
+        // The PLY and glTF colours use the PNG's tone map (issue 60); without
+        // an image, the same rule over the leaves (area-weighted).
+        if (!tone) tone = render::leafToneMap(*field, r.tone);
+        if (!summary.contains("tone_map")) summary["tone_map"] = toneJson(*tone, -1.0);
+        writeExports(p, r, *field, *tone, ctx.artefactDir, artefacts, summary);
     }
     summary["artefacts"] = artefacts;
     summary["memory"] = memoryJson();

@@ -68,6 +68,7 @@ struct OutputOptions {
     bool exr = false;           ///< image.exr + image.png of the solution
     bool ply = false;           ///< solution.ply
     bool glb = false;           ///< solution.glb (render/gltf_export.h; interpolated with render.interpolate)
+    bool lightmap = false;      ///< lightmap.exr/png/glb (render/lightmap.h; hrad solve --lightmap)
     bool solution = false;      ///< solution.hrsol (reference/cache.h saveSolution; hrad render)
     bool historyError = false;  ///< L2 error after every iteration (hr solver with a reference)
     bool errorMap = false;      ///< per-pixel error map against the reference (implies exr)

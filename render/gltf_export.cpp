@@ -61,11 +61,19 @@ std::vector<double> columnMajor(const glm::dmat4& mat) {
 GltfCounts writeGlb(const scene::RadiosityField& field, const std::string& path, const GltfExportOptions& options) {
     const scene::Scene& sc = field.scene();
     GltfCounts counts;
-    counts.exposure = options.exposure;
-    const std::vector<FieldLeaf> leaves = fieldLeaves(field, counts.exposure);
+    ToneMap tone;
+    if (options.tone) {
+        tone = *options.tone;
+    } else {
+        ToneSettings ts;
+        ts.exposure = options.exposure > 0 ? options.exposure : 0.0;
+        tone = leafToneMap(field, ts);
+    }
+    counts.exposure = tone.exposure;
+    const std::vector<FieldLeaf> leaves = fieldLeaves(field);
     counts.leaves = leaves.size();
     std::unique_ptr<VertexInterpolation> interp;
-    if (options.interpolate) interp = std::make_unique<VertexInterpolation>(field);
+    if (options.interpolate) interp = std::make_unique<VertexInterpolation>(field, options.smooth);
 
     for (const FieldLeaf& l : leaves) {
         int n = sc.patches[l.patch].numVertices();
@@ -97,8 +105,9 @@ GltfCounts writeGlb(const scene::RadiosityField& field, const std::string& path,
             for (int k = 0; k < 3; ++k) putLE(pos, f[k]);
             RGB b = interp ? interp->cornerValue(l.patch, l.key, i)
                            : field.leafPoint(l.patch, l.key, l.b, scene::cornerLocal(p.kind, i).x, scene::cornerLocal(p.kind, i).y);
-            // The PNG/PLY tone map (render/image.h toneMap) without its sRGB encoding.
-            for (int k = 0; k < 3; ++k) putLE(col, float(std::clamp(counts.exposure * b[k], 0.0, 1.0)));
+            // The PNG/PLY tone map (render/image.h) without its sRGB encoding.
+            RGB d = tone.display(b);
+            for (int k = 0; k < 3; ++k) putLE(col, float(d[k]));
             for (int k = 0; k < 3; ++k) putLE(rad, float(b[k]));
         }
         // Corners are counter-clockwise seen from the front (elementCorners),
@@ -115,9 +124,11 @@ GltfCounts writeGlb(const scene::RadiosityField& field, const std::string& path,
     tinygltf::Value::Object extras;
     extras["scene"] = tinygltf::Value(sc.name);
     extras["exposure"] = tinygltf::Value(counts.exposure);
+    extras["tone_curve"] = tinygltf::Value(tone.curveName());
+    if (tone.curve == ToneCurve::Reinhard) extras["white"] = tinygltf::Value(tone.white);
     extras["interpolated"] = tinygltf::Value(options.interpolate);
     extras["COLOR_0"] = tinygltf::Value(std::string(
-        "linear clamp(exposure * B, 0, 1): the PNG's tone map before sRGB encoding"));
+        "linear tone_curve(exposure * B) in [0, 1]: the PNG's tone map before sRGB encoding"));
     extras["_RADIOSITY"] = tinygltf::Value(std::string("linear radiosity B (W/m^2), RGB"));
     m.asset.extras = tinygltf::Value(extras);
     m.extensionsUsed.push_back("KHR_materials_unlit");

@@ -25,10 +25,12 @@
 //
 // Settings (GltfExportOptions; the callers read them from Params):
 //   exposure     double  0      > 0 multiplies B before tone mapping; <= 0:
-//                               autoExposure over the leaves, area-weighted
-//                               (the PLY export's rule)
+//                               the automatic rule of render/image.h over
+//                               the leaves, area-weighted (the PLY export's)
+//   tone         ToneMap unset  when set, the tone map (the PNG's), and
+//                               exposure is ignored
 //   interpolate  bool    false  vertex colours (and _RADIOSITY) are the
-//                               corner averages of render::VertexInterpolation
+//                               corner values of render::VertexInterpolation
 //                               (the render's `interpolated` reconstruction,
 //                               Cohen & Wallace 1993 ch. 10) instead of the
 //                               leaf's constant value
@@ -37,6 +39,10 @@
 #include <cstdint>
 #include <string>
 
+#include <optional>
+
+#include "render/image.h"
+#include "render/smooth.h"
 #include "scene/field.h"
 
 namespace hrad::render {
@@ -44,6 +50,8 @@ namespace hrad::render {
 struct GltfExportOptions {
     double exposure = 0.0;
     bool interpolate = false;
+    std::optional<ToneMap> tone;
+    SmoothSettings smooth;  ///< with interpolate
 };
 
 struct GltfCounts {

@@ -38,24 +38,152 @@ double autoExposure(const std::vector<RGB>& values, const std::vector<double>& w
     return 1.0 / lw.back().first;
 }
 
-std::vector<FieldLeaf> fieldLeaves(const scene::RadiosityField& field, double& exposure) {
+namespace {
+
+/// (value, weight) of the values with positive finite luminance.
+template <typename F>
+std::vector<std::pair<double, double>> weighted(const std::vector<RGB>& values,
+                                                const std::vector<double>& weights, F f) {
+    HRAD_CHECK(weights.empty() || weights.size() == values.size());
+    std::vector<std::pair<double, double>> out;
+    out.reserve(values.size());
+    for (size_t i = 0; i < values.size(); ++i) {
+        double l = luminance(values[i]), w = weights.empty() ? 1.0 : weights[i];
+        if (l > 0 && std::isfinite(l) && w > 0) out.emplace_back(f(values[i]), w);
+    }
+    return out;
+}
+
+/// The `q` quantile (weighted) of the firsts of `vw`; sorts vw.
+double quantile(std::vector<std::pair<double, double>>& vw, double q) {
+    std::sort(vw.begin(), vw.end());
+    double total = 0.0;
+    for (const auto& e : vw) total += e.second;
+    double target = q * total, acc = 0.0;
+    for (const auto& [v, w] : vw) {
+        acc += w;
+        if (acc >= target) return v;
+    }
+    return vw.back().first;
+}
+
+double maxChannel(const RGB& c) { return std::max({c.r, c.g, c.b}); }
+
+}  // namespace
+
+RGB ToneMap::display(const RGB& b) const {
+    RGB c = exposure * b;
+    if (curve == ToneCurve::Reinhard) {
+        // Reinhard et al. 2002, eq. 4, on the largest channel: the hue is
+        // kept and no channel passes 1 below the white point.
+        double l = maxChannel(c);
+        if (!(l > 0)) return RGB(0.0);
+        double ld = l * (1.0 + l / (white * white)) / (1.0 + l);
+        c *= std::min(ld, 1.0) / l;
+    }
+    return glm::clamp(c, RGB(0.0), RGB(1.0));
+}
+
+bool ToneMap::clips(const RGB& b) const {
+    // A value at the white point (or exactly at 1) is white, not clipped: the
+    // tolerance absorbs the round-off of the curve there.
+    const double limit = 1.0 + 1e-9;
+    RGB c = exposure * b;
+    if (curve == ToneCurve::Reinhard) {
+        double l = maxChannel(c);
+        if (!(l > 0)) return false;
+        return l * (1.0 + l / (white * white)) / (1.0 + l) > limit;
+    }
+    return maxChannel(c) > limit;
+}
+
+std::array<uint8_t, 3> ToneMap::srgb8(const RGB& b) const {
+    RGB d = display(b);
+    return {encodeSrgb8(d.r), encodeSrgb8(d.g), encodeSrgb8(d.b)};
+}
+
+ToneSettings ToneSettings::fromParams(const Params& params, const std::string& prefix) {
+    auto key = [&](const char* k) { return prefix.empty() ? std::string(k) : prefix + "." + k; };
+    ToneSettings s;
+    s.exposure = params.getDouble(
+        {key("exposure"), "image exposure: > 0 multiplies B; 0: automatic (log-average key, "
+                          "Reinhard 2002, at most max_clipped clipped)"},
+        0.0, 0.0, 1e300);
+    s.curve = params.getEnum({key("tone_curve"),
+                              "tone curve of PNG, PLY and glTF colours: clip (linear, clamp) or "
+                              "reinhard (Reinhard 2002 eq. 4 with a white point)"},
+                             "clip", {"clip", "reinhard"}) == "clip"
+                  ? ToneCurve::Clip
+                  : ToneCurve::Reinhard;
+    s.key = params.getDouble(
+        {key("key"), "automatic exposure: display value of the log-average luminance"}, s.key,
+        1e-6, 1.0);
+    s.maxClipped = params.getDouble(
+        {key("max_clipped"), "automatic exposure: largest share of non-black pixels that clip"},
+        s.maxClipped, 0.0, 1.0);
+    return s;
+}
+
+ToneMap ToneSettings::choose(const std::vector<RGB>& values, const std::vector<double>& weights) const {
+    ToneMap t;
+    t.curve = curve;
+    auto logs = weighted(values, weights, [](const RGB& c) { return std::log(luminance(c)); });
+    if (exposure > 0) t.exposure = exposure;
+    else if (logs.empty()) t.exposure = 1.0;
+    else {
+        // Reinhard et al. 2002, eq. 1-2: the log-average luminance maps to the key.
+        double sum = 0.0, total = 0.0;
+        for (const auto& [lg, w] : logs) sum += w * lg, total += w;
+        t.exposure = key / std::exp(sum / total);
+    }
+    auto peaks = weighted(values, weights, [](const RGB& c) { return maxChannel(c); });
+    if (peaks.empty()) return t;
+    const double top = quantile(peaks, 1.0 - maxClipped);  // peaks sorted now
+    if (curve == ToneCurve::Reinhard) {
+        t.white = std::max(t.exposure * top, 1e-12);
+    } else if (!(exposure > 0) && t.exposure * top > 1.0) {
+        t.exposure = 1.0 / top;
+    }
+    return t;
+}
+
+ToneMap ToneSettings::choose(const Image& image) const { return choose(image.pixels); }
+
+double clippedShare(const std::vector<RGB>& values, const ToneMap& tone,
+                    const std::vector<double>& weights, bool nonBlackOnly) {
+    HRAD_CHECK(weights.empty() || weights.size() == values.size());
+    double clipped = 0.0, total = 0.0;
+    for (size_t i = 0; i < values.size(); ++i) {
+        double w = weights.empty() ? 1.0 : weights[i];
+        if (nonBlackOnly && !(luminance(values[i]) > 0)) continue;
+        total += w;
+        if (tone.clips(values[i])) clipped += w;
+    }
+    return total > 0 ? clipped / total : 0.0;
+}
+
+std::vector<FieldLeaf> fieldLeaves(const scene::RadiosityField& field, std::vector<double>* areas) {
     const scene::Scene& sc = field.scene();
     std::vector<FieldLeaf> leaves;
-    std::vector<RGB> values;
-    std::vector<double> areas;
     for (uint32_t p = 0; p < sc.patches.size(); ++p)
         field.forEachLeaf(p, [&](scene::ElementKey k, const RGB& b) {
             leaves.push_back({p, k, b});
-            values.push_back(b);
-            areas.push_back(scene::elementArea(sc.patches[p], scene::keyDomain(sc.patches[p].kind, k)));
+            if (areas)
+                areas->push_back(
+                    scene::elementArea(sc.patches[p], scene::keyDomain(sc.patches[p].kind, k)));
         });
-    if (!(exposure > 0)) exposure = autoExposure(values, areas);
     return leaves;
 }
 
-double pngAutoExposure(const Image& image) {
-    return std::max(autoExposure(image.pixels), 0.35 * autoExposure(image.pixels, {}, 0.5));
+ToneMap leafToneMap(const scene::RadiosityField& field, const ToneSettings& settings) {
+    std::vector<double> areas;
+    std::vector<FieldLeaf> leaves = fieldLeaves(field, &areas);
+    std::vector<RGB> values(leaves.size());
+    for (size_t i = 0; i < leaves.size(); ++i) values[i] = leaves[i].b;
+    return settings.choose(values, areas);
 }
+
+double pngAutoExposure(const Image& image) { return ToneSettings{}.choose(image).exposure; }
 
 uint8_t encodeSrgb8(double x) {
     if (!(x > 0)) return 0;  // also NaN
@@ -65,7 +193,9 @@ uint8_t encodeSrgb8(double x) {
 }
 
 std::array<uint8_t, 3> toneMap(const RGB& c, double exposure) {
-    return {encodeSrgb8(exposure * c.r), encodeSrgb8(exposure * c.g), encodeSrgb8(exposure * c.b)};
+    ToneMap t;
+    t.exposure = exposure;
+    return t.srgb8(c);
 }
 
 void writeExr(const Image& image, const std::string& path) {
@@ -122,12 +252,17 @@ void writePngPixels(const std::string& path, int width, int height, uint32_t for
 }
 
 void writePng(const Image& image, const std::string& path, double exposure) {
+    ToneSettings ts;
+    ts.exposure = exposure > 0 ? exposure : 0.0;
+    writePng(image, path, ts.choose(image));
+}
+
+void writePng(const Image& image, const std::string& path, const ToneMap& tone) {
     HRAD_CHECK(image.width > 0 && image.height > 0 &&
                image.pixels.size() == size_t(image.width) * size_t(image.height));
-    if (!(exposure > 0)) exposure = pngAutoExposure(image);
     std::vector<uint8_t> buf(image.pixels.size() * 3);
     for (size_t i = 0; i < image.pixels.size(); ++i) {
-        auto c = toneMap(image.pixels[i], exposure);
+        auto c = tone.srgb8(image.pixels[i]);
         std::copy(c.begin(), c.end(), buf.begin() + int64_t(3 * i));
     }
     // The data are already sRGB-encoded 8-bit values.

@@ -1,11 +1,28 @@
 // Linear RGB images and their output: OpenEXR (linear, half float) and PNG
-// (tone mapped, sRGB encoded, 8 bit).
+// (tone mapped, sRGB encoded, 8 bit), and the one tone map that the PNG, the
+// PLY vertex colours and the glTF COLOR_0 share (issue 60).
 //
-// Tone mapping for PNG/PLY colours is deliberately simple and documented:
-// multiply by an exposure, clamp each channel to [0,1], encode with the sRGB
-// transfer function (IEC 61966-2-1). The automatic exposure maps the 99th
-// percentile of the luminance of the non-black values to 1 (so a few bright
-// pixels, typically the light source, clip and the rest keeps its contrast).
+// Tone map (ToneMap): display = curve(exposure * B), then the sRGB transfer
+// function (IEC 61966-2-1) for 8-bit output; glTF's COLOR_0 is the linear
+// display value (viewers encode it). Curves: `clip` clamps each channel to
+// [0, 1] (linear up to white: pixel ratios stay radiosity ratios); `reinhard`
+// is Reinhard et al. 2002 eq. 4, L_d = L (1 + L / L_w^2) / (1 + L), applied to
+// the largest channel L (so the hue is kept and no channel passes 1 below the
+// white point), RGB scaled by L_d / L, L_w the white point.
+// Automatic exposure (ToneSettings::choose): Reinhard 2002 eq. 1-2, the
+// log-average luminance L_avg = exp(mean log L) over the non-black values maps
+// to the key a (0.18, "middle grey"): exposure = a / L_avg. With `clip`, when
+// more than max_clipped of the values would then clip (any channel > 1), the
+// exposure drops until exactly the (1 - max_clipped) quantile of the largest
+// channel maps to 1; with `reinhard`, L_w is that quantile (exposed). So at
+// most max_clipped (1 %) of the non-black pixels clip either way. Values are
+// weighted (by area for a field's leaves).
+//
+// Settings (ToneSettings::fromParams, below "render"):
+//   exposure     double 0       > 0: fixed; 0: automatic as above
+//   tone_curve   string "clip"  clip | reinhard
+//   key          double 0.18    the log-average's display value (automatic)
+//   max_clipped  double 0.01    largest share of non-black values that clip
 #pragma once
 
 #include <array>
@@ -13,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "core/params.h"
 #include "core/types.h"
 #include "scene/element.h"
 #include "scene/field.h"
@@ -35,6 +53,40 @@ struct Image {
 double autoExposure(const std::vector<RGB>& values, const std::vector<double>& weights = {},
                     double percentile = 0.99);
 
+enum class ToneCurve { Clip, Reinhard };
+
+/// One tone map, as chosen once per output set (see above).
+struct ToneMap {
+    double exposure = 1.0;
+    ToneCurve curve = ToneCurve::Clip;
+    double white = 1.0;  ///< reinhard: the exposed largest channel that maps to 1
+    /// Linear display value in [0, 1] per channel (before sRGB encoding).
+    RGB display(const RGB& b) const;
+    /// display(b), sRGB encoded to 8 bits.
+    std::array<uint8_t, 3> srgb8(const RGB& b) const;
+    /// Whether some channel of display(b) is at 1 because of the curve's clamp.
+    bool clips(const RGB& b) const;
+    std::string curveName() const { return curve == ToneCurve::Clip ? "clip" : "reinhard"; }
+};
+
+struct ToneSettings {
+    double exposure = 0.0;  ///< render.exposure (> 0 fixed, 0 automatic)
+    ToneCurve curve = ToneCurve::Clip;
+    double key = 0.18;
+    double maxClipped = 0.01;
+
+    static ToneSettings fromParams(const Params& params, const std::string& prefix = "render");
+    /// The tone map for `values` (weighted when `weights` is given).
+    ToneMap choose(const std::vector<RGB>& values, const std::vector<double>& weights = {}) const;
+    ToneMap choose(const Image& image) const;
+};
+
+/// Share of `values` (weighted) that clip under `tone`, over all values
+/// (black ones included) or, with nonBlackOnly, over those with positive
+/// luminance.
+double clippedShare(const std::vector<RGB>& values, const ToneMap& tone,
+                    const std::vector<double>& weights = {}, bool nonBlackOnly = false);
+
 /// One leaf element of a radiosity field and its radiosity.
 struct FieldLeaf {
     uint32_t patch;
@@ -42,19 +94,20 @@ struct FieldLeaf {
     RGB b;
 };
 /// The leaves of `field` in patch order (what the PLY and glTF exports
-/// write), and in `exposure` the exposure their colours use: unchanged when
-/// > 0, else autoExposure over the leaves weighted by their areas.
-std::vector<FieldLeaf> fieldLeaves(const scene::RadiosityField& field, double& exposure);
+/// write), and in `areas` (when given) their areas.
+std::vector<FieldLeaf> fieldLeaves(const scene::RadiosityField& field,
+                                   std::vector<double>* areas = nullptr);
+/// The tone map of `settings` over the leaves of `field`, area-weighted: what
+/// the exports use when no image fixed the tone map.
+ToneMap leafToneMap(const scene::RadiosityField& field, const ToneSettings& settings);
 
-/// The exposure writePng uses when it is not given one: the 99th percentile
-/// of the luminance maps to 1, unless that leaves the median darker than 0.35
-/// (scenes whose lamps fill more than 1 % of the frame): then the median maps
-/// to 0.35 and the lamps clip.
+/// The exposure of ToneSettings{}.choose(image) (the automatic rule with the
+/// clip curve), which writePng uses when it is not given a tone map.
 double pngAutoExposure(const Image& image);
 
 /// sRGB transfer function of a linear value, clamped to [0,1], to 8 bits.
 uint8_t encodeSrgb8(double linear);
-/// exposure * c, clamped, sRGB encoded.
+/// exposure * c, clamped, sRGB encoded (ToneMap{exposure}.srgb8(c)).
 std::array<uint8_t, 3> toneMap(const RGB& c, double exposure);
 
 /// Linear RGB as half-float OpenEXR (RGB channels, no alpha). Throws
@@ -70,9 +123,11 @@ Image readExr(const std::string& path);
 void writePngPixels(const std::string& path, int width, int height, uint32_t format,
                     const void* pixels);
 
-/// Tone-mapped 8-bit sRGB PNG. exposure > 0 multiplies the linear values;
-/// exposure <= 0 uses pngAutoExposure(image). Throws hrad::InputError
-/// naming the path when the file cannot be written.
+/// Tone-mapped 8-bit sRGB PNG. exposure > 0 multiplies the linear values
+/// (clip curve); exposure <= 0 uses ToneSettings{}.choose(image). Throws
+/// hrad::InputError naming the path when the file cannot be written.
 void writePng(const Image& image, const std::string& path, double exposure = 0.0);
+/// The same with an explicit tone map.
+void writePng(const Image& image, const std::string& path, const ToneMap& tone);
 
 }  // namespace hrad::render

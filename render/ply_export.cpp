@@ -6,12 +6,14 @@
 #include <bit>
 #include <cstring>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <vector>
 
 #include "core/error.h"
 #include "core/safe_file.h"
 #include "render/image.h"
+#include "render/render.h"
 #include "scene/element.h"
 
 namespace hrad::render {
@@ -27,8 +29,18 @@ void putLE(std::vector<char>& out, T value) {
 }  // namespace
 
 PlyCounts writePly(const scene::RadiosityField& field, const std::string& path, double exposure) {
+    ToneSettings ts;
+    ts.exposure = exposure > 0 ? exposure : 0.0;
+    return writePly(field, path, leafToneMap(field, ts));
+}
+
+PlyCounts writePly(const scene::RadiosityField& field, const std::string& path, const ToneMap& tone,
+                   bool interpolate, const SmoothSettings& smooth) {
     const scene::Scene& scene = field.scene();
-    const std::vector<FieldLeaf> leaves = fieldLeaves(field, exposure);
+    const std::vector<FieldLeaf> leaves = fieldLeaves(field);
+    std::unique_ptr<VertexInterpolation> interp;
+    if (interpolate) interp = std::make_unique<VertexInterpolation>(field, smooth);
+    const double exposure = tone.exposure;
 
     PlyCounts counts;
     std::vector<char> vtx, faces;
@@ -41,8 +53,12 @@ PlyCounts writePly(const scene::RadiosityField& field, const std::string& path, 
             putLE(vtx, float(c[i].x));
             putLE(vtx, float(c[i].y));
             putLE(vtx, float(c[i].z));
-            // The leaf's value at this corner (its polynomial, for hr.basis > constant).
-            auto rgb = toneMap(field.leafPoint(l.patch, l.key, l.b, scene::cornerLocal(p.kind, i).x, scene::cornerLocal(p.kind, i).y), exposure);
+            // The leaf's value at this corner (its polynomial, for hr.basis >
+            // constant), or the smooth reconstruction's.
+            Vec2 a = scene::cornerLocal(p.kind, i);
+            RGB b = interp ? interp->cornerValue(l.patch, l.key, i)
+                           : field.leafPoint(l.patch, l.key, l.b, a.x, a.y);
+            auto rgb = tone.srgb8(b);
             for (uint8_t ch : rgb) putLE(vtx, ch);
             putLE(faces, int32_t(counts.vertices + uint64_t(i)));
         }
@@ -57,8 +73,10 @@ PlyCounts writePly(const scene::RadiosityField& field, const std::string& path, 
     std::ostringstream out;
     out << "ply\nformat binary_little_endian 1.0\n"
         << "comment hrad radiosity field of " << scene.name << ": one face per leaf element\n"
-        << "comment vertex colours: sRGB of exposure * B, exposure "
+        << "comment vertex colours: sRGB of " << tone.curveName() << "(exposure * B), exposure "
         << fmt::format("{:.6g}", exposure)
+        << (tone.curve == ToneCurve::Reinhard ? fmt::format(", white {:.6g}", tone.white) : "")
+        << ", the PNG's tone map" << (interpolate ? "; smooth (vertex) reconstruction" : "")
         << "\ncomment face radiosity_r/g/b: linear radiosity B (W/m^2)\n"
         << "element vertex " << counts.vertices << "\n"
         << "property float x\nproperty float y\nproperty float z\n"

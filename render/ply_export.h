@@ -3,8 +3,9 @@
 // Binary little-endian PLY. Every leaf element becomes one face (a triangle
 // or a quad) with its own corner vertices (not shared, so each face keeps its
 // constant radiosity). Vertices carry float x, y, z and uchar red, green, blue
-// (the face's radiosity tone mapped as in render/image.h: exposure, clamp,
-// sRGB); faces carry "list uchar int vertex_indices" and float radiosity_r,
+// (the radiosity at that corner tone mapped by the ToneMap of render/image.h,
+// the PNG's: curve(exposure * B), sRGB; with `interpolate`, the corner values
+// of render::VertexInterpolation, the smooth reconstruction); faces carry "list uchar int vertex_indices" and float radiosity_r,
 // radiosity_g, radiosity_b (linear B in W/m^2), which MeshLab and Blender
 // ignore but scripts can read.
 #pragma once
@@ -12,6 +13,8 @@
 #include <cstdint>
 #include <string>
 
+#include "render/image.h"
+#include "render/smooth.h"
 #include "scene/field.h"
 
 namespace hrad::render {
@@ -25,5 +28,9 @@ struct PlyCounts {
 /// area-weighted). Throws hrad::InputError naming the path on I/O failure.
 PlyCounts writePly(const scene::RadiosityField& field, const std::string& path,
                    double exposure = 0.0);
+/// The same with the tone map of the PNG (one tone map for every output).
+PlyCounts writePly(const scene::RadiosityField& field, const std::string& path,
+                   const ToneMap& tone, bool interpolate = false,
+                   const SmoothSettings& smooth = {});
 
 }  // namespace hrad::render

@@ -53,16 +53,24 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
                         s.width, s.height, s.spp, samples, key("max_samples"), s.maxSamples);
     }
     s.interpolate = params.getBool(
-        {key("interpolate"), "render: interpolate radiosity over vertices (Gouraud)"},
+        {key("interpolate"),
+         "render: smooth (C0) vertex radiosity, Gouraud; false: flat elements"},
         s.interpolate);
     const std::string rec =
         params.getEnum({key("reconstruction"),
-                        "image reconstruction: flat, interpolated, final-gather or path-traced"},
+                        "image reconstruction: interpolated (smooth), flat, final-gather or "
+                        "path-traced"},
                        s.interpolate ? "interpolated" : "flat",
                        {"flat", "interpolated", "final-gather", "path-traced"});
-    if (s.interpolate && rec != "interpolated")
-        throwInputError(params.where(key("reconstruction")), "'{}' = '{}' contradicts '{}' = true",
-                        key("reconstruction"), rec, key("interpolate"));
+    // Only an interpolate given explicitly can contradict the reconstruction.
+    if (params.has(key("interpolate")) && s.interpolate != (rec == "interpolated"))
+        throwInputError(params.where(key("reconstruction")), "'{}' = '{}' contradicts '{}' = {}",
+                        key("reconstruction"), rec, key("interpolate"), s.interpolate);
+    s.smooth.creaseDegrees = params.getDouble(
+        {key("crease_angle"),
+         "smooth reconstruction: largest angle (degrees) between the normals of root patches "
+         "smoothed across"},
+        s.smooth.creaseDegrees, 0.0, 180.0);
     s.reconstruction = rec == "interpolated"   ? Reconstruction::Interpolated
                        : rec == "final-gather" ? Reconstruction::FinalGather
                        : rec == "path-traced"  ? Reconstruction::PathTraced
@@ -167,8 +175,9 @@ std::string RenderSettings::describe() const {
                           ? fmt::format(" reconstruction=path-traced shadow_rays={} seed={}",
                                         gather.shadowRays, gather.seed)
                           : std::string();
-    return fmt::format("width={} height={} spp={} interpolate={} back_faces={} camera={}{}", width,
-                       height, spp, interpolate, backFacesBlack ? "black" : "front", cam, rec);
+    return fmt::format("width={} height={} spp={} interpolate={} crease_angle={} back_faces={} camera={}{}",
+                       width, height, spp, interpolate, smooth.creaseDegrees,
+                       backFacesBlack ? "black" : "front", cam, rec);
 }
 
 scene::Camera chooseCamera(const scene::Scene& scene, const transport::Visibility& visibility,
@@ -178,27 +187,6 @@ scene::Camera chooseCamera(const scene::Scene& scene, const transport::Visibilit
 
 namespace {
 
-/// Parametric corners of a domain in Domain order (scene/element.h).
-int domainCorners(PatchKind kind, const Domain& d, Vec2 out[4]) {
-    out[0] = {d.u0, d.v0};
-    out[1] = {d.u0 + d.h, d.v0};
-    if (kind == PatchKind::Quad) {
-        out[2] = {d.u0 + d.h, d.v0 + d.h};
-        out[3] = {d.u0, d.v0 + d.h};
-        return 4;
-    }
-    out[2] = {d.u0, d.v0 + d.h};
-    return 3;
-}
-
-/// Closed containment; exact for dyadic coordinates.
-bool containsClosed(PatchKind kind, const Domain& d, double u, double v) {
-    double a = u - d.u0, b = v - d.v0;
-    if (kind == PatchKind::Quad) return a >= 0 && a <= d.h && b >= 0 && b <= d.h;
-    if (d.h > 0) return a >= 0 && b >= 0 && a + b <= d.h;
-    return a <= 0 && b <= 0 && a + b >= d.h;  // inverted (middle) triangle
-}
-
 Vec2 clampToPatch(PatchKind kind, Vec2 uv) {
     if (kind == PatchKind::Quad) return glm::clamp(uv, Vec2(0.0), Vec2(1.0));
     uv = glm::max(uv, Vec2(0.0));
@@ -206,105 +194,6 @@ Vec2 clampToPatch(PatchKind kind, Vec2 uv) {
     if (s > 1) uv /= s;
     return uv;
 }
-
-}  // namespace
-
-struct VertexInterpolation::PatchTable {
-    PatchKind kind = PatchKind::Quad;
-    std::unordered_map<ElementKey, uint32_t> leafIndex;
-    std::vector<RGB> leafValue;
-    std::vector<std::array<RGB, 4>> corners;
-
-    void collect(ElementKey key, const Domain& dom, double u, double v, RGB& sum,
-                 int& count) const {
-        auto it = leafIndex.find(key);
-        if (it != leafIndex.end()) {
-            sum += leafValue[it->second];
-            ++count;
-            return;
-        }
-        if (scene::keyLevel(key) >= scene::kMaxLevel) return;
-        for (int c = 0; c < 4; ++c) {
-            Domain cd = scene::childDomain(kind, dom, c);
-            if (containsClosed(kind, cd, u, v))
-                collect(scene::childKey(key, c), cd, u, v, sum, count);
-        }
-    }
-
-    /// Leaf containing (u,v) (UINT32_MAX if the leaves do not cover it).
-    uint32_t find(double u, double v, Domain& dom) const {
-        ElementKey key = scene::kRootKey;
-        dom = Domain{};
-        for (int level = 0; level <= scene::kMaxLevel; ++level) {
-            auto it = leafIndex.find(key);
-            if (it != leafIndex.end()) return it->second;
-            int c = scene::childContaining(kind, dom, u, v);
-            dom = scene::childDomain(kind, dom, c);
-            key = scene::childKey(key, c);
-        }
-        return UINT32_MAX;
-    }
-};
-
-VertexInterpolation::VertexInterpolation(const scene::RadiosityField& field) : field_(&field) {
-    const scene::Scene& scene = field.scene();
-    tables_.resize(scene.patches.size());
-    tbb::parallel_for(size_t(0), scene.patches.size(), [&](size_t p) {
-        auto t = std::make_unique<PatchTable>();
-        t->kind = scene.patches[p].kind;
-        std::vector<ElementKey> keys;
-        field.forEachLeaf(uint32_t(p), [&](ElementKey k, const RGB& b) {
-            t->leafIndex.emplace(k, uint32_t(keys.size()));
-            keys.push_back(k);
-            t->leafValue.push_back(b);
-        });
-        t->corners.resize(keys.size());
-        // Each distinct corner is resolved once.
-        std::map<std::pair<double, double>, RGB> cache;
-        for (size_t i = 0; i < keys.size(); ++i) {
-            Vec2 cs[4];
-            int n = domainCorners(t->kind, scene::keyDomain(t->kind, keys[i]), cs);
-            for (int c = 0; c < n; ++c) {
-                auto [it, fresh] = cache.try_emplace({cs[c].x, cs[c].y}, RGB(0.0));
-                if (fresh) {
-                    RGB sum(0.0);
-                    int count = 0;
-                    t->collect(scene::kRootKey, Domain{}, cs[c].x, cs[c].y, sum, count);
-                    it->second = count > 0 ? sum / double(count) : t->leafValue[i];
-                }
-                t->corners[i][c] = it->second;
-            }
-        }
-        tables_[p] = std::move(t);
-    });
-}
-
-VertexInterpolation::~VertexInterpolation() = default;
-
-RGB VertexInterpolation::cornerValue(uint32_t patch, ElementKey key, int corner) const {
-    const PatchTable& t = *tables_.at(patch);
-    auto it = t.leafIndex.find(key);
-    HRAD_CHECK_MSG(it != t.leafIndex.end(), "key {} is not a leaf of patch {}", key, patch);
-    return t.corners[it->second][corner];
-}
-
-RGB VertexInterpolation::at(uint32_t patch, double u, double v) const {
-    const PatchTable& t = *tables_[patch];
-    Vec2 uv = clampToPatch(t.kind, Vec2(u, v));
-    Domain d;
-    uint32_t leaf = t.find(uv.x, uv.y, d);
-    if (leaf == UINT32_MAX) return field_->at(patch, uv.x, uv.y);
-    // Local coordinates; for inverted triangles h < 0 maps the corners
-    // (u0,v0), (u0+h,v0), (u0,v0+h) to (0,0), (1,0), (0,1) all the same.
-    double a = std::clamp((uv.x - d.u0) / d.h, 0.0, 1.0);
-    double b = std::clamp((uv.y - d.v0) / d.h, 0.0, 1.0);
-    const auto& c = t.corners[leaf];
-    if (t.kind == PatchKind::Quad)
-        return (1 - a) * (1 - b) * c[0] + a * (1 - b) * c[1] + a * b * c[2] + (1 - a) * b * c[3];
-    return (1 - a - b) * c[0] + a * c[1] + b * c[2];
-}
-
-namespace {
 
 /// Final gather / path tracing: parallel over 16 x 16 tiles; every sample's
 /// random sequence is seeded by (seed, pixel, sample), so the image does not
@@ -374,7 +263,8 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
     for (size_t f = 0; f < nf; ++f) {
         HRAD_CHECK(&fields[f]->scene() == &scene ||
                    fields[f]->scene().patches.size() == scene.patches.size());
-        if (settings.interpolate) interp[f] = std::make_unique<VertexInterpolation>(*fields[f]);
+        if (settings.interpolate)
+            interp[f] = std::make_unique<VertexInterpolation>(*fields[f], settings.smooth);
     }
     CameraFrame frame(camera, settings.width, settings.height);
     std::vector<Image> img(nf, Image(settings.width, settings.height));

@@ -3,18 +3,12 @@
 // One primary ray per pixel sample through transport::Visibility::intersect;
 // the hit point is mapped back to the patch's parametric (u,v) with
 // scene::patchInverse, and the field is reconstructed there:
-//   - constant (default): the value of the leaf containing (u,v), i.e.
-//     RadiosityField::at — exactly what the solver computed;
-//   - interpolate: per-vertex values, bilinear in quad leaves and barycentric
-//     in triangle leaves (Gouraud-style, Cohen & Wallace 1993 ch. 10). A leaf
-//     corner's value is the plain average of every leaf of the same patch
-//     whose closed parametric domain contains that corner. Corners are matched
-//     by exact parametric position (dyadic, exact in double). At a T-vertex
-//     (a corner on the edge of a larger neighbour) the larger leaf is one of
-//     the averaged leaves, but its own corners ignore the T-vertex, so the
-//     image may show a small discontinuity along that edge. Corners are not
-//     shared between different root patches (each patch is interpolated on
-//     its own, so creases between walls stay sharp).
+//   - interpolated (default): smooth, C0 vertex radiosity across element and
+//     root-patch borders of one surface, T-vertices anchored, creases and
+//     material borders kept sharp (render/smooth.h, Cohen & Wallace 1993
+//     ch. 10; Baum et al. 1991);
+//   - flat: the value of the leaf containing (u,v), i.e. RadiosityField::at —
+//     exactly what the solver computed, for inspecting elements.
 // The image stores radiosity B (W/m^2), not radiance: for diffuse surfaces the
 // radiance is B/pi, a constant factor that exposure absorbs.
 //
@@ -32,7 +26,9 @@
 //                                jitter; seeded by the pixel (deterministic)
 //   max_samples  int     2^26    refuse a render of more than width x height x
 //                                spp samples (checked before allocating)
-//   interpolate  bool    false   vertex interpolation (see above)
+//   interpolate  bool    true    vertex interpolation (see above); false = flat
+//   crease_angle double  30      smooth across root-patch borders whose
+//                                normals differ by at most this (degrees)
 //   back_faces   string  "black" what a ray hitting a patch from behind shows:
 //                                "black" (patches are one-sided: no radiosity
 //                                leaves the back) or "front" (the front's B)
@@ -42,8 +38,8 @@
 //                                camera, else render/camera.h cameraFor
 //   up           string  "0,1,0" with eye/target: the up direction
 //   fov          double  40      with eye/target: vertical field of view, degrees
-//   reconstruction string "flat" "flat" (constant, as above) | "interpolated"
-//                                (= interpolate true) | "final-gather" |
+//   reconstruction string "interpolated" | "flat" (= interpolate false) |
+//                                "final-gather" |
 //                                "path-traced" (render/final_gather.h, with
 //                                gather_rays, shadow_rays, seed); path-traced
 //                                ignores the field: the Monte Carlo reference
@@ -61,14 +57,16 @@
 #include "scene/scene.h"
 #include "transport/visibility.h"
 #include "render/final_gather.h"
+#include "render/smooth.h"
 
 namespace hrad::render {
 
 struct RenderSettings {
     int width = 512, height = 512;
-    bool interpolate = false;
+    bool interpolate = true;
     enum class Reconstruction { Flat, Interpolated, FinalGather, PathTraced };
-    Reconstruction reconstruction = Reconstruction::Flat;
+    Reconstruction reconstruction = Reconstruction::Interpolated;
+    SmoothSettings smooth;  ///< render.crease_angle
     GatherSettings gather;
     bool showProgress = false;  ///< progress bar for final-gather / path-traced
     int spp = 1;
@@ -86,26 +84,6 @@ struct RenderSettings {
     /// the budget is an error at the film's file:line.
     void adoptFilm(const scene::Scene& scene);
     std::string describe() const;
-};
-
-/// Per-patch corner tables for vertex interpolation, built once per field.
-class VertexInterpolation {
-  public:
-    explicit VertexInterpolation(const scene::RadiosityField& field);
-    ~VertexInterpolation();
-    VertexInterpolation(const VertexInterpolation&) = delete;
-    VertexInterpolation& operator=(const VertexInterpolation&) = delete;
-
-    /// Interpolated value at parametric (u,v) of `patch`.
-    RGB at(uint32_t patch, double u, double v) const;
-    /// Averaged value at corner `corner` (0..2 or 0..3, Domain order) of leaf
-    /// `key`; leaves are those of the field.
-    RGB cornerValue(uint32_t patch, scene::ElementKey key, int corner) const;
-
-  private:
-    struct PatchTable;
-    const scene::RadiosityField* field_;
-    std::vector<std::unique_ptr<PatchTable>> tables_;
 };
 
 /// settings.camera when set, else render::cameraFor(scene, visibility).

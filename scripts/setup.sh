@@ -24,13 +24,36 @@ for p in "${PACKAGES[@]}"; do
   fi
 done
 
-if [ ${#missing[@]} -eq 0 ]; then
-  exit 0
+# npm (Debian's, with nodejs) for the glTF validator below, unless the
+# machine already has an npm of its own.
+if ! command -v npm >/dev/null 2>&1; then missing+=(npm); fi
+
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}" >&2
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
-echo "setup: installing ${missing[*]}" >&2
-SUDO=""
-if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
-export DEBIAN_FRONTEND=noninteractive
-$SUDO apt-get update -qq
-$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+# The Khronos glTF validator (npm `gltf-validator`), with which the tests check
+# every .glb they write (tests/gltf_validate.h; they skip the check without
+# it). Installed globally with npm.
+have_validator() {
+  for d in /usr/lib/node_modules /usr/local/lib/node_modules; do
+    [ -f "$d/gltf-validator/package.json" ] && return 0
+  done
+  [ -f "$(npm root -g 2>/dev/null)/gltf-validator/package.json" ]
+}
+if command -v npm >/dev/null 2>&1; then
+  if ! have_validator; then
+    echo "setup: npm install -g gltf-validator" >&2
+    NPM_SUDO=""
+    if [ "$(id -u)" -ne 0 ] && [ ! -w "$(npm root -g)" ]; then NPM_SUDO="sudo"; fi
+    $NPM_SUDO npm install -g --no-fund --no-audit gltf-validator >/dev/null
+  fi
+else
+  echo "setup: npm not found; glTF outputs will not be validated" >&2
+fi
+

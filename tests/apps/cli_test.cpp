@@ -15,6 +15,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "tests/gltf_validate.h"
 #include "tests/test_util.h"
 
 namespace {
@@ -499,6 +500,8 @@ TEST(Cli, GlbOutputAndBadGltfInput) {
                        " --glb --interpolate --width 40 --height 30 -o " + (dir / "again").string());
     ASSERT_EQ(again.code, 0) << again.output;
     EXPECT_GT(std::filesystem::file_size(dir / "again" / "solution.glb"), 1000u);
+    HRAD_EXPECT_VALID_GLTF((dir / "solve" / "solution.glb").string());
+    HRAD_EXPECT_VALID_GLTF((dir / "again" / "solution.glb").string());
 
     auto json = hrad::test::writeFile(dir / "bad.gltf", "{\n  \"asset\": {\"version\": \"2.0\"},\n  \"nodes\": [,]\n}\n");
     Result bad = run("info " + json.string());

@@ -19,6 +19,7 @@ TEST(RenderCornell, SceneCameraSeesTheLitBox) {
     auto r = reference::solveFullMatrix(s, vis, st, false);
     RenderSettings rs;
     rs.width = rs.height = 64;
+    rs.interpolate = false;  // flat first, smooth below
     Image img = renderField(s, vis, *r.field, cameraFor(s), rs);
     int lit = 0;
     for (const RGB& p : img.pixels) lit += luminance(p) > 0;

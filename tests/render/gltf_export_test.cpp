@@ -16,6 +16,7 @@
 #include "render/render.h"
 #include "scene/element.h"
 #include "scene/loader.h"
+#include "tests/gltf_validate.h"
 #include "tests/test_util.h"
 
 namespace hrad::render {
@@ -103,6 +104,7 @@ TEST(GltfExport, CornellSolutionReadsBackWithItsColours) {
         SCOPED_TRACE(interpolate ? "interpolated" : "flat");
         std::string path = (dir / (interpolate ? "smooth.glb" : "flat.glb")).string();
         GltfCounts counts = writeGlb(field, path, {exposure, interpolate});
+        HRAD_EXPECT_VALID_GLTF(path);
         std::unique_ptr<VertexInterpolation> interp;
         if (interpolate) interp = std::make_unique<VertexInterpolation>(field);
         Expected e = expectedVertices(field, interp.get());
@@ -174,6 +176,7 @@ TEST(GltfExport, InterpolatedCornersAgreeAcrossLeaves) {
     for (bool interpolate : {false, true}) {
         std::string path = (dir / "a.glb").string();
         writeGlb(f, path, {1.0, interpolate});
+        HRAD_EXPECT_VALID_GLTF(path);
         tinygltf::Model m = readBack(path);
         auto pos = attribute(m, "POSITION");
         auto col = attribute(m, "COLOR_0");
@@ -202,6 +205,7 @@ TEST(GltfExport, ZUpSceneStandsUpright) {
     scene::UniformField f(s, scene::uniformLevels(s, 0, 0));
     std::string path = (dir / "z.glb").string();
     writeGlb(f, path);
+    HRAD_EXPECT_VALID_GLTF(path);
     tinygltf::Model m = readBack(path);
     ASSERT_EQ(m.scenes.size(), 1u);
     const auto& root = m.nodes.at(size_t(m.scenes[0].nodes.at(0)));
@@ -221,6 +225,8 @@ TEST(GltfExport, CameraWithAFilmWritesItsAspectRatio) {
     s.camera->filmHeight = 100;
     scene::UniformField g(s, scene::uniformLevels(s, 0, 0));
     writeGlb(g, (dir / "film.glb").string());
+    HRAD_EXPECT_VALID_GLTF((dir / "nofilm.glb").string());
+    HRAD_EXPECT_VALID_GLTF((dir / "film.glb").string());
     tinygltf::Model m = readBack((dir / "film.glb").string());
     EXPECT_NEAR(m.cameras.at(0).perspective.aspectRatio, 2.0, 1e-12);
     EXPECT_NEAR(m.cameras.at(0).perspective.yfov, s.camera->fovYDegrees * std::numbers::pi / 180.0, 1e-12);

@@ -167,6 +167,7 @@ TEST(Render, ConstantReconstructionShowsLeafValues) {
     cam.fovYDegrees = 20.0;  // the square fills the whole view
     RenderSettings rs;
     rs.width = rs.height = 16;
+    rs.interpolate = false;  // flat: each leaf's own value
     Image img = renderField(s, vis, f, cam, rs);
     // Children: 0 (u<.5,v<.5) 1 (u>.5,v<.5) 2 (u>.5,v>.5) 3 (u<.5,v>.5);
     // x right = +u, image y down = -v.
