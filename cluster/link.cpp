@@ -50,6 +50,11 @@ ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
         s.faceSeparation, 1.0, 100.0);
     s.faceDisc = p.getEnum({"cluster.face_kernel", "face-cluster transfer kernel: point or disc"},
                            "point", {"point", "disc"}) == "disc";
+    s.sampledKernel =
+        p.getEnum({"cluster.kernel",
+                   "point links' geometric kernel: point (the centres' 1/r^2) or sampled (times "
+                   "the mean kernel ratio over the visibility rays' point pairs)"},
+                  "point", {"point", "sampled"}) == "sampled";
     s.visibleHandover = p.getEnum({"cluster.handover",
                                    "how an oriented receiving cluster hands light to its surfaces: "
                                    "visible (cosine and openness) or cosine"},
@@ -74,12 +79,13 @@ std::string ClusterLinkSettings::describe() const {
         "cluster_near_rays={}, "
         "cluster_face_separation={}, cluster_face_kernel={}, cluster_defer_dark={}, "
         "cluster_ambient={}, cluster_handover={}, cluster_stand_in={}, "
-        "cluster_stand_in_rays={}, cluster_stand_in_handover={}, cluster_stand_in_pairs={}",
+        "cluster_stand_in_rays={}, cluster_stand_in_handover={}, cluster_stand_in_pairs={}, "
+        "cluster_kernel={}",
         visRays, separation, surfaceSeparation,
         sampleNear ? "sample" : (standInNear ? "stand_in" : "open"), nearOverlapping, nearOpenPairs,
         nearRays, faceSeparation, faceDisc ? "disc" : "point", deferDark, ambient,
         visibleHandover ? "visible" : "cosine", standIn, standInRays, standInSeen ? "seen" : "area",
-        standInPairs);
+        standInPairs, sampledKernel ? "sampled" : "point");
 }
 
 ClusterLinker::ClusterLinker(const scene::Scene& scene, const ClusterTree* tree, ClusterModel model,
@@ -218,8 +224,12 @@ class ClusterLinker::LinkRays {
     /// kernel-weighted fraction of unblocked rays, sum w_i V_i / sum w_i
     /// with w_i = cos_a cos_b / r^2 of the segment over the cosines towards
     /// the centroids that the sampling density already holds. Returns the
-    /// number of blocked rays.
-    int estimate(double& fraction);
+    /// number of blocked rays. `kernel`, where given, gets r^2 times the
+    /// mean of 1 / d_i^2 over the n rays (0 for a pair facing away; 1 where
+    /// every pair does): the distance part of the mean kernel over the point
+    /// pairs relative to the centres' 1 / r^2, which underestimates it where
+    /// the ends are large against their distance (E[1 / d^2] > 1 / E[d]^2).
+    int estimate(double& fraction, double* kernel = nullptr);
 
   private:
     static constexpr uint32_t kFacingMax = 32;
@@ -295,7 +305,9 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
     if (n > 0 && vis_) {
         LinkRays rays(*this, r, s, rootB);
         int blockedJudged = rays.estimate(judged);
-        rays.estimate(carried);  // independent: its blocked count sets no flag
+        double factor = 1.0;  // independent: its blocked count sets no flag
+        rays.estimate(carried, s_.sampledKernel ? &factor : nullptr);
+        carried *= factor;
         out.rays = uint32_t(2 * n);
         out.partial = blockedJudged > 0 && blockedJudged < n;
         out.uncertain = blockedJudged == n;
@@ -421,11 +433,11 @@ Vec3 ClusterLinker::LinkRays::clusterPoint(const LinkEnd& e, const Facing& f, co
     return best;
 }
 
-int ClusterLinker::LinkRays::estimate(double& fraction) {
+int ClusterLinker::LinkRays::estimate(double& fraction, double* kernel) {
     const int n = L_.s_.visRays;
     const Vec3 cr = receiver_.center, cs = sender_.center;
     int blocked = 0, done = 0;
-    double wsum = 0.0, wvis = 0.0;
+    double wsum = 0.0, wvis = 0.0, invd2 = 0.0;
     double cosA[64], cosB[64];
     while (done < n) {
         int m = std::min(64, n - done);
@@ -444,11 +456,13 @@ int ClusterLinker::LinkRays::estimate(double& fraction) {
                            ? ca * cb / (d2 * d2 * cosA[i] * cosB[i])
                            : 0.0;
             wsum += w;
+            if (w > 0) invd2 += 1.0 / d2;
             if (!occ_[i]) wvis += w;
         }
         done += m;
     }
     fraction = wsum > 0 ? wvis / wsum : double(n - blocked) / n;
+    if (kernel) *kernel = wsum > 0 ? glm::dot(cr - cs, cr - cs) * invd2 / n : 1.0;
     return blocked;
 }
 

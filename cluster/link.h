@@ -89,6 +89,10 @@ struct ClusterLinkSettings {
     bool ambient = true;
     double faceSeparation = 1.5;
     bool faceDisc = false;
+    /// cluster.kernel = sampled: a point link's K is the point kernel times
+    /// r^2 times the mean of its rays' kernel ratios (ClusterLinker::LinkRays),
+    /// not times the 1 / r^2 of the centres alone.
+    bool sampledKernel = false;
     /// cluster.handover: an oriented receiving cluster hands each link's light
     /// to its surfaces by cosine and openness (true) or by cosine alone.
     bool visibleHandover = true;
