@@ -202,6 +202,13 @@ void Params::Record::addReader(const std::string& who) {
         component += (component.empty() ? "" : ", ") + who;
 }
 
+void Params::recordAsGiven(const Key& key) const {
+    const Entry* e = find(key.name);
+    if (!e) return;
+    static constexpr const char* kTypes[] = {"boolean", "integer", "number", "string"};
+    record(key, kTypes[e->value.index()], e->value, "", "");
+}
+
 void Params::recordResolved(const std::string& key, Value value) const {
     auto& records = recorder().records;
     auto it = records.find(prefix_ + key);

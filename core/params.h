@@ -113,6 +113,9 @@ class Params {
     /// The value a run used for a key read earlier, when it differs from
     /// what was read (an "auto" resolved, 0 meaning "80 % of RAM"...).
     void recordResolved(const std::string& key, Value value) const;
+    /// Records a key read as it is, without a default or type of its own
+    /// (free-form keys handed on as text, e.g. mitsuba.param.*).
+    void recordAsGiven(const Key& key) const;
     /// Every key read so far (through this Params and its subsets), by full name.
     const std::map<std::string, Record>& records() const;
 

@@ -86,14 +86,10 @@ struct Link {
     /// a single-surface cluster, overlapping bounding spheres): it carries
     /// nothing and is opened in the next refinement round, whatever the oracle.
     static constexpr uint8_t kOpen = 2;
-    /// A link touching a cluster whose visibility rays were all blocked: it
-    /// carries nothing (K = 0) but the true visibility may be small and
-    /// non-zero (a doorway), so it is kept for the oracle, which judges it
-    /// with the unoccluded transfer times a bound on the visibility
-    /// (HrSolver::linkEstimate), instead of being dropped. A surface-to-
-    /// surface link whose judged rays were all blocked while its carried
-    /// ones found the sender is judged with the same kind of bound
-    /// (hr/solver.h, "Judged visibility").
+    /// A link whose judged visibility rays were all blocked: it may carry a
+    /// little (a doorway), so it is kept and judged with the unoccluded
+    /// transfer times a bound on the visibility (hr/link_estimate.cpp), not
+    /// dropped (papers/notes/2026-11-29-hr-solver-notes.md, "Judged visibility").
     static constexpr uint8_t kUncertain = 4;
     /// A near cluster pair whose transfer is a Monte Carlo estimate
     /// (cluster/link.h): Fupper holds the judged estimate of F (receiver
@@ -144,24 +140,17 @@ struct Link {
 static_assert(sizeof(Link) == 16, "Link must stay 16 bytes");
 
 /// Unoccluded point form factors of a link at its receiver's kernel sample
-/// points (transport FormFactorEngine::kernelSamples), or with a polynomial
-/// basis the kernel less the link's projection there, cached per link for
-/// the receiver-aggregate error (hr/receiver_error.h): geometry only, so
-/// computed once when the link is made. Only links between two surface
-/// elements have them (the aggregate judges nothing else), and they are
-/// stored for those alone whose receiver can still subdivide, in link order
-/// (Hierarchy::storesKernelSamples).
+/// points (FormFactorEngine::kernelSamples), or with a polynomial basis the
+/// kernel less the link's projection there, cached per link for the
+/// receiver-aggregate error (hr/receiver_error.h): geometry only, computed
+/// once. Stored only for surface-to-surface links whose receiver can still
+/// subdivide, in link order (Hierarchy::storesKernelSamples).
 ///
-/// Stored in 24 bytes, not nine floats' 36: their mean as a float, and each
-/// sample's deviation from it as a 16-bit integer times a power of two
-/// chosen per link, so that the largest deviation fills the integer range.
-/// The aggregate sums the samples less a constant over the links of a
-/// receiver and takes the range of the sum over the sample points: what it
-/// needs is the deviations, and they keep a rounding error of at most
-/// 1/32767 of the link's own largest deviation from the stored mean. Nine
-/// half-precision values would round each sample to 2^-11 of itself, which
-/// on a link whose kernel varies by less than that across its receiver is
-/// more than the variation the check is there to see.
+/// 24 bytes, not nine floats' 36: the mean as a float and each sample's
+/// deviation as a 16-bit integer times a per-link power of two, so the
+/// aggregate (which needs the deviations) keeps a rounding error of at most
+/// 1/32767 of the link's largest deviation; half floats would round each
+/// sample to 2^-11 of itself, more than the variation the check looks for.
 class KernelSamples {
   public:
     static constexpr int kCount = 9;

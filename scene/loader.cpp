@@ -114,8 +114,10 @@ MitsubaOptions mitsubaOptions(const Params& params) {
                                int64_t(m.maxInflatedBytes >> 20), 1, int64_t(1) << 24))
         << 20;
     Params sub = params.subset("mitsuba.param");
-    for (const auto& [key, entry] : sub.entries())
+    for (const auto& [key, entry] : sub.entries()) {
         m.params[key] = Params::valueToString(entry.value);
+        sub.recordAsGiven({key, "Mitsuba: a $" + key + " of the scene file, set from outside"});
+    }
     params.markUsedPrefix("mitsuba.param");
     return m;
 }

@@ -185,6 +185,11 @@ TEST(MitsubaLoader, RefsDefaultsParamsAndForwardReferences) {
     Scene t = load(dir, body, p);
     EXPECT_NEAR(t.patches[0].rho.r, 0.75, 1e-12);
     EXPECT_TRUE(p.unusedKeys().empty());
+    // The parameter is in the settings the run records (summary.json
+    // resolved_settings), as given.
+    const auto rec = p.records().find("mitsuba.param.refl");
+    ASSERT_NE(rec, p.records().end());
+    EXPECT_EQ(Params::valueToString(rec->second.value), "0.75");
 
     std::string e = loadError(dir, std::string(kLight) + "  <bsdf type=\"diffuse\"><float name=\"reflectance\" value=\"$nope\"/></bsdf>\n"
                                                          "  <shape type=\"rectangle\"><ref id=\"x\"/></shape>\n");
