@@ -65,6 +65,8 @@ const GoldenCase kCases[] = {
      "hr.oracle=error oracle.eps=1e-3 cluster.model=none"},
     {"office2_isotropic", "office:2", "hr.oracle=bfa oracle.eps=1e-2 cluster.model=isotropic"},
     {"office2_oriented", "office:2", "hr.oracle=bfa oracle.eps=1e-2 cluster.model=oriented"},
+    {"office2_oriented_sampled_kernel", "office:2",
+     "hr.oracle=bfa oracle.eps=1e-2 cluster.model=oriented cluster.kernel=sampled"},
     {"office2_oriented_error", "office:2",
      "hr.oracle=error oracle.eps=1e-2 cluster.model=oriented"},
     {"office2_oriented_ff", "office:2", "hr.oracle=ff oracle.eps=0.1 cluster.model=oriented"},
