@@ -456,7 +456,7 @@ int ClusterLinker::LinkRays::estimate(double& fraction, double* kernel) {
                            ? ca * cb / (d2 * d2 * cosA[i] * cosB[i])
                            : 0.0;
             wsum += w;
-            if (w > 0) invd2 += 1.0 / d2;
+            if (kernel && w > 0) invd2 += 1.0 / d2;
             if (!occ_[i]) wvis += w;
         }
         done += m;

@@ -17,6 +17,7 @@
 
 #include "core/error.h"
 #include "core/safe_file.h"
+#include "render/gltf_model.h"
 #include "render/image.h"
 #include "render/render.h"
 #include "scene/element.h"
@@ -25,13 +26,7 @@ namespace hrad::render {
 
 namespace {
 
-template <typename T>
-void putLE(std::vector<unsigned char>& out, T value) {
-    unsigned char b[sizeof(T)];
-    std::memcpy(b, &value, sizeof(T));
-    if constexpr (std::endian::native == std::endian::big) std::reverse(b, b + sizeof(T));
-    out.insert(out.end(), b, b + sizeof(T));
-}
+using gltf::putLE;
 
 /// A tightly packed accessor over bytes [offset, offset + length) of buffer 0.
 int addAccessor(tinygltf::Model& m, size_t offset, size_t length, int componentType, int type, size_t count,
@@ -177,13 +172,7 @@ GltfCounts writeGlb(const scene::RadiosityField& field, const std::string& path,
     mesh.primitives.push_back(prim);
     m.meshes.push_back(mesh);
 
-    // Root: the scene's up axis -> +Y.
-    glm::dmat4 toYUp(1.0);
-    if (sc.upAxis == 2) toYUp = glm::rotate(glm::dmat4(1.0), -std::numbers::pi / 2, glm::dvec3(1, 0, 0));  // z -> y
-    if (sc.upAxis == 0) toYUp = glm::rotate(glm::dmat4(1.0), std::numbers::pi / 2, glm::dvec3(0, 0, 1));   // x -> y
-    tinygltf::Node root;
-    root.name = "hrad scene";
-    if (sc.upAxis != 1) root.matrix = columnMajor(toYUp);
+    tinygltf::Node root = gltf::yUpRoot(sc);
     tinygltf::Node meshNode;
     meshNode.name = "radiosity";
     meshNode.mesh = 0;
@@ -218,6 +207,23 @@ GltfCounts writeGlb(const scene::RadiosityField& field, const std::string& path,
     m.scenes.push_back(scene);
     m.defaultScene = 0;
 
+    gltf::writeGlbModel(m, path);
+    return counts;
+}
+
+namespace gltf {
+
+tinygltf::Node yUpRoot(const scene::Scene& sc) {
+    glm::dmat4 toYUp(1.0);
+    if (sc.upAxis == 2) toYUp = glm::rotate(glm::dmat4(1.0), -std::numbers::pi / 2, glm::dvec3(1, 0, 0));  // z -> y
+    if (sc.upAxis == 0) toYUp = glm::rotate(glm::dmat4(1.0), std::numbers::pi / 2, glm::dvec3(0, 0, 1));   // x -> y
+    tinygltf::Node root;
+    root.name = "hrad scene";
+    if (sc.upAxis != 1) root.matrix = columnMajor(toYUp);
+    return root;
+}
+
+void writeGlbModel(tinygltf::Model& m, const std::string& path) {
     // Our own stream, so that a failed open or write (full disk) is reported.
     writeThroughTemp(path, [&](const std::filesystem::path& tmp) {
         std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
@@ -226,7 +232,8 @@ GltfCounts writeGlb(const scene::RadiosityField& field, const std::string& path,
         out.close();
         if (!ok || !out) throw IoError(path, "cannot write the glTF file (disk full?)");
     });
-    return counts;
 }
+
+}  // namespace gltf
 
 }  // namespace hrad::render

@@ -257,7 +257,9 @@ void writePng(const Image& image, const std::string& path, double exposure) {
     writePng(image, path, ts.choose(image));
 }
 
-void writePng(const Image& image, const std::string& path, const ToneMap& tone) {
+namespace {
+/// The image through `tone` as 8-bit sRGB triples (already encoded).
+std::vector<uint8_t> toneMappedRgb8(const Image& image, const ToneMap& tone) {
     HRAD_CHECK(image.width > 0 && image.height > 0 &&
                image.pixels.size() == size_t(image.width) * size_t(image.height));
     std::vector<uint8_t> buf(image.pixels.size() * 3);
@@ -265,8 +267,28 @@ void writePng(const Image& image, const std::string& path, const ToneMap& tone) 
         auto c = tone.srgb8(image.pixels[i]);
         std::copy(c.begin(), c.end(), buf.begin() + int64_t(3 * i));
     }
-    // The data are already sRGB-encoded 8-bit values.
-    writePngPixels(path, image.width, image.height, PNG_FORMAT_RGB, buf.data());
+    return buf;
+}
+}  // namespace
+
+void writePng(const Image& image, const std::string& path, const ToneMap& tone) {
+    writePngPixels(path, image.width, image.height, PNG_FORMAT_RGB,
+                   toneMappedRgb8(image, tone).data());
+}
+
+std::vector<unsigned char> encodePng(const Image& image, const ToneMap& tone) {
+    const std::vector<uint8_t> px = toneMappedRgb8(image, tone);
+    png_image png{};
+    png.version = PNG_IMAGE_VERSION;
+    png.width = png_uint_32(image.width);
+    png.height = png_uint_32(image.height);
+    png.format = PNG_FORMAT_RGB;
+    png_alloc_size_t bytes = 0;
+    HRAD_CHECK(png_image_write_to_memory(&png, nullptr, &bytes, 0, px.data(), 0, nullptr));
+    std::vector<unsigned char> out(bytes);
+    HRAD_CHECK(png_image_write_to_memory(&png, out.data(), &bytes, 0, px.data(), 0, nullptr));
+    out.resize(bytes);
+    return out;
 }
 
 }  // namespace hrad::render

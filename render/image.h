@@ -129,5 +129,8 @@ void writePngPixels(const std::string& path, int width, int height, uint32_t for
 void writePng(const Image& image, const std::string& path, double exposure = 0.0);
 /// The same with an explicit tone map.
 void writePng(const Image& image, const std::string& path, const ToneMap& tone);
+/// The PNG file's bytes writePng would write with `tone` (for embedding, e.g.
+/// a glTF image).
+std::vector<unsigned char> encodePng(const Image& image, const ToneMap& tone);
 
 }  // namespace hrad::render

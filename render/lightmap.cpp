@@ -1,7 +1,6 @@
 // Lightmap atlas: packing, baking and the glTF output (see lightmap.h).
 #include "render/lightmap.h"
 
-#include <png.h>
 #include <stb/stb_rect_pack.h>
 #include <tbb/parallel_for.h>
 #include <tiny_gltf.h>
@@ -10,7 +9,6 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <limits>
 #include <numbers>
 
@@ -18,7 +16,7 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include "core/error.h"
-#include "core/safe_file.h"
+#include "render/gltf_model.h"
 #include "scene/element.h"
 
 namespace hrad::render {
@@ -76,14 +74,6 @@ bool pack(std::vector<Lightmap::Chart>& charts, int size, int gutter) {
         charts[size_t(r.id)].y = r.y + gutter;
     }
     return true;
-}
-
-Vec2 clampToDomain(PatchKind kind, Vec2 uv) {
-    if (kind == PatchKind::Quad) return glm::clamp(uv, Vec2(0.0), Vec2(1.0));
-    uv = glm::max(uv, Vec2(0.0));
-    double s = uv.x + uv.y;
-    if (s > 1) uv /= s;
-    return uv;
 }
 
 /// Phase 1: the charts' layout (density fixed or bisected).
@@ -163,7 +153,7 @@ Lightmap bakeLightmap(const scene::RadiosityField& field, const LightmapSettings
         const PatchKind kind = sc.patches[p].kind;
         for (int j = -g; j < c.h + g; ++j)
             for (int i = -g; i < c.w + g; ++i) {
-                Vec2 uv = clampToDomain(kind, Vec2((i + 0.5) / c.w, (j + 0.5) / c.h));
+                Vec2 uv = scene::clampToPatchDomain(kind, Vec2((i + 0.5) / c.w, (j + 0.5) / c.h));
                 lm.atlas.at(c.x + i, c.y + j) = smooth ? smooth->at(uint32_t(p), uv.x, uv.y)
                                                        : field.at(uint32_t(p), uv.x, uv.y);
             }
@@ -173,13 +163,7 @@ Lightmap bakeLightmap(const scene::RadiosityField& field, const LightmapSettings
 
 namespace {
 
-template <typename T>
-void putLE(std::vector<unsigned char>& out, T value) {
-    unsigned char b[sizeof(T)];
-    std::memcpy(b, &value, sizeof(T));
-    if constexpr (std::endian::native == std::endian::big) std::reverse(b, b + sizeof(T));
-    out.insert(out.end(), b, b + sizeof(T));
-}
+using gltf::putLE;
 
 /// A buffer view over the bytes appended to buffer 0, and (type >= 0) an
 /// accessor over it; returns the accessor (or the view when type < 0).
@@ -202,25 +186,6 @@ int addView(tinygltf::Model& m, const std::vector<unsigned char>& bytes, int tar
     a.count = count;
     m.accessors.push_back(a);
     return int(m.accessors.size()) - 1;
-}
-
-std::vector<unsigned char> encodePng(const Image& img, const ToneMap& tone) {
-    std::vector<uint8_t> px(img.pixels.size() * 3);
-    for (size_t i = 0; i < img.pixels.size(); ++i) {
-        auto c = tone.srgb8(img.pixels[i]);
-        std::copy(c.begin(), c.end(), px.begin() + int64_t(3 * i));
-    }
-    png_image png{};
-    png.version = PNG_IMAGE_VERSION;
-    png.width = png_uint_32(img.width);
-    png.height = png_uint_32(img.height);
-    png.format = PNG_FORMAT_RGB;
-    png_alloc_size_t bytes = 0;
-    HRAD_CHECK(png_image_write_to_memory(&png, nullptr, &bytes, 0, px.data(), 0, nullptr));
-    std::vector<unsigned char> out(bytes);
-    HRAD_CHECK(png_image_write_to_memory(&png, out.data(), &bytes, 0, px.data(), 0, nullptr));
-    out.resize(bytes);
-    return out;
 }
 
 /// Phase 1 of the glb: one mesh of the root patches (own corners each).
@@ -317,15 +282,7 @@ void writeLightmapGlb(const scene::RadiosityField& field, const Lightmap& lm, co
     m.materials.push_back(mat);
 
     // Phase 3: nodes (the scene's up axis -> +Y, as render/gltf_export.cpp).
-    tinygltf::Node root;
-    root.name = "hrad scene";
-    glm::dmat4 toYUp(1.0);
-    if (sc.upAxis == 2) toYUp = glm::rotate(glm::dmat4(1.0), -std::numbers::pi / 2, glm::dvec3(1, 0, 0));
-    if (sc.upAxis == 0) toYUp = glm::rotate(glm::dmat4(1.0), std::numbers::pi / 2, glm::dvec3(0, 0, 1));
-    if (sc.upAxis != 1) {
-        const double* q = glm::value_ptr(toYUp);
-        root.matrix.assign(q, q + 16);
-    }
+    tinygltf::Node root = gltf::yUpRoot(sc);
     root.children.push_back(1);
     tinygltf::Node meshNode;
     meshNode.name = "lightmapped";
@@ -338,13 +295,7 @@ void writeLightmapGlb(const scene::RadiosityField& field, const Lightmap& lm, co
     m.scenes.push_back(scene);
     m.defaultScene = 0;
 
-    writeThroughTemp(path, [&](const std::filesystem::path& tmp) {
-        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-        tinygltf::TinyGLTF writer;
-        bool ok = writer.WriteGltfSceneToStream(&m, out, /*prettyPrint=*/false, /*writeBinary=*/true);
-        out.close();
-        if (!ok || !out) throw IoError(path, "cannot write the glTF file (disk full?)");
-    });
+    gltf::writeGlbModel(m, path);
 }
 
 Lightmap writeLightmapFiles(const scene::RadiosityField& field, const LightmapSettings& settings,

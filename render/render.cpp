@@ -187,14 +187,6 @@ scene::Camera chooseCamera(const scene::Scene& scene, const transport::Visibilit
 
 namespace {
 
-Vec2 clampToPatch(PatchKind kind, Vec2 uv) {
-    if (kind == PatchKind::Quad) return glm::clamp(uv, Vec2(0.0), Vec2(1.0));
-    uv = glm::max(uv, Vec2(0.0));
-    double s = uv.x + uv.y;
-    if (s > 1) uv /= s;
-    return uv;
-}
-
 /// Final gather / path tracing: parallel over 16 x 16 tiles; every sample's
 /// random sequence is seeded by (seed, pixel, sample), so the image does not
 /// depend on the tiling or on the threads.
@@ -298,7 +290,7 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
                         if (!hit.hit) continue;
                         const scene::Patch& p = scene.patches[hit.patch];
                         if (settings.backFacesBlack && glm::dot(dir, p.normal) > 0) continue;
-                        Vec2 uv = clampToPatch(p.kind, scene::patchInverse(p, hit.point));
+                        Vec2 uv = scene::clampToPatchDomain(p.kind, scene::patchInverse(p, hit.point));
                         for (size_t f = 0; f < nf; ++f)
                             sum[f] += interp[f] ? interp[f]->at(hit.patch, uv.x, uv.y)
                                                 : fields[f]->at(hit.patch, uv.x, uv.y);

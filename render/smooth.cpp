@@ -49,14 +49,6 @@ uint32_t findRoot(std::vector<uint32_t>& parent, uint32_t a) {
     return a;
 }
 
-Vec2 clampToPatch(PatchKind kind, Vec2 uv) {
-    if (kind == PatchKind::Quad) return glm::clamp(uv, Vec2(0.0), Vec2(1.0));
-    uv = glm::max(uv, Vec2(0.0));
-    double s = uv.x + uv.y;
-    if (s > 1) uv /= s;
-    return uv;
-}
-
 }  // namespace
 
 struct VertexInterpolation::PatchTable {
@@ -224,7 +216,7 @@ RGB VertexInterpolation::cornerValue(uint32_t patch, ElementKey key, int corner)
 
 RGB VertexInterpolation::at(uint32_t patch, double u, double v) const {
     const PatchTable& t = *tables_[patch];
-    Vec2 uv = clampToPatch(t.kind, Vec2(u, v));
+    Vec2 uv = scene::clampToPatchDomain(t.kind, Vec2(u, v));
     Domain d;
     uint32_t leaf = t.find(uv.x, uv.y, d);
     if (leaf == UINT32_MAX) return field_->at(patch, uv.x, uv.y);

@@ -112,6 +112,14 @@ double elementJacobian(const Patch& p, const Domain& d, double a, double b) {
     return glm::length(glm::cross(du, dv)) * h2;
 }
 
+Vec2 clampToPatchDomain(PatchKind kind, Vec2 uv) {
+    if (kind == PatchKind::Quad) return glm::clamp(uv, Vec2(0.0), Vec2(1.0));
+    uv = glm::max(uv, Vec2(0.0));
+    double s = uv.x + uv.y;
+    if (s > 1) uv /= s;
+    return uv;
+}
+
 Vec2 patchInverse(const Patch& p, const Vec3& x) {
     if (p.kind == PatchKind::Triangle) {
         // Barycentric coordinates by least squares in the plane.

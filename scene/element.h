@@ -104,6 +104,10 @@ double elementJacobian(const Patch& p, const Domain& d, double a, double b);
 /// Inverse of Patch::point for a point on (or projected onto) the patch plane.
 Vec2 patchInverse(const Patch& p, const Vec3& x);
 
+/// The nearest parameters inside a patch's domain: [0,1]^2 for quads, the
+/// triangle a, b >= 0, a + b <= 1 (scaled back along the ray from 0) otherwise.
+Vec2 clampToPatchDomain(PatchKind kind, Vec2 uv);
+
 /// Area of a planar polygon given its corners in order (Newell's method).
 double polygonArea(const Vec3* pts, int n);
 
