@@ -67,6 +67,11 @@ int main(int argc, char** argv) {
                       "refinement oracle (hr.oracle): " + app::registryHelp("oracle"));
     auto* epsOpt = solve->add_option("--eps", eps, "oracle threshold (oracle.eps)");
     auto* minAreaOpt = solve->add_option("--min-area", minArea, "minimum element area (hr.min_area)");
+    double targetError = 0;
+    auto* targetOpt = solve->add_option(
+        "--target-error", targetError,
+        "refine until the estimated error is at most this, e.g. 0.05 (hr.target_error; "
+        "hr.target_metric: l2_nonemitter or l1_reflected)");
     std::string clusterModel, clusterBuilder;
     solve->add_option("--cluster", clusterModel,
                       "volume clustering (cluster.model): " + app::registryHelp("cluster"));
@@ -221,6 +226,7 @@ int main(int argc, char** argv) {
             if (!oracle.empty()) params.set("hr.oracle", oracle, flag("--oracle"));
             if (*epsOpt) params.set("oracle.eps", eps, flag("--eps"));
             if (*minAreaOpt) params.set("hr.min_area", minArea, flag("--min-area"));
+            if (*targetOpt) params.set("hr.target_error", targetError, flag("--target-error"));
             if (!clusterModel.empty()) params.set("cluster.model", clusterModel, flag("--cluster"));
             if (!clusterBuilder.empty())
                 params.set("cluster.builder", clusterBuilder, flag("--cluster-builder"));

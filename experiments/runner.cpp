@@ -27,6 +27,8 @@
 #include "render/ply_export.h"
 #include "render/render.h"
 #include "render/residual.h"
+#include "experiments/estimate_report.h"
+#include "experiments/target_error.h"
 #include "scene/loader.h"
 #include "transport/reachability.h"
 #include "transport/visibility.h"
@@ -106,6 +108,8 @@ struct Resolved {
     double errorFloor = 0.01, errorRange = 0.25;       // render.error_floor, render.error_range
     bool errorOnRegions = true;                        // render.error_mode = regions | pixels
     std::optional<render::ResidualSettings> residual;  // metrics.residual = true
+    std::optional<reference::ErrorEstimateSettings> estimate;  // metrics.error_estimate
+    std::optional<TargetSettings> target;                      // hr.target_error
     // render.error_reference = path-traced: the error map compares the
     // solution's image with a path-traced image of the same camera
     // (render.reference_spp samples per pixel) instead of the reference
@@ -156,6 +160,15 @@ Resolved resolve(const PointSpec& p) {
                    "compute the transport residual of the solution (render/residual.h)"},
                   false))
         r.residual = render::ResidualSettings::fromParams(s);
+    r.estimate = estimateSettings(s);
+    r.target = TargetSettings::fromParams(s);
+    if (r.target && r.solver != "hr")
+        throwInputError(s.where("hr.target_error"),
+                        "hr.target_error needs the hr solver (solver = \"{}\")", r.solver);
+    if (r.target && !r.estimate)
+        throwInputError(s.where("hr.target_error"),
+                        "hr.target_error needs the error estimate (metrics.error_estimate = "
+                        "true)");
     r.errorVsPathTraced =
         s.getEnum({"render.error_reference",
                    "error maps against the reference solution's image, or a path-traced image"},
@@ -491,7 +504,15 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     }
     solveCtx.cancel = ctx.cancel;
     solveCtx.onRecord = ctx.onRecord;
+    std::optional<TargetErrorDriver> target;
+    if (r.target) {
+        target.emplace(sc, vis, *r.target, *r.estimate, ctx.progress);
+        solveCtx.afterStage = [&](const scene::RadiosityField& f, double eps) {
+            return target->afterStage(f, eps);
+        };
+    }
     SolveOutput solved = r.solverImpl->solve(sc, vis, solveCtx);
+    if (target) summary["target"] = target->summary();
     field = solved.field;
     if (ctx.keep) ctx.keep(RunOutput{scene, visibility, solved, {}});
     // cluster.model = auto is resolved by the solve (hr/solver.cpp solveOnce).
@@ -553,6 +574,19 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         if (ctx.checkpoint) ctx.checkpoint(summary);
     }
 
+    // ---- the error estimate (reference/error_estimate.h) ---------------------------
+    std::optional<reference::ErrorEstimate> estimate;
+    if (r.estimate) {
+        const reference::ErrorEstimate* known = target ? target->finalEstimate() : nullptr;
+        estimate = known ? *known
+                         : reference::estimateError(sc, vis, *field, *r.estimate, ctx.progress);
+        summary["estimate"] = estimateJson(*estimate);
+        timings["estimate"] = estimate->seconds;
+        summary["timings"] = timings;
+        reportEstimate(*estimate);
+        if (ctx.checkpoint) ctx.checkpoint(summary);
+    }
+
     // ---- error against the reference --------------------------------------------
     if (ctx.cancel) ctx.cancel->throwIfRequested();
     std::optional<Reference> ref;
@@ -590,6 +624,9 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
             e["mc_stderr_l2_rgb"] = uRgb;
             e["mc_stderr_l2_nonemitter_lum"] = mcUncertaintyNonEmitters(*ref, sc);
         }
+        if (estimate)
+            e["estimate"] = estimateAgainstTruth(
+                *estimate, err, r.refMc ? mcUncertaintyNonEmitters(*ref, sc) : 0.0);
         // Error work, including the per-iteration errors (history_error), so
         // that wall - reference - error - render is the solver's own time.
         timings["error"] = tErr.seconds() + historyErrorSeconds;

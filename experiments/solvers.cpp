@@ -48,6 +48,19 @@ json hrRecordJson(const hr::IterationRecord& it) {
 }
 
 // ---- hr: hierarchical radiosity (hr/solver.h) ------------------------------------
+/// SolveContext::afterStage as the solver's stage controller.
+class StageCallback final : public hr::StageController {
+  public:
+    explicit StageCallback(const SolveContext& ctx) : ctx_(ctx) {}
+    std::optional<double> afterStage(const hr::Hierarchy& h, double eps) override {
+        hr::HierarchyField f(h);
+        return ctx_.afterStage(f, eps);
+    }
+
+  private:
+    const SolveContext& ctx_;
+};
+
 class HrEntry final : public Solver {
   public:
     explicit HrEntry(const Params& p) : settings_(hr::HrSettings::fromParams(p)) {}
@@ -56,6 +69,8 @@ class HrEntry final : public Solver {
                       const SolveContext& ctx) const override {
         hr::HrSolver s(sc, vis, settings_);
         s.setCancelToken(ctx.cancel);
+        StageCallback stages(ctx);
+        if (ctx.afterStage) s.setStageController(&stages);
         if (ctx.historyError || ctx.onRecord)
             s.setIterationHook([&](const hr::Hierarchy& hh, hr::IterationRecord& rec) {
                 if (ctx.historyError) {

@@ -32,6 +32,7 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -61,6 +62,11 @@ struct SolveContext {
     /// of summary.history[i], l2_lum included with historyError): progress
     /// for a caller that shows it (the Python module's on_iteration).
     std::function<void(const nlohmann::json&)> onRecord;
+    /// If set, the hr solver calls it when an eps stage has converged, with
+    /// the solution and the stage's eps; a smaller eps it returns is refined
+    /// to next on the same hierarchy (hr/stage_controller.h; a target-error
+    /// solve, experiments/target_error.h). Other solvers do not call it.
+    std::function<std::optional<double>(const scene::RadiosityField&, double)> afterStage;
 };
 
 /// What both callers need from a solve.

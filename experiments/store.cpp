@@ -42,7 +42,8 @@ CREATE TABLE IF NOT EXISTS runs (
   l2_nonemitter_lum REAL, mean_ratio_nonemitter REAL, error_estimate REAL, residual REAL,
   slurm_job_id TEXT, slurm_array_task_id INTEGER, noise_estimate REAL,
   noise_l2_nonemitter REAL, error_estimate_leaves REAL, error_estimate_points REAL,
-  resolved_settings TEXT);
+  resolved_settings TEXT, estimate_l2_nonemitter REAL, estimate_l1_reflected REAL,
+  estimate_mean_ratio REAL, true_l2_nonemitter REAL, target_error REAL, target_met INTEGER);
 CREATE TABLE IF NOT EXISTS iterations (
   run_key TEXT, iteration INTEGER, stage INTEGER, eps REAL, links INTEGER,
   elements INTEGER, leaves INTEGER, refined_links INTEGER, rays INTEGER,
@@ -71,10 +72,14 @@ CREATE TABLE IF NOT EXISTS failures (
 ///   6  runs gain resolved_settings: every key the run read, with the value
 ///      it used (defaults and resolved "auto"s included), as a JSON object
 ///      (core/params records; summary.resolved_settings)
+///   7  runs gain the residual error estimate (estimate_l2_nonemitter,
+///      estimate_l1_reflected, estimate_mean_ratio; reference/error_estimate.h),
+///      the non-emitter L2 with a Monte Carlo reference's noise removed
+///      (true_l2_nonemitter), and a target-error solve's target and outcome
 /// Older versions are migrated when opened for writing (missing columns are
 /// added, NULL in old rows) and read as they are when opened read-only.
 constexpr int32_t kApplicationId = 0x48524144;
-constexpr int kSchemaVersion = 6;
+constexpr int kSchemaVersion = 7;
 
 const char* kTables[] = {"studies", "runs", "iterations", "failures"};
 
@@ -96,7 +101,13 @@ const std::pair<const char*, const char*> kAddedRunColumns[] = {{"l1_reflected_l
                                                                 {"noise_l2_nonemitter", "REAL"},
                                                                 {"error_estimate_leaves", "REAL"},
                                                                 {"error_estimate_points", "REAL"},
-                                                                {"resolved_settings", "TEXT"}};
+                                                                {"resolved_settings", "TEXT"},
+                                                                {"estimate_l2_nonemitter", "REAL"},
+                                                                {"estimate_l1_reflected", "REAL"},
+                                                                {"estimate_mean_ratio", "REAL"},
+                                                                {"true_l2_nonemitter", "REAL"},
+                                                                {"target_error", "REAL"},
+                                                                {"target_met", "INTEGER"}};
 const std::pair<const char*, const char*> kAddedFailureColumns[] = {
     {"slurm_job_id", "TEXT"}, {"slurm_array_task_id", "INTEGER"}};
 
@@ -179,6 +190,10 @@ json at(const json& j, const char* a, const char* b = nullptr) {
     if (!b) return *it;
     auto jt = it->find(b);
     return jt == it->end() ? json(nullptr) : *jt;
+}
+json at(const json& j, const char* a, const char* b, const char* c) {
+    json mid = at(j, a, b);
+    return mid.is_object() ? at(mid, c) : json(nullptr);
 }
 
 std::string insertSql(const char* table, const std::vector<const char*>& cols,
@@ -504,7 +519,13 @@ void ResultStore::addRun(const std::string& key, const std::string& study, int64
                                                   "noise_l2_nonemitter",
                                                   "error_estimate_leaves",
                                                   "error_estimate_points",
-                                                  "resolved_settings"};
+                                                  "resolved_settings",
+                                                  "estimate_l2_nonemitter",
+                                                  "estimate_l1_reflected",
+                                                  "estimate_mean_ratio",
+                                                  "true_l2_nonemitter",
+                                                  "target_error",
+                                                  "target_met"};
     auto [slurmJob, slurmTask] = slurmProvenance();
     json settings = at(s, "settings");
     json oracle = nullptr;
@@ -578,7 +599,13 @@ void ResultStore::addRun(const std::string& key, const std::string& study, int64
                               at(s, "noise", "l2_nonemitter_direct"),
                               at(s, "error_estimate_leaves"),
                               at(s, "error_estimate_points"),
-                              resolved.is_object() ? json(resolved.dump()) : json(nullptr)};
+                              resolved.is_object() ? json(resolved.dump()) : json(nullptr),
+                              at(s, "estimate", "l2_nonemitter"),
+                              at(s, "estimate", "l1_reflected"),
+                              at(s, "estimate", "mean_ratio_nonemitter"),
+                              at(s, "error", "estimate", "true_l2_nonemitter"),
+                              at(s, "target", "target"),
+                              at(s, "target", "met")};
     exec("BEGIN IMMEDIATE");
     try {
         Stmt st(db_, insertSql("runs", cols, "INSERT OR REPLACE"));

@@ -420,8 +420,10 @@ struct HrSolver::LoopState {
 void HrSolver::iterate(Hierarchy& h, HrResult& res, bool progress) {
     std::vector<double> stages = s_.epsSchedule;
     Params probe = s_.oracleParams;
-    const bool hasEps = oracles::createOracle(s_.oracle, probe)->refinesByError();
-    if (stages.empty()) stages.push_back(hasEps ? s_.oracleParams.getDouble("eps", NAN) : NAN);
+    auto probeOracle = oracles::createOracle(s_.oracle, probe);
+    // The oracle's eps as set, or its default: a number a stage controller
+    // can lower (NaN for an oracle without eps).
+    if (stages.empty()) stages.push_back(probeOracle->refinesByError() ? probeOracle->eps() : NAN);
     const RGB reflected = h.reflectedPower();
     LoopState st{reflected, EpsPowerTracker(s_.epsPower, emittedPower_, reflected),
                  IterationAccelerator(s_, h), IterationTail{}, 0};
@@ -430,6 +432,12 @@ void HrSolver::iterate(Hierarchy& h, HrResult& res, bool progress) {
         const bool stageConverged = runStage(h, res, int(stage), stages[stage], st, progress);
         res.converged = stageConverged && !res.stoppedEarly();
         if (res.stoppedEarly()) break;
+        // After the planned stages a controller may add more (a target error).
+        if (stage + 1 == stages.size() && res.converged && stageController_ &&
+            !std::isnan(stages.back())) {
+            std::optional<double> next = stageController_->afterStage(h, stages.back());
+            if (next && *next < stages.back()) stages.push_back(*next);
+        }
     }
 }
 

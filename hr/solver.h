@@ -54,6 +54,7 @@
 #include "hr/checks/registry.h"
 #include "hr/eps_power.h"
 #include "hr/settings.h"
+#include "hr/stage_controller.h"
 #include "hr/hierarchy.h"
 #include "hr/link_builder.h"
 #include "hr/noise.h"
@@ -241,6 +242,10 @@ class HrSolver {
     /// (hr/budget.h) before every refinement round and after every
     /// iteration: solve() then throws hrad::Cancelled.
     void setCancelToken(const CancelToken* token) { budget_->setCancelToken(token); }
+    /// After the last stage of hr.eps_schedule (or the one eps) has
+    /// converged, `controller` may ask for further stages with smaller eps on
+    /// the same hierarchy (hr/stage_controller.h). Not owned.
+    void setStageController(StageController* controller) { stageController_ = controller; }
 
     /// The LinkEstimate that refinement gives the oracle for link l of
     /// receiver r in h (a link not marked Link::kOpen). For a link touching
@@ -360,6 +365,7 @@ class HrSolver {
     /// The refinement checks (hr/checks/registry.h), in amendment order.
     std::vector<std::unique_ptr<RefinementCheck>> checks_;
     std::vector<CheckEntry> extraChecks_;  ///< for the re-solves of hr.noise_target
+    StageController* stageController_ = nullptr;
     /// The leaves' error totals of the last convergence check, which the
     /// final estimate reuses while the hierarchy is the one checked.
     LeafTotalsCache leafCache_;

@@ -46,6 +46,7 @@ class PowerOracle final : public Oracle {
     bool needsUpperBound() const override { return s_.useBound; }
     std::string name() const override { return "bfa"; }
     double powerEps() const override { return s_.eps; }
+    double eps() const override { return s_.eps; }
     std::string describe() const override;
     /// The transported power the decision is based on (max channel).
     double transportedPower(const LinkEstimate& e) const;

@@ -43,6 +43,7 @@ class FormFactorOracle final : public Oracle {
     /// The receiver check's eps under auto: F_eps / 100 of the power eps refers to
     /// (above, "The receiver check").
     double receiverCheckEps() const override { return kReceiverCheckPerF * s_.eps; }
+    double eps() const override { return s_.eps; }
     static constexpr double kReceiverCheckPerF = 0.01;
     std::string name() const override { return "ff"; }
     std::string describe() const override;

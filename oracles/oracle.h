@@ -122,6 +122,9 @@ class Oracle {
     /// emittedPower) this oracle's eps is, where eps is a power threshold; NaN for an oracle whose eps is something else (ff:
     /// a form factor) or that has none (uniform).
     virtual double powerEps() const { return std::numeric_limits<double>::quiet_NaN(); }
+    /// The value of its `eps` setting as it decides (its default when unset);
+    /// NaN for an oracle without one (refinesByError() false).
+    virtual double eps() const { return std::numeric_limits<double>::quiet_NaN(); }
     /// The fraction of that power the checks the solver adds to every
     /// oracle's decision use: the receiver check under hr.receiver_eps = auto,
     /// the power a sampled near link or a partially visible cluster link may
@@ -175,6 +178,7 @@ class VariationOracle : public Oracle {
     bool needsBounds() const final { return true; }
     bool needsReceiverError() const final { return true; }
     double powerEps() const final { return s_.eps; }
+    double eps() const final { return s_.eps; }
     std::string describe() const final;
     /// The radiosity error dB of the link at its receiver (max channel, with
     /// importance), from the link's own form-factor range: used for links

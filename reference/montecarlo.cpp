@@ -14,104 +14,12 @@
 #include "core/rng.h"
 #include "core/sampling.h"
 #include "core/timer.h"
+#include "reference/light_sampling.h"
 #include "scene/element.h"
 
 namespace hrad::reference {
 
 namespace {
-
-/// Running mean and sum of squared deviations (Welford 1962), per channel.
-struct Welford {
-    uint64_t n = 0;
-    RGB mean{0.0}, m2{0.0};
-    void add(const RGB& x) {
-        ++n;
-        RGB d = x - mean;
-        mean += d / double(n);
-        m2 += d * (x - mean);
-    }
-    /// Standard error of the mean, sqrt(s^2 / n) with the unbiased s^2.
-    RGB stdError() const {
-        if (n < 2) return RGB(0.0);
-        RGB var = glm::max(m2, RGB(0.0)) / double(n - 1);
-        return glm::sqrt(var / double(n));
-    }
-};
-
-/// Uniform point on a triangle by the square-root mapping (Osada et al. 2002).
-Vec3 sampleTriangle(const Vec3& a, const Vec3& b, const Vec3& c, double u1, double u2) {
-    double su = std::sqrt(u1);
-    double b0 = 1.0 - su, b1 = u2 * su;
-    return b0 * a + b1 * b + (1.0 - b0 - b1) * c;
-}
-
-/// Uniform point by area on a planar convex polygon of 3 or 4 corners (a
-/// quad is the fan (c0,c1,c2), (c0,c2,c3), picked in proportion to area).
-struct PolygonSampler {
-    Vec3 c[4];
-    int n = 3;
-    double firstFraction = 1.0;  ///< area of (c0,c1,c2) / total
-
-    PolygonSampler() = default;
-    PolygonSampler(const Vec3* corners, int count) : n(count) {
-        for (int i = 0; i < count; ++i) c[i] = corners[i];
-        if (n == 4) {
-            double a0 = 0.5 * glm::length(glm::cross(c[1] - c[0], c[2] - c[0]));
-            double a1 = 0.5 * glm::length(glm::cross(c[2] - c[0], c[3] - c[0]));
-            firstFraction = a0 + a1 > 0 ? a0 / (a0 + a1) : 1.0;
-        }
-    }
-    Vec3 sample(Pcg32& rng) const {
-        double s = rng.nextDouble(), u1 = rng.nextDouble(), u2 = rng.nextDouble();
-        if (n == 3 || s < firstFraction) return sampleTriangle(c[0], c[1], c[2], u1, u2);
-        return sampleTriangle(c[0], c[2], c[3], u1, u2);
-    }
-};
-
-PolygonSampler patchSampler(const scene::Patch& p) {
-    return PolygonSampler(p.v.data(), p.numVertices());
-}
-
-/// Emitters chosen in proportion to their power luminance(E) * A.
-struct EmitterTable {
-    std::vector<uint32_t> patch;
-    std::vector<double> cdf;  ///< cdf[i] = P(choose one of 0..i); last is 1
-    std::vector<PolygonSampler> shape;
-    std::vector<double> probOfPatch;  ///< selection probability per scene patch (0: not an emitter)
-
-    explicit EmitterTable(const scene::Scene& s) : probOfPatch(s.patches.size(), 0.0) {
-        std::vector<double> w;
-        for (uint32_t i = 0; i < s.patches.size(); ++i) {
-            const scene::Patch& p = s.patches[i];
-            double power = luminance(p.emission) * p.area;
-            if (p.isEmitter() && power > 0) {
-                patch.push_back(i);
-                w.push_back(power);
-                shape.push_back(patchSampler(p));
-            }
-        }
-        double total = 0;
-        for (double x : w) total += x;
-        double acc = 0;
-        for (size_t k = 0; k < w.size(); ++k) {
-            acc += w[k];
-            cdf.push_back(acc / total);
-            probOfPatch[patch[k]] = w[k] / total;
-        }
-        if (!cdf.empty()) cdf.back() = 1.0;
-    }
-    bool empty() const { return patch.empty(); }
-    size_t pick(double u) const {
-        size_t k = size_t(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin());
-        return std::min(k, cdf.size() - 1);
-    }
-};
-
-/// Cosine-weighted direction about n, pdf cos t / pi (core/sampling.h).
-Vec3 sampleCosine(const Vec3& n, Pcg32& rng) {
-    double u1 = rng.nextDouble(), u2 = rng.nextDouble();
-    return cosineDirection(n, u1, u2);
-}
 
 /// One region's random walks. Not shared between tasks.
 class Walker {
@@ -139,14 +47,8 @@ class Walker {
             if (cosY <= 0) break;  // back face: B = 0 there
             // Put the hit exactly on q's plane (Embree's t is float).
             Vec3 y = hit.point - q.normal * glm::dot(hit.point - q.v[0], q.normal);
-            if (mis_ && q.isEmitter()) {
-                double pe = em_.probOfPatch[hit.patch];
-                Vec3 d = y - x;
-                double r2 = glm::dot(d, d);
-                double cosX = glm::dot(dir, p.normal);
-                double a = q.area * cosX * cosY, b = kPi * pe * r2;
-                if (a > 0) H += beta * q.emission * (a / (a + b));
-            }
+            if (mis_ && q.isEmitter())
+                H += beta * misEmission(q, em_.probOfPatch[hit.patch], x, p.normal, y, dir);
             if (maxDepth_ > 0 && depth + 2 > maxDepth_) break;  // next NEE: depth + 2 segments
             beta *= q.rho;
             double survive = maxComponent(q.rho);
@@ -162,24 +64,8 @@ class Walker {
     }
 
   private:
-    /// Direct light at x by next-event estimation (MIS-weighted when mis_).
     RGB direct(const Vec3& x, const Vec3& n, uint32_t patch, Pcg32& rng) {
-        if (em_.empty()) return RGB(0.0);
-        size_t k = em_.pick(rng.nextDouble());
-        Vec3 y = em_.shape[k].sample(rng);  // drawn even when unused: fixed stream use
-        uint32_t e = em_.patch[k];
-        if (e == patch) return RGB(0.0);  // planar: F = 0
-        const scene::Patch& ep = scene_.patches[e];
-        Vec3 d = y - x;
-        double r2 = glm::dot(d, d);
-        if (!(r2 > 0)) return RGB(0.0);
-        Vec3 w = d / std::sqrt(r2);
-        double cosX = glm::dot(n, w), cosY = -glm::dot(ep.normal, w);
-        if (cosX <= 0 || cosY <= 0) return RGB(0.0);
-        ++rays;
-        if (vis_.occluded(transport::Segment{x, y, patch, e})) return RGB(0.0);
-        double a = ep.area * cosX * cosY, b = kPi * em_.probOfPatch[e] * r2;
-        return ep.emission * (mis_ ? a / (a + b) : a / b);
+        return directLight(scene_, vis_, em_, x, n, patch, mis_, rng, rays);
     }
 
     const scene::Scene& scene_;

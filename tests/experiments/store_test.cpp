@@ -74,7 +74,7 @@ TEST(Store, NewStoresCarryTheSchemaVersion) {
     auto dir = test::tempDir("store_version");
     {
         ResultStore s(dir / "a.sqlite");
-        EXPECT_EQ(s.schemaVersion(), 6);
+        EXPECT_EQ(s.schemaVersion(), 7);
     }
     EXPECT_EQ(query(dir / "a.sqlite", "PRAGMA application_id"), "1213350212;");
     EXPECT_EQ(refusal(dir / "a.sqlite", true), "");
@@ -165,14 +165,16 @@ TEST(Store, MigratesVersionOneStores) {
          {"l1_reflected_lum", "l2_reflected_lum", "l1_nonemitter_lum", "l2_nonemitter_lum",
           "mean_ratio_nonemitter", "error_estimate", "residual", "slurm_job_id",
           "slurm_array_task_id", "noise_estimate", "noise_l2_nonemitter", "error_estimate_leaves",
-          "error_estimate_points", "resolved_settings"})
+          "error_estimate_points", "resolved_settings", "estimate_l2_nonemitter",
+          "estimate_l1_reflected", "estimate_mean_ratio", "true_l2_nonemitter", "target_error",
+          "target_met"})
         drop += fmt::format("ALTER TABLE runs DROP COLUMN {};", c);
     drop += "ALTER TABLE failures DROP COLUMN slurm_job_id; ALTER TABLE failures DROP COLUMN slurm_array_task_id;";
     sql(dir / "v1.sqlite", drop);
     EXPECT_EQ(refusal(dir / "v1.sqlite", true), "");  // readable as it is
     {
         ResultStore s(dir / "v1.sqlite");
-        EXPECT_EQ(s.schemaVersion(), 6);
+        EXPECT_EQ(s.schemaVersion(), 7);
         EXPECT_EQ(s.count("runs"), 2);
     }
     EXPECT_EQ(query(dir / "v1.sqlite", "SELECT slurm_job_id FROM runs"), "NULL;NULL;");
