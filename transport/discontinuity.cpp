@@ -95,7 +95,7 @@ class BoxTree {
                     if (overlaps(boxes_[items_[k]], q)) fn(items_[k]);
             } else {
                 stack.push_back(n.first);
-                stack.push_back(n.first + 1);
+                stack.push_back(n.right);
             }
         }
     }
@@ -103,7 +103,8 @@ class BoxTree {
   private:
     struct Node {
         scene::Bounds3 box;
-        uint32_t first = 0, count = 0;  ///< leaf: items; inner: children at first, first+1
+        uint32_t first = 0, count = 0;  ///< leaf: items [first, first + count)
+        uint32_t right = 0;             ///< inner (count 0): children first and right
     };
     static bool overlaps(const scene::Bounds3& a, const scene::Bounds3& b) {
         return a.lo.x <= b.hi.x && b.lo.x <= a.hi.x && a.lo.y <= b.hi.y && b.lo.y <= a.hi.y &&
@@ -133,8 +134,9 @@ class BoxTree {
                              return boxes_[a].center()[axis] < boxes_[b].center()[axis];
                          });
         const uint32_t left = build(lo, mid);
-        build(mid, hi);
-        nodes_[id].first = left;  // children are consecutive: left, then right
+        const uint32_t right = build(mid, hi);
+        nodes_[id].first = left;
+        nodes_[id].right = right;
         return id;
     }
 
@@ -374,9 +376,13 @@ bool hiddenCurve(const Frame& f, const Visibility& vis, uint32_t receiver, const
         const bool ev = c.s0 == c.s1;
         const Vec3 q = ev ? lineMeet(c.s0, P, c.o0, c.o1) : c.o0;
         const Vec3 L = ev ? c.s0 : lineMeet(P, c.o0, c.s0, c.s1);
-        const double d = 1e-3;  // step off the occluder's edge: only the event's own line
-        segs[size_t(2 * k)] = Segment{P, q + d * (P - q), receiver, c.occluder};
-        segs[size_t(2 * k + 1)] = Segment{q + d * (L - q), L, c.occluder, c.source};
+        // Every end steps 1e-3 of its segment inwards: off the occluder's
+        // edge (only the event's own line is tested), off the receiver's
+        // and the source's boundary (a source vertex is a corner its frame
+        // shares: a window in its reveal).
+        const double d = 1e-3;
+        segs[size_t(2 * k)] = Segment{P + d * (q - P), q + d * (P - q), receiver, c.occluder};
+        segs[size_t(2 * k + 1)] = Segment{q + d * (L - q), L + d * (q - L), c.occluder, c.source};
     }
     std::array<uint8_t, 6> blocked{};
     vis.occluded(segs.data(), segs.size(), blocked.data());
