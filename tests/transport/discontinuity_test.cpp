@@ -9,6 +9,7 @@
 #include <map>
 
 #include "hr/hierarchy.h"
+#include "reference/metrics.h"
 #include "hr/solver.h"
 #include "scene/loader.h"
 #include "tests/hr/settings.h"
@@ -194,6 +195,66 @@ TEST(DiscontinuityMesh, FurnaceStaysExact) {
               << " pieces: " << h.numLinks() << " links, reflected L1 " << l1 << ", worst "
               << worst << "\n";
     EXPECT_LT(l1, 0.005);
+}
+
+}  // namespace
+}  // namespace hrad
+
+namespace hrad {
+namespace {
+
+// error.by_source_patch merges a patch's pieces: a solution whose pieces are
+// wrong but whose area-weighted mean over each original patch is right has
+// no error per original patch, and a nonzero one per piece.
+TEST(DiscontinuityMesh, SourcePatchErrorMergesPieces) {
+    Params on;
+    on.set("mesh.discontinuity", std::string("emitters"));
+    const scene::Scene s = transport::loadScene("cornell", on);
+    ASSERT_GT(s.stats.discontinuity.cutPatches, 0u);
+    scene::UniformField ref(s, std::vector<uint8_t>(s.patches.size(), 0));
+    scene::UniformField sol(s, std::vector<uint8_t>(s.patches.size(), 0));
+    std::vector<int> seen(s.numSourcePatches(), -1);
+    for (uint32_t p = 0; p < s.patches.size(); ++p) {
+        ref.value(p) = s.patches[p].emission + RGB(0.3);
+        sol.value(p) = ref.value(p);
+        const uint32_t q = s.sourceOf(p);
+        if (s.patches[p].isEmitter()) continue;
+        if (seen[q] < 0) {
+            seen[q] = int(p);  // the first piece of q takes +0.1, the second as much power less
+        } else if (sol.value(uint32_t(seen[q])) == ref.value(uint32_t(seen[q]))) {
+            const double a1 = s.patches[uint32_t(seen[q])].area, a2 = s.patches[p].area;
+            sol.value(uint32_t(seen[q])) += RGB(0.1);
+            sol.value(p) -= RGB(0.1 * a1 / a2);
+        }
+    }
+    const reference::SourcePatchError merged = reference::computeSourcePatchError(sol, ref);
+    EXPECT_EQ(merged.patches, s.numSourcePatches());
+    EXPECT_LT(merged.l2NonEmitLum, 1e-12);
+    EXPECT_GT(reference::computeError(sol, ref).l2NonEmitLum, 1e-2);
+}
+
+TEST(DiscontinuityMesh, UnknownModeIsAnInputError) {
+    Params bad;
+    bad.set("mesh.discontinuity", std::string("occluders"));
+    try {
+        (void)transport::loadScene("cornell", bad);
+        FAIL() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("emitters+occluders"), std::string::npos) << e.what();
+    }
+}
+
+// emitters+occluders: the largest reflectors cast curves too, so Cornell
+// gets at least the cuts of emitters alone, and more.
+TEST(DiscontinuityMesh, SecondarySourcesAddCuts) {
+    Params a, b;
+    a.set("mesh.discontinuity", std::string("emitters"));
+    b.set("mesh.discontinuity", std::string("emitters+occluders"));
+    const scene::Scene ea = transport::loadScene("cornell", a);
+    const scene::Scene eb = transport::loadScene("cornell", b);
+    EXPECT_EQ(eb.stats.discontinuity.sources, ea.stats.discontinuity.sources + 4);
+    EXPECT_GT(eb.stats.discontinuity.curves, ea.stats.discontinuity.curves);
+    EXPECT_GE(eb.stats.discontinuity.cutPatches, ea.stats.discontinuity.cutPatches);
 }
 
 }  // namespace
