@@ -73,7 +73,7 @@ int sides(const std::vector<Vec3>& pts, const Vec3& o, const Vec3& m, double tol
 
 class BoxTree {
   public:
-    explicit BoxTree(const scene::Scene& s) : scene_(s) {
+    explicit BoxTree(const scene::Scene& s) {
         items_.resize(s.patches.size());
         std::iota(items_.begin(), items_.end(), 0u);
         boxes_.resize(s.patches.size());
@@ -140,7 +140,6 @@ class BoxTree {
         return id;
     }
 
-    const scene::Scene& scene_;
     std::vector<uint32_t> items_;
     std::vector<scene::Bounds3> boxes_;
     std::vector<Node> nodes_;
@@ -177,8 +176,7 @@ std::vector<Plane> hullPlanes(const std::vector<Vec3>& a, const std::vector<Vec3
 // ---- the receiver's plane ---------------------------------------------------
 
 struct Frame {
-    Vec3 o, u, w, n;  ///< origin, in-plane axes, normal of the lit side
-    double sign = 1;  ///< +1: lit from the front; -1: from the back (two-sided)
+    Vec3 o, u, w, n;  ///< origin, in-plane axes, normal of the lit side (negated: lit from the back)
     Vec2 to2(const Vec3& x) const { return Vec2(glm::dot(x - o, u), glm::dot(x - o, w)); }
     Vec3 to3(const Vec2& p) const { return o + p.x * u + p.y * w; }
     double height(const Vec3& x) const { return glm::dot(x - o, n); }
@@ -462,7 +460,6 @@ bool litFrame(const Shared& sh, uint32_t r, uint32_t s, Frame& f) {
     const int side = sides(sv, f.o, f.n, sh.sceneTol);
     if (side == 2 && sh.scene.materials[rp.material].twoSided) {
         f.n = -f.n;
-        f.sign = -1;
     } else if (side != 1) {
         return false;
     }
