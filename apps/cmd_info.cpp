@@ -36,6 +36,12 @@ int runInfo(const std::string& spec, Params& params) {
     else
         fmt::print("split          {} patches passing through others, into {} triangles\n",
                    st.splitPatches, st.splitPieces);
+    if (st.discontinuity.sources > 0)
+        fmt::print(
+            "discontinuity  {} of {} patches cut along {} shadow-boundary segments into {} "
+            "triangles ({} sources)\n",
+            st.discontinuity.cutPatches, s.numSourcePatches(), st.discontinuity.curves,
+            st.discontinuity.pieces, st.discontinuity.sources);
     if (st.defaultMaterialFaces)
         fmt::print("default mat.   {} faces had no material\n", st.defaultMaterialFaces);
     if (st.ignoredStatements) fmt::print("ignored        {} statements\n", st.ignoredStatements);

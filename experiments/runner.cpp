@@ -465,6 +465,19 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                                  {"total_area", sc.totalArea()},
                                  {"emitted_power", rgbJson(sc.emittedPower())},
                                  {"dropped_degenerate", sc.stats.droppedDegenerate}};
+    if (sc.stats.discontinuity.sources > 0) {
+        // What discontinuity meshing cut (transport/discontinuity.h).
+        const scene::DiscontinuityStats& d = sc.stats.discontinuity;
+        summary["scene_info"]["discontinuity"] =
+            json{{"sources", d.sources},       {"pairs", d.pairs},
+                 {"occluders", d.occluders},   {"occluders_dropped", d.occludersDropped},
+                 {"events", d.events},         {"hidden", d.hidden},
+                 {"curves", d.curves},         {"curves_dropped", d.curvesDropped},
+                 {"cut_patches", d.cutPatches}, {"pieces", d.pieces},
+                 {"faces", d.faces},           {"slivers", d.thin},
+                 {"sliver_area", d.thinArea},  {"source_patches", sc.numSourcePatches()},
+                 {"seconds", d.seconds}};
+    }
     spdlog::info("loaded {}: {} patches in {:.2f} s", sc.name, sc.patches.size(), loadSeconds);
     if ((p.outputs.exr || p.outputs.ply || p.outputs.glb || p.outputs.errorMap ||
          p.outputs.solution || p.outputs.regions) &&
@@ -612,6 +625,15 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                                       {"reference_reflected", mp.reference}});
         }
         e["reflected_by_material"] = byMaterial;
+        {
+            // Merged per original patch (discontinuity meshing's pieces as one).
+            const reference::SourcePatchError sp =
+                reference::computeSourcePatchError(*field, *ref->field, ref->stdError);
+            e["by_source_patch"] = json{{"l1_nonemitter_lum", sp.l1NonEmitLum},
+                                        {"l2_nonemitter_lum", sp.l2NonEmitLum},
+                                        {"patches", sp.patches}};
+            if (r.refMc) e["by_source_patch"]["mc_stderr_l2_nonemitter_lum"] = sp.stderrL2NonEmitLum;
+        }
         if (p.outputs.regions) {
             ensureOutputFolder(ctx.artefactDir, "the point's output folder");
             fs::path csv = ctx.artefactDir / "regions.csv";

@@ -116,6 +116,49 @@ ErrorMetrics computeError(const scene::RadiosityField& solution,
     return m;
 }
 
+SourcePatchError computeSourcePatchError(const scene::RadiosityField& solution,
+                                         const scene::UniformField& reference,
+                                         const std::vector<RGB>& stdError) {
+    const scene::Scene& scene = reference.scene();
+    if (solution.scene().patches.size() != scene.patches.size())
+        throw Error(fmt::format("error metric: solution has {} patches, reference {}",
+                                solution.scene().patches.size(), scene.patches.size()));
+    const size_t n = scene.numSourcePatches();
+    std::vector<double> area(n, 0.0), sSum(n, 0.0), rSum(n, 0.0), var(n, 0.0);
+    std::vector<uint8_t> emitter(n, 0);
+    const bool mc = stdError.size() == reference.numElements();
+    for (uint32_t p = 0; p < scene.patches.size(); ++p) {
+        const uint32_t q = scene.sourceOf(p);
+        if (scene.patches[p].isEmitter()) emitter[q] = 1;
+        for (size_t l = 0; l < reference.count(p); ++l) {
+            const size_t idx = reference.offset(p) + l;
+            const double A = reference.area(idx);
+            area[q] += A;
+            sSum[q] += A * luminance(solution.average(p, reference.key(p, l)));
+            rSum[q] += A * luminance(reference.value(idx));
+            if (mc) var[q] += A * A * luminance(stdError[idx]) * luminance(stdError[idx]);
+        }
+    }
+    // Sums in source-patch order: deterministic.
+    double d1 = 0, r1 = 0, d2 = 0, r2 = 0, e2 = 0;
+    SourcePatchError out;
+    for (size_t q = 0; q < n; ++q) {
+        if (area[q] <= 0) continue;
+        ++out.patches;
+        if (emitter[q]) continue;
+        const double S = sSum[q] / area[q], R = rSum[q] / area[q];
+        d1 += area[q] * std::fabs(S - R);
+        r1 += area[q] * std::fabs(R);
+        d2 += area[q] * (S - R) * (S - R);
+        r2 += area[q] * R * R;
+        e2 += area[q] * var[q] / (area[q] * area[q]);
+    }
+    out.l1NonEmitLum = ratio(d1, r1);
+    out.l2NonEmitLum = ratio(std::sqrt(d2), std::sqrt(r2));
+    out.stderrL2NonEmitLum = ratio(std::sqrt(e2), std::sqrt(r2));
+    return out;
+}
+
 std::unique_ptr<scene::UniformField> averageOnRegions(const scene::RadiosityField& solution,
                                                       const scene::UniformField& reference) {
     const scene::Scene& scene = reference.scene();

@@ -72,6 +72,22 @@ struct ErrorMetrics {
 ErrorMetrics computeError(const scene::RadiosityField& solution,
                           const scene::UniformField& reference);
 
+/// The non-emitter luminance errors with regions merged per original patch
+/// (Scene::sourcePatch: the pieces of a patch cut by discontinuity meshing,
+/// and every reference element on them, count as one region of the summed
+/// area), so solves of one scene meshed differently compare on the same
+/// regions. With `stdError` (a Monte Carlo reference, one per region), the
+/// same norm of the merged regions' standard errors
+/// (sigma^2 = sum A_k^2 sigma_k^2 / (sum A_k)^2): the error floor.
+struct SourcePatchError {
+    double l1NonEmitLum = 0.0, l2NonEmitLum = 0.0;
+    double stderrL2NonEmitLum = 0.0;
+    size_t patches = 0;  ///< source patches compared (emitters included)
+};
+SourcePatchError computeSourcePatchError(const scene::RadiosityField& solution,
+                                         const scene::UniformField& reference,
+                                         const std::vector<RGB>& stdError = {});
+
 /// The solution's exact averages over the reference's regions, as a field on
 /// the reference's mesh (S_k above for every k): what the metrics compare,
 /// e.g. for a per-region error map. Same checks as computeError.

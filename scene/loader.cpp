@@ -177,6 +177,66 @@ SplitMode readSplitMode(const Params& params) {
 
 }  // namespace
 
+DiscontinuitySettings readDiscontinuitySettings(const Params& params) {
+    Params::Scope scope(params, "discontinuity meshing");
+    DiscontinuitySettings d;
+    const std::string mode = params.getEnum(
+        {"mesh.discontinuity",
+         "cut patches along the shadow boundaries (EV/VE events) cast by emitters, or by "
+         "emitters and the largest reflectors, before the hierarchy is built"},
+        "off", {"off", "emitters", "emitters+occluders"});
+    d.mode = mode == "off"        ? DiscontinuitySettings::Mode::Off
+             : mode == "emitters" ? DiscontinuitySettings::Mode::Emitters
+                                  : DiscontinuitySettings::Mode::EmittersOccluders;
+    d.where = params.where("mesh.discontinuity");
+    d.maxCurves = int(params.getInt(
+        {"mesh.max_curves", "discontinuity meshing: cut segments per patch at most (longest kept)"},
+        d.maxCurves, 1, 4096));
+    d.maxOccluders = int(params.getInt(
+        {"mesh.max_occluders",
+         "discontinuity meshing: occluders per receiver and source at most (largest kept)"},
+        d.maxOccluders, 1, 1 << 20));
+    d.secondarySources = int(params.getInt(
+        {"mesh.secondary_sources",
+         "discontinuity meshing (emitters+occluders): reflectors of largest area x reflectance "
+         "that cast curves like emitters"},
+        d.secondarySources, 0, 4096));
+    d.cullHidden = params.getBool(
+        {"mesh.cull_hidden",
+         "discontinuity meshing: drop curves whose critical surface other surfaces block (rays)"},
+        d.cullHidden);
+    d.minCurve = params.getDouble(
+        {"mesh.min_curve",
+         "discontinuity meshing: shortest cut segment, as a fraction of the receiver's diameter"},
+        d.minCurve, 1e-9, 0.5);
+    return d;
+}
+
+namespace {
+
+/// After discontinuity meshing and makeSides: each patch's index in the
+/// scene loaded without meshing (Scene::sourcePatch). Fronts map through
+/// `origin`; addBackSides appends the twins in front order, so the back of
+/// input patch i is nInput + (the number of input patches before i that got
+/// one).
+std::vector<uint32_t> sourceIndex(const Scene& scene, const std::vector<uint32_t>& origin,
+                                  size_t nInput) {
+    const size_t nFront = origin.size();
+    std::vector<uint8_t> hasBack(nInput, 0);
+    for (size_t b = nFront; b < scene.patches.size(); ++b)
+        hasBack[origin[scene.patches[b].twin]] = 1;
+    std::vector<uint32_t> backIndex(nInput, UINT32_MAX);
+    uint32_t next = uint32_t(nInput);
+    for (size_t i = 0; i < nInput; ++i)
+        if (hasBack[i]) backIndex[i] = next++;
+    std::vector<uint32_t> src(scene.patches.size());
+    for (size_t k = 0; k < scene.patches.size(); ++k)
+        src[k] = k < nFront ? origin[k] : backIndex[origin[scene.patches[k].twin]];
+    return src;
+}
+
+}  // namespace
+
 // split_intersections = "unreachable" (loader.h says which cuts are kept).
 SplitStats splitWhereDark(Scene& scene, int rays, const std::function<void(Scene&)>& makeSides,
                           const ReachabilityFn& reach) {
@@ -254,7 +314,8 @@ SplitStats splitWhereDark(Scene& scene, int rays, const std::function<void(Scene
     return st;
 }
 
-Scene loadScene(const std::string& spec, const Params& params, const ReachabilityFn& reach) {
+Scene loadScene(const std::string& spec, const Params& params, const ReachabilityFn& reach,
+                const MeshingFn& mesh) {
     Timer timer;
     // Every key is read up front, whether or not it applies to this format,
     // so that the caller's reportUnused() only flags misspellings.
@@ -275,6 +336,7 @@ Scene loadScene(const std::string& spec, const Params& params, const Reachabilit
     const double uniformRho = params.getDouble(
         {"uniform_rho", "override every material's reflectance with this grey (-1: the scene's)"},
         -1.0, -1.0, 0.999999);
+    const DiscontinuitySettings disc = readDiscontinuitySettings(params);
 
     Scene scene;
     if (isBuiltinName(spec)) {
@@ -343,7 +405,20 @@ Scene loadScene(const std::string& spec, const Params& params, const Reachabilit
                 "piece; {:.2f} s)",
                 st.splitPatches, st.candidates, st.pieces, splitRays, ts.seconds());
     }
+    // Discontinuity meshing, after the crossings are cut and before back
+    // sides: both sides of a two-sided patch get the same pieces.
+    std::vector<uint32_t> meshOrigin;
+    const size_t nInput = scene.patches.size();
+    if (disc.mode != DiscontinuitySettings::Mode::Off) {
+        if (!mesh)
+            throwInputError(disc.where,
+                            "mesh.discontinuity needs the ray tracer; this command loads scenes "
+                            "without it");
+        scene.stats.discontinuity = mesh(scene, disc, meshOrigin);
+    }
     makeSides(scene);
+    if (scene.stats.discontinuity.cutPatches > 0)
+        scene.sourcePatch = sourceIndex(scene, meshOrigin, nInput);
     if (uniformRho >= 0.0) {
         for (Material& m : scene.materials) m.rho = RGB(uniformRho);
         for (Patch& p : scene.patches) p.rho = RGB(uniformRho);

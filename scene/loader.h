@@ -55,6 +55,10 @@
 //                                  tracer, which the caller hands in
 //                                  (transport::loadScene)
 //   split_reach_rays int    256    rays per piece of that reachability pass
+//   mesh.*                         discontinuity meshing (DiscontinuitySettings
+//                                  below, transport/discontinuity.h): patches cut
+//                                  along shadow boundaries before back sides are
+//                                  made; needs the ray tracer (transport::loadScene)
 //
 // Every key is read whatever the format, so callers may reportUnused().
 #pragma once
@@ -97,6 +101,26 @@ struct LightPaths {
 /// (transport::loadScene) for split_intersections = "unreachable".
 using ReachabilityFn = std::function<LightPaths(const Scene&, int rays)>;
 
+/// Discontinuity meshing's settings (mesh.*), read here so that every
+/// command knows the keys; the stage itself is transport/discontinuity.h.
+struct DiscontinuitySettings {
+    enum class Mode { Off, Emitters, EmittersOccluders };
+    Mode mode = Mode::Off;   ///< mesh.discontinuity
+    int maxCurves = 64;      ///< mesh.max_curves: cut segments per patch (longest kept)
+    int maxOccluders = 32;   ///< mesh.max_occluders: per receiver and source (largest kept)
+    int secondarySources = 4;  ///< mesh.secondary_sources (emitters+occluders)
+    bool cullHidden = true;  ///< mesh.cull_hidden: drop critical surfaces others block
+    double minCurve = 1e-3;  ///< mesh.min_curve: shortest segment / receiver diameter
+    SourceLocation where;    ///< of mesh.discontinuity, for errors
+};
+DiscontinuitySettings readDiscontinuitySettings(const Params& params);
+
+/// The meshing stage as the loader calls it: cuts `scene` (no back sides
+/// yet) and fills `origin` (per patch of the result, the index of the patch
+/// it is or is a piece of; pieces of a patch adjacent).
+using MeshingFn = std::function<DiscontinuityStats(Scene& scene, const DiscontinuitySettings&,
+                                                   std::vector<uint32_t>& origin)>;
+
 /// split_intersections = "unreachable" (before back sides are made): every
 /// crossing or touched patch is cut (splitIntersections with touching), a
 /// copy of the cut scene gets its back sides (`makeSides`) and `reach` with
@@ -118,9 +142,10 @@ SplitStats splitWhereDark(Scene& scene, int rays, const std::function<void(Scene
 
 /// Loads a built-in scene by name or a file by extension; throws InputError
 /// with file:line on malformed input. Fills scene.stats (incl. load time).
-/// `reach` is needed only by split_intersections = "unreachable".
+/// `reach` is needed only by split_intersections = "unreachable", `mesh`
+/// only by mesh.discontinuity other than off.
 Scene loadScene(const std::string& spec, const Params& params = {},
-                const ReachabilityFn& reach = {});
+                const ReachabilityFn& reach = {}, const MeshingFn& mesh = {});
 
 /// True when spec names a built-in scene rather than a file.
 bool isBuiltinName(const std::string& spec);

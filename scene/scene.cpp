@@ -128,6 +128,13 @@ size_t Scene::addBackSides(bool all) {
     return added;
 }
 
+size_t Scene::numSourcePatches() const {
+    if (sourcePatch.empty()) return patches.size();
+    uint32_t hi = 0;
+    for (uint32_t s : sourcePatch) hi = std::max(hi, s);
+    return size_t(hi) + 1;
+}
+
 size_t Scene::numBackSides() const {
     size_t k = 0;
     for (const auto& p : patches) k += p.backSide ? 1 : 0;

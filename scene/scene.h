@@ -114,6 +114,25 @@ struct Bounds3 {
     double diagonal() const { return valid() ? glm::length(hi - lo) : 0.0; }
 };
 
+/// What discontinuity meshing cut (transport/discontinuity.h), in
+/// summary.json's scene_info.discontinuity and the log.
+struct DiscontinuityStats {
+    uint64_t sources = 0;          ///< emitters (and secondary sources) casting curves
+    uint64_t pairs = 0;            ///< (receiver, source) pairs looked at
+    uint64_t occluders = 0;        ///< candidate occluders over all pairs (after the shaft test)
+    uint64_t occludersDropped = 0; ///< candidates over mesh.max_occluders, left out
+    uint64_t events = 0;           ///< EV and VE critical surfaces that reach a receiver
+    uint64_t hidden = 0;           ///< of them, blocked by other surfaces (mesh.cull_hidden)
+    uint64_t curvesDropped = 0;    ///< segments over mesh.max_curves on their receiver
+    uint64_t curves = 0;           ///< segments handed to the arrangements
+    uint64_t cutPatches = 0;       ///< patches replaced by their pieces
+    uint64_t pieces = 0;           ///< triangles that replaced them
+    uint64_t faces = 0;            ///< arrangement faces on the cut patches
+    uint64_t thin = 0;             ///< rounding slivers left out
+    double thinArea = 0.0;         ///< their area
+    double seconds = 0.0;
+};
+
 /// Counters filled by loaders, reported by `hrad info`.
 struct LoadStats {
     uint64_t inputFaces = 0;         ///< faces read from the file (before triangulation)
@@ -127,6 +146,7 @@ struct LoadStats {
     /// others, of which splitPatches kept their cut (loader.h splitWhereDark)
     uint64_t splitCandidates = 0;
     double loadSeconds = 0.0;
+    DiscontinuityStats discontinuity;
     std::vector<std::string> warnings;
 };
 
@@ -142,6 +162,16 @@ class Scene {
     /// RenderPark's scenes are z-up).
     int upAxis = 1;
     LoadStats stats;
+    /// Discontinuity meshing (transport/discontinuity.h) replaces patches by
+    /// pieces; sourcePatch[p] is then the index patch p (a piece or a whole
+    /// patch) has in the same scene loaded without it (back sides included:
+    /// the back of a piece maps to the back of its patch), so that metrics
+    /// and references compare per original patch. Empty: no meshing, every
+    /// patch is its own source.
+    std::vector<uint32_t> sourcePatch;
+    uint32_t sourceOf(uint32_t p) const { return sourcePatch.empty() ? p : sourcePatch[p]; }
+    /// Number of patches of the scene without meshing (patches.size() when empty).
+    size_t numSourcePatches() const;
 
     uint32_t addMaterial(Material m);
     /// Adds a triangle or quad with material index; computes normal and area.

@@ -1,8 +1,11 @@
 // Polygon intake (see triangulate.h). The only file of hrad that includes CGAL.
 #include "scene/triangulate.h"
 
+#include <CGAL/Arr_segment_traits_2.h>
+#include <CGAL/Arrangement_2.h>
 #include <CGAL/Box_intersection_d/Box_with_info_d.h>
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
+#include <CGAL/Exact_predicates_exact_constructions_kernel.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Triangulation_face_base_with_info_2.h>
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
@@ -489,6 +492,108 @@ SplitStats splitIntersections(Scene& scene, std::vector<uint32_t>* origin, bool 
         }
     }
     return st;
+}
+
+
+// ---- cutConvexPolygon (discontinuity meshing) ------------------------------
+
+namespace {
+
+using EK = CGAL::Exact_predicates_exact_constructions_kernel;
+using ArrTraits = CGAL::Arr_segment_traits_2<EK>;
+using Arrangement = CGAL::Arrangement_2<ArrTraits>;
+
+/// Moves a cut's end point within `tol` of a corner, an earlier end point or
+/// a boundary edge onto it (the cuts are computed in floating point; a
+/// rounding error away from a corner would make a piece of no size).
+class EndSnapper {
+  public:
+    EndSnapper(const std::vector<Vec2>& polygon, double tol) : poly_(polygon), tol_(tol) {}
+    Vec2 operator()(Vec2 q) {
+        for (const Vec2& c : poly_)
+            if (glm::length(c - q) <= tol_) return c;
+        for (const Vec2& c : ends_)
+            if (glm::length(c - q) <= tol_) return c;
+        for (size_t i = 0; i < poly_.size(); ++i) {
+            const Vec2 a = poly_[i], b = poly_[(i + 1) % poly_.size()];
+            const Vec2 d = b - a;
+            const double t = std::clamp(glm::dot(q - a, d) / glm::dot(d, d), 0.0, 1.0);
+            if (glm::length(a + t * d - q) <= tol_) {
+                q = a + t * d;
+                break;
+            }
+        }
+        ends_.push_back(q);
+        return q;
+    }
+
+  private:
+    const std::vector<Vec2>& poly_;
+    double tol_;
+    std::vector<Vec2> ends_;
+};
+
+/// The arrangement of the boundary and the snapped cuts (exact).
+void buildArrangement(const std::vector<Vec2>& polygon,
+                      const std::vector<std::pair<Vec2, Vec2>>& segments, double tol,
+                      Arrangement& arr) {
+    std::vector<ArrTraits::Segment_2> curves;
+    for (size_t i = 0; i < polygon.size(); ++i) {
+        const Vec2 a = polygon[i], b = polygon[(i + 1) % polygon.size()];
+        curves.emplace_back(EK::Point_2(a.x, a.y), EK::Point_2(b.x, b.y));
+    }
+    EndSnapper snap(polygon, tol);
+    for (const auto& [a0, b0] : segments) {
+        const Vec2 a = snap(a0), b = snap(b0);
+        if (glm::length(a - b) > tol)
+            curves.emplace_back(EK::Point_2(a.x, a.y), EK::Point_2(b.x, b.y));
+    }
+    CGAL::insert(arr, curves.begin(), curves.end());
+}
+
+}  // namespace
+
+bool cutConvexPolygon(const std::vector<Vec2>& polygon,
+                      const std::vector<std::pair<Vec2, Vec2>>& segments, double tol,
+                      PlanarCut& out) {
+    out = PlanarCut{};
+    if (polygon.size() < 3) return false;
+    try {
+        Arrangement arr;
+        buildArrangement(polygon, segments, tol, arr);
+        out.vertices = arr.number_of_vertices();
+        out.edges = arr.number_of_edges();
+        out.faces = arr.number_of_faces() - arr.number_of_unbounded_faces();
+        // Every arrangement edge is a constraint: each triangle then lies in
+        // one face of the arrangement (a region between cuts).
+        CDT cdt;
+        for (auto e = arr.edges_begin(); e != arr.edges_end(); ++e) {
+            const K::Point_2 a(CGAL::to_double(e->source()->point().x()),
+                               CGAL::to_double(e->source()->point().y()));
+            const K::Point_2 b(CGAL::to_double(e->target()->point().x()),
+                               CGAL::to_double(e->target()->point().y()));
+            if (a != b) cdt.insert_constraint(a, b);
+        }
+        for (CDT::Face_handle f : cdt.finite_face_handles()) {
+            std::array<Vec2, 3> t;
+            for (int k = 0; k < 3; ++k)
+                t[size_t(k)] = Vec2(f->vertex(k)->point().x(), f->vertex(k)->point().y());
+            // Thinness: twice the area over the longest edge is the height.
+            const double a2 = (t[1].x - t[0].x) * (t[2].y - t[0].y) -
+                              (t[2].x - t[0].x) * (t[1].y - t[0].y);
+            const double longest = std::max({glm::length(t[1] - t[0]), glm::length(t[2] - t[1]),
+                                             glm::length(t[0] - t[2])});
+            if (a2 <= tol * longest) {
+                ++out.thin;
+                continue;
+            }
+            out.triangles.push_back(t);
+        }
+    } catch (const std::exception&) {
+        out = PlanarCut{};
+        return false;
+    }
+    return true;
 }
 
 }  // namespace hrad::scene

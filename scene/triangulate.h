@@ -96,4 +96,28 @@ struct SplitStats {
 SplitStats splitIntersections(Scene& scene, std::vector<uint32_t>* origin = nullptr,
                               bool touching = false);
 
+/// What cutConvexPolygon() made of one polygon and its cut segments.
+struct PlanarCut {
+    std::vector<std::array<Vec2, 3>> triangles;  ///< counter-clockwise
+    size_t faces = 0;     ///< bounded faces of the arrangement (the regions the cuts make)
+    size_t edges = 0;     ///< arrangement edges (cut and boundary pieces)
+    size_t vertices = 0;  ///< arrangement vertices
+    size_t thin = 0;      ///< triangles thinner than `tol` left out (rounding slivers)
+};
+
+/// Cuts a convex polygon (counter-clockwise, 2D) along `segments` (each
+/// already inside it, clipped by the caller): the segments and the boundary
+/// go into a CGAL 2D arrangement (exact constructions, so overlapping and
+/// crossing cuts merge exactly), and the arrangement's edges, rounded to
+/// double, become the constraints of a constrained Delaunay triangulation
+/// whose triangles tile the faces (no Steiner points). Triangles whose height
+/// over their longest edge is below `tol` are rounding slivers and are
+/// dropped (counted in `thin`). Used by discontinuity meshing
+/// (transport/discontinuity.h); Lischinski, Tampieri & Greenberg 1992 build
+/// the same structure (a 2D mesh conforming to the discontinuity segments)
+/// with their own DM-tree. Returns false when CGAL fails.
+bool cutConvexPolygon(const std::vector<Vec2>& polygon,
+                      const std::vector<std::pair<Vec2, Vec2>>& segments, double tol,
+                      PlanarCut& out);
+
 }  // namespace hrad::scene

@@ -9,6 +9,7 @@
 #include "core/rng.h"
 #include "core/sampling.h"
 #include "core/timer.h"
+#include "transport/discontinuity.h"
 
 namespace hrad::transport {
 
@@ -138,7 +139,7 @@ scene::ReachabilityFn lightPathsFn(uint64_t seed) {
 }
 
 scene::Scene loadScene(const std::string& spec, const Params& params) {
-    return scene::loadScene(spec, params, lightPathsFn());
+    return scene::loadScene(spec, params, lightPathsFn(), discontinuityMeshFn());
 }
 
 }  // namespace hrad::transport

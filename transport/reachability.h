@@ -78,7 +78,8 @@ scene::ReachabilityFn lightPathsFn(uint64_t seed = 1);
 /// of the scene it is given, seed 1), which split_intersections =
 /// "unreachable" uses to keep only the cuts that separate pieces light
 /// reaches from pieces it does not (scene/loader.h). Every command that
-/// solves, references or renders a scene loads it through this.
+/// solves, references or renders a scene loads it through this; it also
+/// hands in discontinuity meshing (transport/discontinuity.h, mesh.*).
 scene::Scene loadScene(const std::string& spec, const Params& params = {});
 
 }  // namespace hrad::transport
