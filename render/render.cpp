@@ -16,6 +16,7 @@
 #include "core/rng.h"
 #include "core/log.h"
 #include "render/camera.h"
+#include "render/texturing.h"
 #include "scene/element.h"
 
 namespace hrad::render {
@@ -84,6 +85,8 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
                       s.gather.shadowRays, 1, 1 << 16));
     s.gather.seed = uint64_t(params.getInt(
         {key("seed"), "render: seed of final-gather and path-traced rays"}, 0, 0, INT64_MAX));
+    s.textures = params.getEnum({key("textures"), kTexturesDoc}, "on", {"on", "off"}) == "on";
+    s.gather.textures = s.textures;
     s.backFacesBlack =
         params.getEnum({key("back_faces"), "render: back faces black, or shaded as front faces"},
                        "black", {"black", "front"}) == "black";
@@ -175,9 +178,9 @@ std::string RenderSettings::describe() const {
                           ? fmt::format(" reconstruction=path-traced shadow_rays={} seed={}",
                                         gather.shadowRays, gather.seed)
                           : std::string();
-    return fmt::format("width={} height={} spp={} interpolate={} crease_angle={} back_faces={} camera={}{}",
+    return fmt::format("width={} height={} spp={} interpolate={} crease_angle={} back_faces={} textures={} camera={}{}",
                        width, height, spp, interpolate, smooth.creaseDegrees,
-                       backFacesBlack ? "black" : "front", cam, rec);
+                       backFacesBlack ? "black" : "front", textures ? "on" : "off", cam, rec);
 }
 
 scene::Camera chooseCamera(const scene::Scene& scene, const transport::Visibility& visibility,
@@ -258,6 +261,9 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
         if (settings.interpolate)
             interp[f] = std::make_unique<VertexInterpolation>(*fields[f], settings.smooth);
     }
+    std::optional<TextureShading> shading;
+    if (settings.textures && !scene.textures.empty()) shading.emplace(scene);
+    const TextureShading* tex = shading && shading->any() ? &*shading : nullptr;
     CameraFrame frame(camera, settings.width, settings.height);
     std::vector<Image> img(nf, Image(settings.width, settings.height));
     const int spp = settings.spp;
@@ -291,9 +297,11 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
                         const scene::Patch& p = scene.patches[hit.patch];
                         if (settings.backFacesBlack && glm::dot(dir, p.normal) > 0) continue;
                         Vec2 uv = scene::clampToPatchDomain(p.kind, scene::patchInverse(p, hit.point));
-                        for (size_t f = 0; f < nf; ++f)
-                            sum[f] += interp[f] ? interp[f]->at(hit.patch, uv.x, uv.y)
-                                                : fields[f]->at(hit.patch, uv.x, uv.y);
+                        for (size_t f = 0; f < nf; ++f) {
+                            const RGB B = interp[f] ? interp[f]->at(hit.patch, uv.x, uv.y)
+                                                    : fields[f]->at(hit.patch, uv.x, uv.y);
+                            sum[f] += tex ? tex->shade(hit.patch, uv.x, uv.y, B) : B;
+                        }
                     }
                     for (size_t f = 0; f < nf; ++f) img[f].at(x, y) = sum[f] / double(spp);
                 }

@@ -43,6 +43,11 @@
 //                                "path-traced" (render/final_gather.h, with
 //                                gather_rays, shadow_rays, seed); path-traced
 //                                ignores the field: the Monte Carlo reference
+//   textures     string  "on"    "on": textured patches show E + rho(x) H, H =
+//                                (B - E) / rho_bar the solved irradiance and
+//                                rho(x) the bilinear texel (render/texturing.h);
+//                                the path tracer and final gather use rho(x)
+//                                at every hit. "off": the solved B
 // Rays that hit nothing are black.
 #pragma once
 
@@ -72,6 +77,8 @@ struct RenderSettings {
     int spp = 1;
     int64_t maxSamples = int64_t(1) << 26;  ///< render.max_samples: width x height x spp bound
     bool backFacesBlack = true;
+    /// render.textures: textured patches show E + rho(x) H (render/texturing.h).
+    bool textures = true;
     std::optional<scene::Camera> camera;  ///< render.eye/target/up/fov when set
     bool widthSet = false, heightSet = false;  ///< render.width / render.height given
     SourceLocation budgetWhere;                ///< where spp or max_samples was set, for errors
