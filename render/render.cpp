@@ -59,12 +59,12 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
         s.interpolate);
     const std::string rec =
         params.getEnum({key("reconstruction"),
-                        "image reconstruction: interpolated (smooth), flat, final-gather or "
-                        "path-traced"},
+                        "image reconstruction: interpolated (smooth), flat, final-gather, "
+                        "path-traced or lightmap"},
                        s.interpolate ? "interpolated" : "flat",
-                       {"flat", "interpolated", "final-gather", "path-traced"});
+                       {"flat", "interpolated", "final-gather", "path-traced", "lightmap"});
     // Only an interpolate given explicitly can contradict the reconstruction.
-    if (params.has(key("interpolate")) && s.interpolate != (rec == "interpolated"))
+    if (params.has(key("interpolate")) && s.interpolate != (rec == "interpolated") && rec != "lightmap")
         throwInputError(params.where(key("reconstruction")), "'{}' = '{}' contradicts '{}' = {}",
                         key("reconstruction"), rec, key("interpolate"), s.interpolate);
     s.smooth.creaseDegrees = params.getDouble(
@@ -75,7 +75,10 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
     s.reconstruction = rec == "interpolated"   ? Reconstruction::Interpolated
                        : rec == "final-gather" ? Reconstruction::FinalGather
                        : rec == "path-traced"  ? Reconstruction::PathTraced
+                       : rec == "lightmap"     ? Reconstruction::Lightmap
                                                : Reconstruction::Flat;
+    s.lightmap = LightmapSettings::fromParams(params, prefix);
+    s.lightmap.texels = LightmapSettings::Texels::Radiosity;  // what the picture shows
     s.interpolate = s.reconstruction == Reconstruction::Interpolated;
     s.gather.gatherRays =
         int(params.getInt({key("gather_rays"), "render final-gather: gather rays per pixel"},
@@ -177,6 +180,9 @@ std::string RenderSettings::describe() const {
                       : reconstruction == Reconstruction::PathTraced
                           ? fmt::format(" reconstruction=path-traced shadow_rays={} seed={}",
                                         gather.shadowRays, gather.seed)
+                      : reconstruction == Reconstruction::Lightmap
+                          ? fmt::format(" reconstruction=lightmap lightmap_size={} lightmap_density={}",
+                                        lightmap.size, lightmap.density)
                           : std::string();
     return fmt::format("width={} height={} spp={} interpolate={} crease_angle={} back_faces={} textures={} camera={}{}",
                        width, height, spp, interpolate, smooth.creaseDegrees,
@@ -254,12 +260,19 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
     if (settings.reconstruction == RenderSettings::Reconstruction::FinalGather ||
         settings.reconstruction == RenderSettings::Reconstruction::PathTraced)
         return renderGathered(scene, visibility, fields, camera, settings);
+    const bool fromLightmap = settings.reconstruction == RenderSettings::Reconstruction::Lightmap;
     std::vector<std::unique_ptr<VertexInterpolation>> interp(nf);
+    std::vector<Lightmap> lightmaps(fromLightmap ? nf : 0);
     for (size_t f = 0; f < nf; ++f) {
         HRAD_CHECK(&fields[f]->scene() == &scene ||
                    fields[f]->scene().patches.size() == scene.patches.size());
-        if (settings.interpolate)
+        if (settings.interpolate || fromLightmap)
             interp[f] = std::make_unique<VertexInterpolation>(*fields[f], settings.smooth);
+        if (fromLightmap) {
+            LightmapSettings ls = settings.lightmap;
+            ls.textures = settings.textures;
+            lightmaps[f] = bakeLightmap(*fields[f], ls, interp[f].get());
+        }
     }
     std::optional<TextureShading> shading;
     if (settings.textures && !scene.textures.empty()) shading.emplace(scene);
@@ -298,6 +311,10 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
                         if (settings.backFacesBlack && glm::dot(dir, p.normal) > 0) continue;
                         Vec2 uv = scene::clampToPatchDomain(p.kind, scene::patchInverse(p, hit.point));
                         for (size_t f = 0; f < nf; ++f) {
+                            if (fromLightmap) {  // texture already in the texels
+                                sum[f] += lightmaps[f].sample(lightmaps[f].uv(hit.patch, uv.x, uv.y));
+                                continue;
+                            }
                             const RGB B = interp[f] ? interp[f]->at(hit.patch, uv.x, uv.y)
                                                     : fields[f]->at(hit.patch, uv.x, uv.y);
                             sum[f] += tex ? tex->shade(hit.patch, uv.x, uv.y, B) : B;
