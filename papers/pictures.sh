@@ -15,6 +15,7 @@
 # Small images by default (the machine is shared):
 #     sh pictures.sh [scene-name ...]        (from papers/; `make -C papers pictures`)
 #     W=320 H=240 SPP=64 RSPP=16 LM=2048 sh pictures.sh cornell
+#     REUSE=1 SPP=4 sh pictures.sh modern_hall   (keeps results/pictures/NAME/solution.hrsol)
 # Scenes absent from the shared folder are skipped with a message.
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -67,8 +68,11 @@ echo "$SCENES" | while IFS='|' read -r name path flags; do
   esac
   d="$OUT/$name"
   echo "pictures: $name" >&2
-  # shellcheck disable=SC2086
-  $HRAD --log quiet solve "$scene" $flags --no-ply --no-images --no-progress -o "$d" >/dev/null
+  # REUSE=1 keeps a solution already there (a re-render at other sizes).
+  if [ -z "${REUSE:-}" ] || [ ! -e "$d/solution.hrsol" ]; then
+    # shellcheck disable=SC2086
+    $HRAD --log quiet solve "$scene" $flags --no-ply --no-images --no-progress -o "$d" >/dev/null
+  fi
   # The scene's loader settings again (obj.clamp_rho, ...), for the renders.
   sets=$(echo "$flags" | grep -o -- '--set [^ ]*' | tr '\n' ' ' || true)
   # shellcheck disable=SC2086

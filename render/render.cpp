@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <unordered_map>
 
@@ -25,9 +27,70 @@ using scene::Domain;
 using scene::ElementKey;
 using scene::PatchKind;
 
+namespace {
+
+/// render.eye / target / up / fov: an explicit pinhole camera, or none.
+std::optional<scene::Camera> readExplicitCamera(const Params& params,
+                                                const std::function<std::string(const char*)>& key) {
+    // "x, y, z" -> Vec3; errors at the setting's file:line.
+    auto vec = [&](const std::string& k, const std::string& def) {
+        std::string text = params.getString(k, def);  // documented below
+        std::istringstream in(text);
+        Vec3 v(0.0);
+        char comma = 0;
+        bool ok = bool(in >> v.x) && bool(in >> comma) && comma == ',' && bool(in >> v.y) &&
+                  bool(in >> comma) && comma == ',' && bool(in >> v.z);
+        in >> std::ws;
+        if (!ok || !in.eof() || !std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+            throwInputError(params.where(k), "'{}' = '{}' is not a vector \"x, y, z\"", k, text);
+        return v;
+    };
+    const std::string eyeKey = key("eye"), targetKey = key("target"), upKey = key("up"),
+                      fovKey = key("fov");
+    // Recorded (with their docs) whether or not the camera is explicit.
+    params.getString({eyeKey,
+                      "explicit camera: eye position \"x, y, z\" (unset: the scene's camera or an "
+                      "automatic one)"},
+                     "");
+    params.getString({targetKey, "explicit camera: point looked at \"x, y, z\" (with the eye)"},
+                     "");
+    params.getString({upKey, "explicit camera: up vector \"x, y, z\""}, "0, 1, 0");
+    params.getDouble({fovKey, "explicit camera: vertical field of view, degrees"},
+                     scene::Camera{}.fovYDegrees, 0.0, 179.0, true);
+    if (params.has(eyeKey) != params.has(targetKey))
+        throwInputError(params.where(params.has(eyeKey) ? eyeKey : targetKey),
+                        "an explicit camera needs both '{}' and '{}'", eyeKey, targetKey);
+    if (params.has(eyeKey)) {
+        scene::Camera c;
+        c.eye = vec(eyeKey, "");
+        c.target = vec(targetKey, "");
+        c.up = vec(upKey, "0, 1, 0");
+        c.fovYDegrees =
+            params.getDouble({fovKey, "explicit camera: vertical field of view, degrees"},
+                             c.fovYDegrees, 0.0, 179.0, true);
+        Vec3 f = c.target - c.eye;
+        if (!(glm::length(f) > 0))
+            throwInputError(params.where(targetKey), "'{}' equals '{}'", targetKey, eyeKey);
+        if (!(glm::length(glm::cross(f, c.up)) > 1e-12 * glm::length(f) * glm::length(c.up)))
+            throwInputError(params.where(params.has(upKey) ? upKey : eyeKey),
+                            "'{}' is parallel to the view direction (or zero)", upKey);
+        return c;
+    } else {
+        for (const std::string& k : {upKey, fovKey})
+            if (params.has(k))
+                throwInputError(params.where(k), "'{}' needs an explicit camera ('{}' and '{}')",
+                                k, eyeKey, targetKey);
+    }
+    return std::nullopt;
+}
+
+}  // namespace
+
 RenderSettings RenderSettings::fromParams(const Params& params, const std::string& prefix) {
     Params::Scope scope(params, "render");
-    auto key = [&](const char* k) { return prefix.empty() ? std::string(k) : prefix + "." + k; };
+    const std::function<std::string(const char*)> key = [&](const char* k) {
+        return prefix.empty() ? std::string(k) : prefix + "." + k;
+    };
     RenderSettings s;
     s.width = int(
         params.getInt({key("width"), "image width in pixels (0: the scene's film or automatic)"},
@@ -93,55 +156,7 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
     s.backFacesBlack =
         params.getEnum({key("back_faces"), "render: back faces black, or shaded as front faces"},
                        "black", {"black", "front"}) == "black";
-    // "x, y, z" -> Vec3; errors at the setting's file:line.
-    auto vec = [&](const std::string& k, const std::string& def) {
-        std::string text = params.getString(k, def);  // documented below
-        std::istringstream in(text);
-        Vec3 v(0.0);
-        char comma = 0;
-        bool ok = bool(in >> v.x) && bool(in >> comma) && comma == ',' && bool(in >> v.y) &&
-                  bool(in >> comma) && comma == ',' && bool(in >> v.z);
-        in >> std::ws;
-        if (!ok || !in.eof() || !std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
-            throwInputError(params.where(k), "'{}' = '{}' is not a vector \"x, y, z\"", k, text);
-        return v;
-    };
-    const std::string eyeKey = key("eye"), targetKey = key("target"), upKey = key("up"),
-                      fovKey = key("fov");
-    // Recorded (with their docs) whether or not the camera is explicit.
-    params.getString({eyeKey,
-                      "explicit camera: eye position \"x, y, z\" (unset: the scene's camera or an "
-                      "automatic one)"},
-                     "");
-    params.getString({targetKey, "explicit camera: point looked at \"x, y, z\" (with the eye)"},
-                     "");
-    params.getString({upKey, "explicit camera: up vector \"x, y, z\""}, "0, 1, 0");
-    params.getDouble({fovKey, "explicit camera: vertical field of view, degrees"},
-                     scene::Camera{}.fovYDegrees, 0.0, 179.0, true);
-    if (params.has(eyeKey) != params.has(targetKey))
-        throwInputError(params.where(params.has(eyeKey) ? eyeKey : targetKey),
-                        "an explicit camera needs both '{}' and '{}'", eyeKey, targetKey);
-    if (params.has(eyeKey)) {
-        scene::Camera c;
-        c.eye = vec(eyeKey, "");
-        c.target = vec(targetKey, "");
-        c.up = vec(upKey, "0, 1, 0");
-        c.fovYDegrees =
-            params.getDouble({fovKey, "explicit camera: vertical field of view, degrees"},
-                             c.fovYDegrees, 0.0, 179.0, true);
-        Vec3 f = c.target - c.eye;
-        if (!(glm::length(f) > 0))
-            throwInputError(params.where(targetKey), "'{}' equals '{}'", targetKey, eyeKey);
-        if (!(glm::length(glm::cross(f, c.up)) > 1e-12 * glm::length(f) * glm::length(c.up)))
-            throwInputError(params.where(params.has(upKey) ? upKey : eyeKey),
-                            "'{}' is parallel to the view direction (or zero)", upKey);
-        s.camera = c;
-    } else {
-        for (const std::string& k : {upKey, fovKey})
-            if (params.has(k))
-                throwInputError(params.where(k), "'{}' needs an explicit camera ('{}' and '{}')",
-                                k, eyeKey, targetKey);
-    }
+    s.camera = readExplicitCamera(params, key);
     return s;
 }
 

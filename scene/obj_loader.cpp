@@ -244,33 +244,11 @@ void bindDiffuseMap(Scene& scene, Material& mat, const tinyobj::material_t& m,
         mat.rho[c] = mean[c] < 1.0 ? mean[c] : (options.clampRho > 0 ? options.clampRho : mat.rho[c]);
 }
 
-}  // namespace
-
-Scene loadObj(const std::string& path, const ObjOptions& options) {
-    std::map<std::string, MtlMaterial> mtl;
-    preScan(path, mtl);
-
-    tinyobj::ObjReaderConfig config;
-    config.triangulate = false;
-    config.vertex_color = false;
-    config.mtl_search_path = std::filesystem::path(path).parent_path().string();
-    tinyobj::ObjReader reader;
-    if (!reader.ParseFromFile(path, config)) {
-        std::string msg = trimmed(reader.Error());
-        throwInputError(locationFromMessage(path, msg), "OBJ: {}", msg.empty() ? "parse failed" : msg);
-    }
-
-    Scene scene;
-    scene.name = path;
-    scene.source = "obj";
-    if (!reader.Warning().empty()) {
-        std::istringstream ws(reader.Warning());
-        std::string w;
-        while (std::getline(ws, w))
-            if (!trimmed(w).empty()) scene.stats.warnings.push_back(fmt::format("{}: {}", path, trimmed(w)));
-    }
-
-    const auto& mats = reader.GetMaterials();
+/// The MTL materials tinyobjloader read, with Kd and Ke as hrad parsed them
+/// (`mtl`), range-checked and clamped (obj.clamp_rho), and their map_Kd.
+void addMaterials(Scene& scene, const std::vector<tinyobj::material_t>& mats,
+                  const std::map<std::string, MtlMaterial>& mtl, const std::string& path,
+                  const ObjOptions& options) {
     TextureBudget budget{options.textureBudget};
     std::map<std::string, int32_t> decoded;  // texture file -> index (-2: failed)
     for (const auto& m : mats) {
@@ -315,6 +293,37 @@ Scene loadObj(const std::string& path, const ObjOptions& options) {
         if (options.readTextures) bindDiffuseMap(scene, mat, m, mm, path, options, budget, decoded);
         scene.addMaterial(mat);
     }
+
+}
+
+}  // namespace
+
+Scene loadObj(const std::string& path, const ObjOptions& options) {
+    std::map<std::string, MtlMaterial> mtl;
+    preScan(path, mtl);
+
+    tinyobj::ObjReaderConfig config;
+    config.triangulate = false;
+    config.vertex_color = false;
+    config.mtl_search_path = std::filesystem::path(path).parent_path().string();
+    tinyobj::ObjReader reader;
+    if (!reader.ParseFromFile(path, config)) {
+        std::string msg = trimmed(reader.Error());
+        throwInputError(locationFromMessage(path, msg), "OBJ: {}", msg.empty() ? "parse failed" : msg);
+    }
+
+    Scene scene;
+    scene.name = path;
+    scene.source = "obj";
+    if (!reader.Warning().empty()) {
+        std::istringstream ws(reader.Warning());
+        std::string w;
+        while (std::getline(ws, w))
+            if (!trimmed(w).empty()) scene.stats.warnings.push_back(fmt::format("{}: {}", path, trimmed(w)));
+    }
+
+    const auto& mats = reader.GetMaterials();
+    addMaterials(scene, mats, mtl, path, options);
 
     const auto& attrib = reader.GetAttrib();
     const auto& verts = attrib.vertices;

@@ -16,10 +16,10 @@
 // rho(x) over the patch by area (patchTextureMean: a regular grid in the
 // patch's domain, as many samples as the patch's UV footprint covers texels,
 // 4 x 4 .. 64 x 64), clamped like the loader's other reflectances. Per
-// element is not carried: hr/ keeps 76 bytes per element and pushes gathered
-// radiosity down unchanged, which holds only for one rho per root patch (see
-// papers/notes/2026-12-02-textures.md). The renderer shows rho(x) H(x)
-// (render/texturing.h).
+// element is not carried: it would add to hr/'s measured bytes per element,
+// and push-pull hands gathered radiosity down unchanged, which holds only
+// for one rho per root patch (papers/notes/2026-12-02-textures.md). The
+// renderer shows rho(x) H(x) (render/texturing.h).
 //
 // Memory: decoded texels count against texture.max_mb (12 bytes per texel),
 // checked from the image's header before it is decoded.
