@@ -15,7 +15,7 @@
 # Small images by default (the machine is shared):
 #     sh pictures.sh [scene-name ...]        (from papers/; `make -C papers pictures`)
 #     W=320 H=240 SPP=64 RSPP=16 LM=2048 sh pictures.sh cornell
-#     REUSE=1 SPP=4 sh pictures.sh modern_hall   (keeps results/pictures/NAME/solution.hrsol)
+#     REUSE=1 SPP=4 sh pictures.sh modern_hall   (keeps NAME/solution.hrsol and the path-traced image)
 # Scenes absent from the shared folder are skipped with a message.
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -24,7 +24,7 @@ S=${HRAD_SCENES:-../../shared/scenes}
 W=${W:-160}
 H=${H:-120}
 SPP=${SPP:-16}
-LM=${LM:-1024}
+LM=${LM:-2048}   # lightmap atlas size: Modern Hall's 57 k charts need 2048
 RSPP=${RSPP:-4}   # samples per pixel of the four radiosity columns (thin texture lines alias at 1)
 OUT=results/pictures
 mkdir -p "$OUT"
@@ -75,9 +75,11 @@ echo "$SCENES" | while IFS='|' read -r name path flags; do
   fi
   # The scene's loader settings again (obj.clamp_rho, ...), for the renders.
   sets=$(echo "$flags" | grep -o -- '--set [^ ]*' | tr '\n' ' ' || true)
-  # shellcheck disable=SC2086
-  $HRAD --log quiet render "$scene" "$d/solution.hrsol" --width "$W" --height "$H" $sets \
-    --set render.reconstruction=path-traced --set render.spp="$SPP" -o "$d/path_traced" >/dev/null
+  if [ -z "${REUSE:-}" ] || [ ! -e "$d/path_traced/image.exr" ]; then
+    # shellcheck disable=SC2086
+    $HRAD --log quiet render "$scene" "$d/solution.hrsol" --width "$W" --height "$H" $sets \
+      --set render.reconstruction=path-traced --set render.spp="$SPP" -o "$d/path_traced" >/dev/null
+  fi
   e=$(exposure "$d/path_traced/render.json")
   for col in flat smooth textured lightmap; do
     case $col in
