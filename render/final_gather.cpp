@@ -1,6 +1,8 @@
 // Final gather and path tracing; see final_gather.h.
 #include "render/final_gather.h"
 
+#include "scene/texture.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -93,7 +95,19 @@ RGB Gatherer::finalGather(const scene::RadiosityField& field, uint32_t patch, co
         if (q.kind == scene::PatchKind::Triangle && uv.x + uv.y > 1) uv /= uv.x + uv.y;
         ind += field.at(h.patch, uv.x, uv.y) - q.emission;
     }
-    return r.emission + r.rho * (direct(patch, x, rng) + ind / double(n));
+    return r.emission + rhoAt(patch, x) * (direct(patch, x, rng) + ind / double(n));
+}
+
+RGB Gatherer::rhoAt(uint32_t patch, const Vec3& x) const {
+    const scene::Patch& p = scene_->patches[patch];
+    if (!settings_.textures || !scene::patchTexture(*scene_, p)) return p.rho;
+    const Vec2 uv = scene::clampToPatchDomain(p.kind, scene::patchInverse(p, x));
+    RGB rho = scene::textureRho(*scene_, p, uv.x, uv.y);
+    // Clamped like the patch means (the loader's clamp_rho), so no texel
+    // reflects all the light it receives.
+    const double cap = scene_->materials[p.material].diffuseMap.clampRho;
+    if (cap > 0) rho = glm::min(rho, RGB(cap));
+    return rho;
 }
 
 RGB Gatherer::pathTraced(uint32_t patch, const Vec3& x0, Pcg32& rng) const {
@@ -103,7 +117,7 @@ RGB Gatherer::pathTraced(uint32_t patch, const Vec3& x0, Pcg32& rng) const {
     Vec3 x = x0;
     for (int depth = 0;; ++depth) {
         const scene::Patch& p = scene_->patches[cur];
-        throughput *= p.rho;
+        throughput *= rhoAt(cur, x);
         result += throughput * direct(cur, x, rng);
         if (depth >= 3) {
             double q = std::min(0.95, maxComponent(throughput));

@@ -49,6 +49,9 @@ struct GatherSettings {
     int gatherRays = 64;
     int shadowRays = 4;
     uint64_t seed = 0;
+    /// render.textures: the reflectance at a hit is the texel rho(x)
+    /// (scene/texture.h), not the patch mean.
+    bool textures = true;
 };
 
 class Gatherer {
@@ -65,6 +68,8 @@ class Gatherer {
     const GatherSettings& settings() const { return settings_; }
 
   private:
+    /// rho(x) at x on `patch` with textures on, else the patch's rho.
+    RGB rhoAt(uint32_t patch, const Vec3& x) const;
     const scene::Scene* scene_;
     const transport::Visibility* vis_;
     GatherSettings settings_;

@@ -1,6 +1,7 @@
 // Lightmap atlas: packing, baking and the glTF output (see lightmap.h).
 #include "render/lightmap.h"
 
+#include <optional>
 #include <stb/stb_rect_pack.h>
 #include <tbb/parallel_for.h>
 #include <tiny_gltf.h>
@@ -17,7 +18,9 @@
 
 #include "core/error.h"
 #include "render/gltf_model.h"
+#include "render/texturing.h"
 #include "scene/element.h"
+#include "scene/texture.h"
 
 namespace hrad::render {
 
@@ -36,6 +39,13 @@ LightmapSettings LightmapSettings::fromParams(const Params& params, const std::s
     s.gutter = int(params.getInt(
         {key("lightmap_gutter"), "lightmap texels around each chart (against bleeding)"}, s.gutter,
         0, 64));
+    s.texels = params.getEnum({key("lightmap_texels"),
+                               "lightmap texels of textured patches: radiosity (E + texel x "
+                               "irradiance) or irradiance (for a base texture multiplied later)"},
+                              "radiosity", {"radiosity", "irradiance"}) == "irradiance"
+                   ? Texels::Irradiance
+                   : Texels::Radiosity;
+    s.textures = params.getEnum({key("textures"), kTexturesDoc}, "on", {"on", "off"}) == "on";
     return s;
 }
 
@@ -148,14 +158,25 @@ Lightmap bakeLightmap(const scene::RadiosityField& field, const LightmapSettings
     // Phase 2: every chart's texels, gutters included, from the clamped domain.
     lm.atlas = Image(lm.size, lm.size);
     const int g = lm.gutter;
+    std::optional<TextureShading> shading;
+    if (settings.textures && !sc.textures.empty()) shading.emplace(sc);
+    const bool irradiance = settings.texels == LightmapSettings::Texels::Irradiance;
     tbb::parallel_for(size_t(0), sc.patches.size(), [&](size_t p) {
         const Lightmap::Chart& c = lm.charts[p];
-        const PatchKind kind = sc.patches[p].kind;
+        const scene::Patch& patch = sc.patches[p];
+        const bool textured = shading && scene::patchTexture(sc, patch);
         for (int j = -g; j < c.h + g; ++j)
             for (int i = -g; i < c.w + g; ++i) {
-                Vec2 uv = scene::clampToPatchDomain(kind, Vec2((i + 0.5) / c.w, (j + 0.5) / c.h));
-                lm.atlas.at(c.x + i, c.y + j) = smooth ? smooth->at(uint32_t(p), uv.x, uv.y)
-                                                       : field.at(uint32_t(p), uv.x, uv.y);
+                Vec2 uv = scene::clampToPatchDomain(patch.kind, Vec2((i + 0.5) / c.w, (j + 0.5) / c.h));
+                RGB B = smooth ? smooth->at(uint32_t(p), uv.x, uv.y) : field.at(uint32_t(p), uv.x, uv.y);
+                if (textured && irradiance) {
+                    // H = (B - E) / rho_bar per channel (0 where rho_bar is 0).
+                    const RGB rho = patch.rho;
+                    for (int k = 0; k < 3; ++k) B[k] = rho[k] > 0 ? (B[k] - patch.emission[k]) / rho[k] : 0.0;
+                } else if (textured) {
+                    B = shading->shade(uint32_t(p), uv.x, uv.y, B);
+                }
+                lm.atlas.at(c.x + i, c.y + j) = B;
             }
     });
     return lm;
@@ -304,7 +325,15 @@ Lightmap writeLightmapFiles(const scene::RadiosityField& field, const LightmapSe
     Lightmap lm = bakeLightmap(field, settings, smooth);
     writeExr(lm.atlas, dir + "/lightmap.exr");
     writePng(lm.atlas, dir + "/lightmap.png", tone);
-    writeLightmapGlb(field, lm, tone, dir + "/lightmap.glb");
+    if (settings.texels == LightmapSettings::Texels::Irradiance && settings.textures &&
+        !field.scene().textures.empty()) {
+        // The glb shows radiosity (texture x irradiance baked per texel).
+        LightmapSettings shown = settings;
+        shown.texels = LightmapSettings::Texels::Radiosity;
+        writeLightmapGlb(field, bakeLightmap(field, shown, smooth), tone, dir + "/lightmap.glb");
+    } else {
+        writeLightmapGlb(field, lm, tone, dir + "/lightmap.glb");
+    }
     return lm;
 }
 

@@ -25,6 +25,15 @@
 //   lightmap_size     int    1024  atlas width = height in texels (--lightmap RES)
 //   lightmap_density  double 0     texels per scene unit (metre); 0: fit the atlas
 //   lightmap_gutter   int    2     texels around each chart
+//   lightmap_texels   string "radiosity"  what texels of textured patches hold
+//                                  (render/texturing.h): "radiosity" E + rho(x) H,
+//                                  the texture multiplied in at the texel; or
+//                                  "irradiance" H = (B - E) / rho_bar, for an
+//                                  engine that multiplies its own base texture
+//                                  (lightmap.exr/png). The .glb's unlit material
+//                                  always shows E + rho(x) H (core glTF has no
+//                                  product of two textures), so it stays viewable
+//   textures          string "on"  render.textures; off: B as solved everywhere
 #pragma once
 
 #include <string>
@@ -41,6 +50,9 @@ struct LightmapSettings {
     int size = 1024;
     double density = 0.0;
     int gutter = 2;
+    enum class Texels { Radiosity, Irradiance };
+    Texels texels = Texels::Radiosity;
+    bool textures = true;
     static LightmapSettings fromParams(const Params& params, const std::string& prefix = "render");
 };
 

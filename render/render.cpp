@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <unordered_map>
 
@@ -16,6 +18,7 @@
 #include "core/rng.h"
 #include "core/log.h"
 #include "render/camera.h"
+#include "render/texturing.h"
 #include "scene/element.h"
 
 namespace hrad::render {
@@ -24,69 +27,11 @@ using scene::Domain;
 using scene::ElementKey;
 using scene::PatchKind;
 
-RenderSettings RenderSettings::fromParams(const Params& params, const std::string& prefix) {
-    Params::Scope scope(params, "render");
-    auto key = [&](const char* k) { return prefix.empty() ? std::string(k) : prefix + "." + k; };
-    RenderSettings s;
-    s.width = int(
-        params.getInt({key("width"), "image width in pixels (0: the scene's film or automatic)"},
-                      s.width, 1, 32768));
-    s.height = int(
-        params.getInt({key("height"), "image height in pixels (0: the scene's film or automatic)"},
-                      s.height, 1, 32768));
-    s.widthSet = params.has(key("width"));
-    s.heightSet = params.has(key("height"));
-    s.spp = int(params.getInt({key("spp"), "render: samples per pixel"}, s.spp, 1, 65536));
-    s.maxSamples = params.getInt(
-        {key("max_samples"), "render: width x height x spp at most (a resource bound)"},
-        s.maxSamples, 1, int64_t(1) << 40);
-    if (params.has(key("max_samples"))) s.budgetWhere = params.where(key("max_samples"));
-    else if (params.has(key("spp"))) s.budgetWhere = params.where(key("spp"));
-    // Checked before any image is allocated or ray cast: the cost of a render
-    // is width x height x spp primary rays.
-    int64_t samples = int64_t(s.width) * s.height * s.spp;
-    if (samples > s.maxSamples) {
-        std::string at = params.has(key("spp")) ? key("spp") : params.has(key("width")) ? key("width") : key("height");
-        throwInputError(params.where(at),
-                        "{}x{} pixels x {} spp = {} samples, more than {} = {}; lower the size or spp, "
-                        "or raise the setting",
-                        s.width, s.height, s.spp, samples, key("max_samples"), s.maxSamples);
-    }
-    s.interpolate = params.getBool(
-        {key("interpolate"),
-         "render: smooth (C0) vertex radiosity, Gouraud; false: flat elements"},
-        s.interpolate);
-    const std::string rec =
-        params.getEnum({key("reconstruction"),
-                        "image reconstruction: interpolated (smooth), flat, final-gather or "
-                        "path-traced"},
-                       s.interpolate ? "interpolated" : "flat",
-                       {"flat", "interpolated", "final-gather", "path-traced"});
-    // Only an interpolate given explicitly can contradict the reconstruction.
-    if (params.has(key("interpolate")) && s.interpolate != (rec == "interpolated"))
-        throwInputError(params.where(key("reconstruction")), "'{}' = '{}' contradicts '{}' = {}",
-                        key("reconstruction"), rec, key("interpolate"), s.interpolate);
-    s.smooth.creaseDegrees = params.getDouble(
-        {key("crease_angle"),
-         "smooth reconstruction: largest angle (degrees) between the normals of root patches "
-         "smoothed across"},
-        s.smooth.creaseDegrees, 0.0, 180.0);
-    s.reconstruction = rec == "interpolated"   ? Reconstruction::Interpolated
-                       : rec == "final-gather" ? Reconstruction::FinalGather
-                       : rec == "path-traced"  ? Reconstruction::PathTraced
-                                               : Reconstruction::Flat;
-    s.interpolate = s.reconstruction == Reconstruction::Interpolated;
-    s.gather.gatherRays =
-        int(params.getInt({key("gather_rays"), "render final-gather: gather rays per pixel"},
-                          s.gather.gatherRays, 1, 1 << 20));
-    s.gather.shadowRays = int(
-        params.getInt({key("shadow_rays"), "render final-gather: shadow rays per gather sample"},
-                      s.gather.shadowRays, 1, 1 << 16));
-    s.gather.seed = uint64_t(params.getInt(
-        {key("seed"), "render: seed of final-gather and path-traced rays"}, 0, 0, INT64_MAX));
-    s.backFacesBlack =
-        params.getEnum({key("back_faces"), "render: back faces black, or shaded as front faces"},
-                       "black", {"black", "front"}) == "black";
+namespace {
+
+/// render.eye / target / up / fov: an explicit pinhole camera, or none.
+std::optional<scene::Camera> readExplicitCamera(const Params& params,
+                                                const std::function<std::string(const char*)>& key) {
     // "x, y, z" -> Vec3; errors at the setting's file:line.
     auto vec = [&](const std::string& k, const std::string& def) {
         std::string text = params.getString(k, def);  // documented below
@@ -129,13 +74,89 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
         if (!(glm::length(glm::cross(f, c.up)) > 1e-12 * glm::length(f) * glm::length(c.up)))
             throwInputError(params.where(params.has(upKey) ? upKey : eyeKey),
                             "'{}' is parallel to the view direction (or zero)", upKey);
-        s.camera = c;
+        return c;
     } else {
         for (const std::string& k : {upKey, fovKey})
             if (params.has(k))
                 throwInputError(params.where(k), "'{}' needs an explicit camera ('{}' and '{}')",
                                 k, eyeKey, targetKey);
     }
+    return std::nullopt;
+}
+
+}  // namespace
+
+RenderSettings RenderSettings::fromParams(const Params& params, const std::string& prefix) {
+    Params::Scope scope(params, "render");
+    const std::function<std::string(const char*)> key = [&](const char* k) {
+        return prefix.empty() ? std::string(k) : prefix + "." + k;
+    };
+    RenderSettings s;
+    s.width = int(
+        params.getInt({key("width"), "image width in pixels (0: the scene's film or automatic)"},
+                      s.width, 1, 32768));
+    s.height = int(
+        params.getInt({key("height"), "image height in pixels (0: the scene's film or automatic)"},
+                      s.height, 1, 32768));
+    s.widthSet = params.has(key("width"));
+    s.heightSet = params.has(key("height"));
+    s.spp = int(params.getInt({key("spp"), "render: samples per pixel"}, s.spp, 1, 65536));
+    s.maxSamples = params.getInt(
+        {key("max_samples"), "render: width x height x spp at most (a resource bound)"},
+        s.maxSamples, 1, int64_t(1) << 40);
+    if (params.has(key("max_samples"))) s.budgetWhere = params.where(key("max_samples"));
+    else if (params.has(key("spp"))) s.budgetWhere = params.where(key("spp"));
+    // Checked before any image is allocated or ray cast: the cost of a render
+    // is width x height x spp primary rays.
+    int64_t samples = int64_t(s.width) * s.height * s.spp;
+    if (samples > s.maxSamples) {
+        std::string at = params.has(key("spp")) ? key("spp") : params.has(key("width")) ? key("width") : key("height");
+        throwInputError(params.where(at),
+                        "{}x{} pixels x {} spp = {} samples, more than {} = {}; lower the size or spp, "
+                        "or raise the setting",
+                        s.width, s.height, s.spp, samples, key("max_samples"), s.maxSamples);
+    }
+    s.interpolate = params.getBool(
+        {key("interpolate"),
+         "render: smooth (C0) vertex radiosity, Gouraud; false: flat elements"},
+        s.interpolate);
+    const std::string rec =
+        params.getEnum({key("reconstruction"),
+                        "image reconstruction: interpolated (smooth), flat, final-gather, "
+                        "path-traced or lightmap"},
+                       s.interpolate ? "interpolated" : "flat",
+                       {"flat", "interpolated", "final-gather", "path-traced", "lightmap"});
+    // Only an interpolate given explicitly can contradict the reconstruction.
+    if (params.has(key("interpolate")) && s.interpolate != (rec == "interpolated") && rec != "lightmap")
+        throwInputError(params.where(key("reconstruction")), "'{}' = '{}' contradicts '{}' = {}",
+                        key("reconstruction"), rec, key("interpolate"), s.interpolate);
+    s.smooth.creaseDegrees = params.getDouble(
+        {key("crease_angle"),
+         "smooth reconstruction: largest angle (degrees) between the normals of root patches "
+         "smoothed across"},
+        s.smooth.creaseDegrees, 0.0, 180.0);
+    s.reconstruction = rec == "interpolated"   ? Reconstruction::Interpolated
+                       : rec == "final-gather" ? Reconstruction::FinalGather
+                       : rec == "path-traced"  ? Reconstruction::PathTraced
+                       : rec == "lightmap"     ? Reconstruction::Lightmap
+                                               : Reconstruction::Flat;
+    s.lightmap = LightmapSettings::fromParams(params, prefix);
+    s.lightmap.texels = LightmapSettings::Texels::Radiosity;  // what the picture shows
+    s.interpolate = s.reconstruction == Reconstruction::Interpolated;
+    s.gather.gatherRays =
+        int(params.getInt({key("gather_rays"), "render final-gather: gather rays per pixel"},
+                          s.gather.gatherRays, 1, 1 << 20));
+    s.gather.shadowRays = int(
+        params.getInt({key("shadow_rays"), "render final-gather: shadow rays per gather sample"},
+                      s.gather.shadowRays, 1, 1 << 16));
+    s.gather.seed = uint64_t(params.getInt(
+        {key("seed"), "render: seed of final-gather and path-traced rays"}, 0, 0, INT64_MAX));
+    s.textures = params.getEnum({key("textures"), kTexturesDoc}, "on", {"on", "off"}) == "on";
+    s.gather.textures = s.textures;
+    s.backFacesBlack =
+        params.getEnum({key("back_faces"), "render: back faces black, or shaded as front faces"},
+                       "black", {"black", "front"}) == "black";
+    s.camera = readExplicitCamera(params, key);
     return s;
 }
 
@@ -174,10 +195,13 @@ std::string RenderSettings::describe() const {
                       : reconstruction == Reconstruction::PathTraced
                           ? fmt::format(" reconstruction=path-traced shadow_rays={} seed={}",
                                         gather.shadowRays, gather.seed)
+                      : reconstruction == Reconstruction::Lightmap
+                          ? fmt::format(" reconstruction=lightmap lightmap_size={} lightmap_density={}",
+                                        lightmap.size, lightmap.density)
                           : std::string();
-    return fmt::format("width={} height={} spp={} interpolate={} crease_angle={} back_faces={} camera={}{}",
+    return fmt::format("width={} height={} spp={} interpolate={} crease_angle={} back_faces={} textures={} camera={}{}",
                        width, height, spp, interpolate, smooth.creaseDegrees,
-                       backFacesBlack ? "black" : "front", cam, rec);
+                       backFacesBlack ? "black" : "front", textures ? "on" : "off", cam, rec);
 }
 
 scene::Camera chooseCamera(const scene::Scene& scene, const transport::Visibility& visibility,
@@ -251,13 +275,23 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
     if (settings.reconstruction == RenderSettings::Reconstruction::FinalGather ||
         settings.reconstruction == RenderSettings::Reconstruction::PathTraced)
         return renderGathered(scene, visibility, fields, camera, settings);
+    const bool fromLightmap = settings.reconstruction == RenderSettings::Reconstruction::Lightmap;
     std::vector<std::unique_ptr<VertexInterpolation>> interp(nf);
+    std::vector<Lightmap> lightmaps(fromLightmap ? nf : 0);
     for (size_t f = 0; f < nf; ++f) {
         HRAD_CHECK(&fields[f]->scene() == &scene ||
                    fields[f]->scene().patches.size() == scene.patches.size());
-        if (settings.interpolate)
+        if (settings.interpolate || fromLightmap)
             interp[f] = std::make_unique<VertexInterpolation>(*fields[f], settings.smooth);
+        if (fromLightmap) {
+            LightmapSettings ls = settings.lightmap;
+            ls.textures = settings.textures;
+            lightmaps[f] = bakeLightmap(*fields[f], ls, interp[f].get());
+        }
     }
+    std::optional<TextureShading> shading;
+    if (settings.textures && !scene.textures.empty()) shading.emplace(scene);
+    const TextureShading* tex = shading && shading->any() ? &*shading : nullptr;
     CameraFrame frame(camera, settings.width, settings.height);
     std::vector<Image> img(nf, Image(settings.width, settings.height));
     const int spp = settings.spp;
@@ -291,9 +325,15 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
                         const scene::Patch& p = scene.patches[hit.patch];
                         if (settings.backFacesBlack && glm::dot(dir, p.normal) > 0) continue;
                         Vec2 uv = scene::clampToPatchDomain(p.kind, scene::patchInverse(p, hit.point));
-                        for (size_t f = 0; f < nf; ++f)
-                            sum[f] += interp[f] ? interp[f]->at(hit.patch, uv.x, uv.y)
-                                                : fields[f]->at(hit.patch, uv.x, uv.y);
+                        for (size_t f = 0; f < nf; ++f) {
+                            if (fromLightmap) {  // texture already in the texels
+                                sum[f] += lightmaps[f].sample(lightmaps[f].uv(hit.patch, uv.x, uv.y));
+                                continue;
+                            }
+                            const RGB B = interp[f] ? interp[f]->at(hit.patch, uv.x, uv.y)
+                                                    : fields[f]->at(hit.patch, uv.x, uv.y);
+                            sum[f] += tex ? tex->shade(hit.patch, uv.x, uv.y, B) : B;
+                        }
                     }
                     for (size_t f = 0; f < nf; ++f) img[f].at(x, y) = sum[f] / double(spp);
                 }

@@ -42,7 +42,16 @@
 //                                "final-gather" |
 //                                "path-traced" (render/final_gather.h, with
 //                                gather_rays, shadow_rays, seed); path-traced
-//                                ignores the field: the Monte Carlo reference
+//                                ignores the field: the Monte Carlo reference |
+//                                "lightmap": the smooth field baked into the
+//                                atlas of render.lightmap_* (radiosity texels),
+//                                each pixel looked up in it (what a viewer of
+//                                lightmap.glb sees, up to its tone map)
+//   textures     string  "on"    "on": textured patches show E + rho(x) H, H =
+//                                (B - E) / rho_bar the solved irradiance and
+//                                rho(x) the bilinear texel (render/texturing.h);
+//                                the path tracer and final gather use rho(x)
+//                                at every hit. "off": the solved B
 // Rays that hit nothing are black.
 #pragma once
 
@@ -58,20 +67,26 @@
 #include "transport/visibility.h"
 #include "render/final_gather.h"
 #include "render/smooth.h"
+#include "render/lightmap.h"
 
 namespace hrad::render {
 
 struct RenderSettings {
     int width = 512, height = 512;
     bool interpolate = true;
-    enum class Reconstruction { Flat, Interpolated, FinalGather, PathTraced };
+    enum class Reconstruction { Flat, Interpolated, FinalGather, PathTraced, Lightmap };
     Reconstruction reconstruction = Reconstruction::Interpolated;
     SmoothSettings smooth;  ///< render.crease_angle
+    /// reconstruction = lightmap: the atlas (render.lightmap_*) baked from the
+    /// smooth field, each pixel its bilinear lookup (render/lightmap.h).
+    LightmapSettings lightmap;
     GatherSettings gather;
     bool showProgress = false;  ///< progress bar for final-gather / path-traced
     int spp = 1;
     int64_t maxSamples = int64_t(1) << 26;  ///< render.max_samples: width x height x spp bound
     bool backFacesBlack = true;
+    /// render.textures: textured patches show E + rho(x) H (render/texturing.h).
+    bool textures = true;
     std::optional<scene::Camera> camera;  ///< render.eye/target/up/fov when set
     bool widthSet = false, heightSet = false;  ///< render.width / render.height given
     SourceLocation budgetWhere;                ///< where spp or max_samples was set, for errors

@@ -179,6 +179,11 @@ void VertexInterpolation::buildVertices() {
         Vec3 M = 0.5 * (A + B);
         auto it = vertices.find(q.key(surface, M));
         if (it == vertices.end()) return;
+        // An edge shorter than the vertex quantum has its midpoint on an end
+        // point's key: it has no T-vertex, and following it would recurse
+        // down to kMaxLevel on both halves (2^30 anchors; a bathroom solve
+        // ran out of memory here).
+        if (it->second == a || it->second == b) return;
         anchors.push_back({level, a, b, it->second});
         self(self, surface, A, M, a, it->second, level + 1);
         self(self, surface, M, B, it->second, b, level + 1);

@@ -22,6 +22,7 @@
 #include <tiny_gltf.h>
 
 #include "core/error.h"
+#include "scene/texture.h"
 #include "scene/triangulate.h"
 
 namespace hrad::scene {
@@ -272,22 +273,22 @@ size_t locateJsonPath(const std::string& t, const std::string& path) {
 // warning (the material keeps its factor), not a failed load.
 struct ImageLoadLog {
     std::vector<std::string> failures;
+    /// texture.max_mb: checked from each image's header before it is decoded
+    /// (a few hundred bytes of PNG header may claim 65535 x 65535 texels).
+    TextureBudget* budget = nullptr;
+    std::string overBudget;  ///< the error, raised after tinygltf returns
 };
-
-/// Largest decoded texture (bytes) whose mean is taken: a few hundred bytes of
-/// PNG header may claim 65535 x 65535 texels, which stb_image would allocate.
-constexpr double kMaxDecodedTextureBytes = double(1u << 30);
 
 bool lenientImageLoader(tinygltf::Image* image, const int index, std::string* err, std::string* warn, int reqW,
                         int reqH, const unsigned char* bytes, int size, void* user) {
     auto* log = static_cast<ImageLoadLog*>(user);
     int iw = 0, ih = 0, ic = 0;
-    if (stbi_info_from_memory(bytes, size, &iw, &ih, &ic)) {
-        double decoded = double(iw) * double(ih) * double(ic) * (stbi_is_16_bit_from_memory(bytes, size) ? 2 : 1);
-        if (decoded > kMaxDecodedTextureBytes) {
-            log->failures.push_back(fmt::format("image {}: {} x {} texels ({:.3g} GiB decoded) is more than the 1 "
-                                                "GiB hrad decodes for a texture mean",
-                                                index, iw, ih, decoded / double(1u << 30)));
+    if (stbi_info_from_memory(bytes, size, &iw, &ih, &ic) && log->budget) {
+        try {
+            log->budget->reserve(iw, ih, SourceLocation{});
+        } catch (const InputError& e) {
+            // Not thrown through tinygltf: recorded, raised after it returns.
+            if (log->overBudget.empty()) log->overBudget = fmt::format("image {}: {}", index, e.what());
             image->image.clear();
             image->width = image->height = 0;
             return true;
@@ -349,7 +350,9 @@ int componentSize(int type) {
 
 class Loader {
   public:
-    Loader(const std::string& path, const GltfOptions& options) : path_(path), opt_(options) {}
+    Loader(const std::string& path, const GltfOptions& options) : path_(path), opt_(options) {
+        budget_.maxBytes = options.textureBudget;
+    }
 
     Scene load();
 
@@ -360,6 +363,9 @@ class Loader {
     Scene scene_;
     std::map<int, uint32_t> materialOf_;  // glTF material index -> hrad material
     std::map<int, RGB> imageMean_;        // image index -> mean of its linear texels
+    std::map<int, int32_t> textureOf_;    // glTF texture index -> Scene::textures index
+    std::map<uint32_t, int> texCoordOf_;  // hrad material -> its TEXCOORD_n set
+    TextureBudget budget_;
     uint32_t defaultMaterial_ = UINT32_MAX;
     uint64_t skippedPrimitives_ = 0, noPositionPrimitives_ = 0, remainderIndices_ = 0;
     bool vertexColoursSeen_ = false;
@@ -391,6 +397,8 @@ class Loader {
     void addMesh(int meshIndex, const Mat4& world, int node);
     uint32_t material(int index, const std::string& where);
     RGB textureMean(int textureIndex, int materialIndex, const std::string& materialName, const char* slot);
+    int32_t baseColorTexture(int textureIndex, int source);
+    bool readUVs(const tinygltf::Primitive& prim, int set, const std::string& where, std::vector<Vec2>& uv);
     void camera(const std::vector<std::pair<int, Mat4>>& placed);
 };
 
@@ -407,6 +415,7 @@ void Loader::parse() {
     gltf.SetFsCallbacks(tinygltf::FsCallbacks{&tinygltf::FileExists, &tinygltf::ExpandFilePath, &readUriFile,
                                               &tinygltf::WriteWholeFile, nullptr});
     ImageLoadLog images;
+    images.budget = &budget_;
     gltf.SetImageLoader(&lenientImageLoader, &images);
     std::string err, warnText;
     bool ok;
@@ -425,6 +434,7 @@ void Loader::parse() {
         ok = gltf.LoadASCIIFromString(&model_, &err, &warnText, reinterpret_cast<const char*>(bytes.data()),
                                       unsigned(bytes.size()), baseDir);
     }
+    if (!images.overBudget.empty()) throwInputError(SourceLocation{path_, 0, 0}, "{}", images.overBudget);
     if (!ok) {
         std::string msg = firstLine(err.empty() ? warnText : err);
         if (msg.empty()) msg = "tinygltf could not read the file";
@@ -554,11 +564,13 @@ RGB Loader::textureMean(int textureIndex, int materialIndex, const std::string& 
                          materialName, slot, source, img.uri.empty() ? img.name : img.uri));
         return RGB(1.0);
     }
+    const bool base = std::strcmp(slot, "baseColorTexture") == 0;
     auto cached = imageMean_.find(source);
     if (cached != imageMean_.end()) {
-        warn(fmt::format("material '{}': {} replaced by its mean ({:.4g}, {:.4g}, {:.4g}) (radiosity has one "
-                         "value per material)",
-                         materialName, slot, cached->second.r, cached->second.g, cached->second.b));
+        if (!base)
+            warn(fmt::format("material '{}': {} replaced by its mean ({:.4g}, {:.4g}, {:.4g}) (emission has "
+                             "one value per material)",
+                             materialName, slot, cached->second.r, cached->second.g, cached->second.b));
         return cached->second;
     }
     // Colour textures are sRGB-encoded (§3.9.2); the mean is taken in linear RGB.
@@ -584,10 +596,54 @@ RGB Loader::textureMean(int textureIndex, int materialIndex, const std::string& 
     }
     RGB mean = sum / double(texels);
     imageMean_[source] = mean;
-    warn(fmt::format("material '{}': {} replaced by its mean ({:.4g}, {:.4g}, {:.4g}) (radiosity has one "
-                     "value per material)",
-                     materialName, slot, mean.r, mean.g, mean.b));
+    if (!base)
+        warn(fmt::format("material '{}': {} replaced by its mean ({:.4g}, {:.4g}, {:.4g}) (emission has one "
+                         "value per material)",
+                         materialName, slot, mean.r, mean.g, mean.b));
     return mean;
+}
+
+/// The scene texture of glTF texture `textureIndex` (image `source`, already
+/// checked by textureMean): sRGB-decoded (§3.9.2), wrap modes of its sampler
+/// (§3.8.4, REPEAT when it has none). Filters are bilinear whatever the
+/// sampler says; KHR_texture_transform is not applied.
+int32_t Loader::baseColorTexture(int textureIndex, int source) {
+    auto it = textureOf_.find(textureIndex);
+    if (it != textureOf_.end()) return it->second;
+    const tinygltf::Texture& gt = model_.textures[size_t(textureIndex)];
+    const tinygltf::Image& img = model_.images[size_t(source)];
+    Texture t = textureFromPixels(fmt::format("{}#images[{}]", path_, source), img.width, img.height,
+                                  img.component, img.bits, img.image.data(), TextureEncoding::Srgb);
+    auto wrap = [](int mode) {
+        return mode == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE     ? TextureWrap::Clamp
+               : mode == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT ? TextureWrap::Mirror
+                                                               : TextureWrap::Repeat;
+    };
+    if (gt.sampler >= 0 && size_t(gt.sampler) < model_.samplers.size()) {
+        t.wrapU = wrap(model_.samplers[size_t(gt.sampler)].wrapS);
+        t.wrapV = wrap(model_.samplers[size_t(gt.sampler)].wrapT);
+    }
+    const int32_t id = addTexture(scene_, std::move(t));
+    textureOf_[textureIndex] = id;
+    return id;
+}
+
+/// TEXCOORD_<set> of a primitive as hrad UVs (v up: 1 - t, §3.7.2.1 puts the
+/// image's origin at the top left). False when the primitive has none.
+bool Loader::readUVs(const tinygltf::Primitive& prim, int set, const std::string& where, std::vector<Vec2>& uv) {
+    const std::string name = fmt::format("TEXCOORD_{}", set);
+    auto it = prim.attributes.find(name);
+    if (it == prim.attributes.end()) return false;
+    View tv = accessor(it->second, where + ".attributes." + name, {TINYGLTF_TYPE_VEC2},
+                       {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE,
+                        TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT});
+    uv.resize(tv.count);
+    for (size_t i = 0; i < tv.count; ++i) {
+        uv[i] = Vec2(tv.component(i, 0), 1.0 - tv.component(i, 1));
+        if (!std::isfinite(uv[i].x) || !std::isfinite(uv[i].y))
+            fail(fmt::format("{}.attributes.{}: texture coordinate {} is not finite", where, name, i));
+    }
+    return true;
 }
 
 uint32_t Loader::material(int index, const std::string& where) {
@@ -629,7 +685,17 @@ uint32_t Loader::material(int index, const std::string& where) {
         if (!(std::isfinite(emissive[c]) && emissive[c] >= 0))
             mfail(".emissiveFactor", "must be finite and >= 0");
     }
-    m.rho = base * textureMean(gm.pbrMetallicRoughness.baseColorTexture.index, index, m.name, "baseColorTexture");
+    const tinygltf::TextureInfo& bct = gm.pbrMetallicRoughness.baseColorTexture;
+    const RGB baseMean = textureMean(bct.index, index, m.name, "baseColorTexture");
+    m.rho = base * baseMean;
+    if (bct.index >= 0 && imageMean_.count(model_.textures[size_t(bct.index)].source)) {
+        // rho(x) = baseColorFactor * texel (§3.9.2); m.rho, the mean over all
+        // texels, stays the reflectance of primitives without TEXCOORD_n.
+        m.diffuseMap.texture = baseColorTexture(bct.index, model_.textures[size_t(bct.index)].source);
+        m.diffuseMap.scale = base;
+        m.diffuseMap.clampRho = opt_.clampRho;
+        m.diffuseMap.clampKey = "gltf.clamp_rho";
+    }
     bool emits = emissive.r > 0 || emissive.g > 0 || emissive.b > 0;
     RGB emissiveTex = emits && strength > 0 ? textureMean(gm.emissiveTexture.index, index, m.name, "emissiveTexture") : RGB(1.0);
     // E = pi L: radiance of a Lambertian emitter -> radiosity (see the header).
@@ -657,6 +723,7 @@ uint32_t Loader::material(int index, const std::string& where) {
     m.emitsBothSides = gm.doubleSided;
     uint32_t id = scene_.addMaterial(m);
     materialOf_[index] = id;
+    if (m.diffuseMap.texture >= 0) texCoordOf_[id] = bct.texCoord;
     return id;
 }
 
@@ -668,6 +735,7 @@ void Loader::addMesh(int meshIndex, const Mat4& world, int node) {
     // A mirroring transform reverses the winding (§3.7.2.1).
     bool flip = glm::determinant(glm::dmat3(world)) < 0;
     std::vector<Vec3> tri(3);
+    std::vector<Vec2> triUV(3), uvs;
     std::vector<Vec3> pos;
     std::vector<uint32_t> idx;
     for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
@@ -720,6 +788,11 @@ void Loader::addMesh(int meshIndex, const Mat4& world, int node) {
             for (size_t i = 0; i < idx.size(); ++i) idx[i] = uint32_t(i);
         }
         uint32_t mat = material(prim.material, where + ".material");
+        auto set = texCoordOf_.find(mat);
+        const bool textured = set != texCoordOf_.end() && readUVs(prim, set->second, where, uvs);
+        if (textured && uvs.size() != pos.size())
+            fail(fmt::format("{}.attributes.TEXCOORD_{}: {} coordinates for {} vertices", where, set->second,
+                             uvs.size(), pos.size()));
         size_t n = idx.size();
         size_t triangles = mode == TINYGLTF_MODE_TRIANGLES ? n / 3 : n >= 3 ? n - 2 : 0;
         if (mode == TINYGLTF_MODE_TRIANGLES) remainderIndices_ += n % 3;
@@ -742,7 +815,8 @@ void Loader::addMesh(int meshIndex, const Mat4& world, int node) {
             }
             if (flip) std::swap(b, c);
             tri[0] = pos[a], tri[1] = pos[b], tri[2] = pos[c];
-            addPolygon(scene_, tri, mat);
+            if (textured) triUV[0] = uvs[a], triUV[1] = uvs[b], triUV[2] = uvs[c];
+            addPolygon(scene_, tri, mat, textured ? &triUV : nullptr);
         }
     }
 }

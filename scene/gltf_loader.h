@@ -24,12 +24,15 @@
 //     scene's linear RGB units (§3.9.3; KHR_materials_emissive_strength
 //     multiplies it); a Lambertian emitter of radiance L has radiosity
 //     E = pi L (Cohen & Wallace 1993, eq. 2.12), so E = pi * emissive.
-//     A texture's mean is the mean over all texels of the sRGB-decoded image
-//     (glTF colour textures are sRGB, §3.9.2), not weighted by UV coverage,
-//     with one warning per material; an image tinygltf's stb loader cannot
-//     decode (or an external image file that is missing, or one that would
-//     decode to more than 1 GiB, checked from its header with stb_image
-//     before decoding) leaves the factor alone and warns. metallic/roughness, alpha, normal and occlusion maps
+//     baseColorTexture is kept (scene/texture.h): sRGB-decoded (§3.9.2),
+//     the sampler's wrap modes, TEXCOORD_n of its texCoord (v flipped to
+//     hrad's v up); rho above (the mean over all texels) is the fallback of
+//     primitives without UVs, and each textured patch gets its own mean.
+//     An emissive texture is replaced by its mean, with one warning per
+//     material. An image tinygltf's stb loader cannot decode (or an external
+//     image file that is missing) leaves the factor alone and warns; decoded
+//     texels count against texture.max_mb, checked from the image's header
+//     before decoding (an error naming the setting). metallic/roughness, alpha, normal and occlusion maps
 //     are ignored: the diffuse albedo is baseColor, as a path tracer that
 //     treats the surface as Lambertian would see it.
 //     Reflectance channels >= 1 (glTF's default baseColorFactor is 1, so
@@ -79,6 +82,7 @@ struct GltfOptions {
     double clampRho = 0.99;
     double emissionScale = 1.0;
     size_t maxFaces = 20000000;
+    uint64_t textureBudget = uint64_t(2048) << 20;  ///< texture.max_mb, decoded bytes
 };
 
 /// Loads a .gltf or .glb file; throws InputError with file:line (JSON) or the

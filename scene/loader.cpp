@@ -1,5 +1,6 @@
 // loadScene: built-in names, else files by extension (see loader.h).
 #include "scene/loader.h"
+#include "scene/texture.h"
 
 #include <algorithm>
 #include <cctype>
@@ -46,8 +47,18 @@ MgfOptions mgfOptions(const Params& params) {
     return mgf;
 }
 
+/// texture.max_mb, read by every format that decodes textures.
+uint64_t textureBudget(const Params& params) {
+    return uint64_t(params.getInt({"texture.max_mb",
+                                   "MiB the scene's decoded textures may take (12 bytes per "
+                                   "texel; a resource bound, checked before decoding)"},
+                                  2048, 1, int64_t(1) << 24))
+           << 20;
+}
+
 ObjOptions objOptions(const Params& params) {
     ObjOptions obj;
+    obj.textureBudget = textureBudget(params);
     obj.defaultRho =
         params.getDouble({"obj.default_rho", "OBJ: reflectance of faces without a material"},
                          obj.defaultRho, 0.0, 1.0);
@@ -58,6 +69,11 @@ ObjOptions objOptions(const Params& params) {
          "OBJ: reflectance >= 1 becomes this (0: an error); 0.99 loads scenes with Kd = 1"},
         obj.clampRho, 0.0, 0.999999);
     obj.twoSided = params.getBool({"obj.two_sided", "OBJ: every face two-sided"}, obj.twoSided);
+    obj.textureReplacesKd =
+        params.getEnum({"obj.texture_kd",
+                        "OBJ: reflectance of a map_Kd material: multiply (Kd x texel, the MTL "
+                        "spec) or replace (the texel alone)"},
+                       "multiply", {"multiply", "replace"}) == "replace";
     return obj;
 }
 
@@ -74,6 +90,7 @@ PlyOptions plyOptions(const Params& params) {
 
 GltfOptions gltfOptions(const Params& params) {
     GltfOptions gltf;
+    gltf.textureBudget = textureBudget(params);
     gltf.defaultRho =
         params.getDouble({"gltf.default_rho", "glTF: reflectance of primitives without a material"},
                          gltf.defaultRho, 0.0, 1.0);
@@ -93,6 +110,7 @@ GltfOptions gltfOptions(const Params& params) {
 
 MitsubaOptions mitsubaOptions(const Params& params) {
     MitsubaOptions m;
+    m.textureBudget = textureBudget(params);
     m.resolution = int(params.getInt(
         {"mitsuba.resolution", "Mitsuba: segments around analytic shapes"}, m.resolution, 3, 4096));
     m.clampRho = params.getDouble(
@@ -309,6 +327,8 @@ SplitStats splitWhereDark(Scene& scene, int rays, const std::function<void(Scene
         }
     }
     scene.patches = std::move(out);
+    // The pieces' UV rows live in the probe, whose rows extend the scene's.
+    scene.cornerUVs = std::move(probe.cornerUVs);
     st.splitPatches = kept;
     st.pieces = pieces;
     return st;
@@ -420,8 +440,15 @@ Scene loadScene(const std::string& spec, const Params& params, const Reachabilit
     if (scene.stats.discontinuity.cutPatches > 0)
         scene.sourcePatch = sourceIndex(scene, meshOrigin, nInput);
     if (uniformRho >= 0.0) {
-        for (Material& m : scene.materials) m.rho = RGB(uniformRho);
+        // One grey everywhere: textures no longer modulate anything.
+        for (Material& m : scene.materials) {
+            m.rho = RGB(uniformRho);
+            m.diffuseMap.texture = -1;
+        }
         for (Patch& p : scene.patches) p.rho = RGB(uniformRho);
+    } else if (!scene.textures.empty()) {
+        // The solve sees each textured patch's own mean (scene/texture.h).
+        applyTextureMeans(scene);
     }
     if (validate) scene.validate();
     // The loaders grow the array by doubling; it lives as long as the solve.

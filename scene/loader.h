@@ -24,6 +24,10 @@
 //   mgf.default_sides int   1      `sides` of MGF materials that do not state it
 //                                  (the MGF spec says 2; RenderPark forces 1)
 //   obj.two_sided    bool   false  every OBJ material is two-sided
+//   obj.texture_kd   string multiply map_Kd reflectance: Kd x texel (MTL spec) or
+//                                  "replace": the texel alone
+//   texture.max_mb   int    2048   MiB of decoded textures per scene (12 bytes a
+//                                  texel), checked before decoding (scene/texture.h)
 //   gltf.default_rho double 0.5    grey reflectance of glTF primitives without material
 //   gltf.clamp_rho   double 0.99   glTF reflectance channels >= 1 become this (0: error)
 //   gltf.emission_scale double 1   multiplies glTF emission (E = pi * emissive)

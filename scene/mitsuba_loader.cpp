@@ -28,6 +28,7 @@
 #include "scene/mitsuba_serialized.h"
 #include "scene/obj_loader.h"
 #include "scene/ply_loader.h"
+#include "scene/texture.h"
 #include "scene/triangulate.h"
 
 namespace hrad::scene {
@@ -176,13 +177,14 @@ bool contains(const std::vector<std::string>& v, const std::string& s) {
 
 struct BsdfInfo {
     RGB rho{0.5};
+    int32_t texture = -1;  ///< the diffuse albedo's bitmap (Scene::textures), -1 none
     bool twoSided = false;
     bool transparent = false;
 };
 
 class Loader {
   public:
-    explicit Loader(const MitsubaOptions& o) : opt_(o), params_(o.params) {}
+    explicit Loader(const MitsubaOptions& o) : opt_(o), params_(o.params) { budget_.maxBytes = o.textureBudget; }
 
     Scene run(const std::string& path) {
         scene_.source = "mitsuba";
@@ -224,7 +226,14 @@ class Loader {
     uint64_t inflated_ = 0;       ///< bytes .serialized meshes inflated to so far
     bool haveCamera_ = false;
     /// (file, raw) -> the texture's mean, or why it could not be read.
-    std::map<std::pair<std::string, bool>, std::pair<std::optional<RGB>, std::string>> textureCache_;
+    /// (file [+ "#raw"], wrap) -> the texture's index in scene_.textures
+    /// (-1: not decoded, with why).
+    std::map<std::pair<std::string, int>, std::pair<int32_t, std::string>> textureCache_;
+    TextureBudget budget_;
+    /// The bitmap the last colour property read was (-1: none): a diffuse
+    /// albedo that is a bitmap keeps it as its texture.
+    int32_t lastBitmap_ = -1;
+    size_t lastBitmapNote_ = 0;  ///< its "-> its mean" note, dropped when it is kept
     uint64_t faces_ = 0;
 
     // --- locations, warnings, errors -------------------------------------
@@ -568,152 +577,45 @@ class Loader {
         }
         std::string file = filePath(t, stringProp(t, "filename", ""));
         bool raw = boolProp(t, "raw", false);
-        std::string ext = fs::path(file).extension().string();
-        std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+        const std::string wrapName = stringProp(t, "wrap_mode", "repeat");
+        const TextureWrap wrap = wrapName == "clamp"    ? TextureWrap::Clamp
+                                 : wrapName == "mirror" ? TextureWrap::Mirror
+                                                        : TextureWrap::Repeat;
+        if (wrapName != "repeat" && wrapName != "clamp" && wrapName != "mirror")
+            fail(t, "wrap_mode '{}' must be repeat, mirror or clamp", wrapName);
         std::error_code ec;
         if (!fs::is_regular_file(file, ec)) {
             notes.push_back(fmt::format("{} texture '{}' not found -> grey {} (mitsuba.texture_rho)", name, file,
                                         opt_.textureRho));
             return grey;
         }
-        // One decode per file and encoding: materials often share a texture
-        // (the bathroom's wood.jpg, 910 x 2048, serves two).
-        auto& [mean, why] = textureCache_[{fs::weakly_canonical(file, ec).string(), raw}];
-        if (!mean && why.empty()) {
-            if (ext == ".png") mean = pngMean(file, raw, why);
-            else if (ext == ".exr") mean = exrMean(file, why);
-            else mean = stbMean(file, raw, why);  // JPEG, BMP, TGA, GIF, PSD, PIC, PNM, HDR
-            if (!mean && why.empty()) why = "unreadable";
+        // One decode per file, encoding and wrap mode: materials often share a
+        // texture (the bathroom's wood.jpg, 910 x 2048, serves two).
+        auto [slot, fresh] = textureCache_.try_emplace(
+            {fs::weakly_canonical(file, ec).string() + (raw ? "#raw" : ""), int(wrap)}, -1, std::string());
+        auto& [index, why] = slot->second;
+        if (fresh) {
+            std::optional<Texture> tex = decodeTextureFile(
+                file, raw ? TextureEncoding::Linear : TextureEncoding::Srgb, budget_,
+                SourceLocation{t.f->path, t.f->lineOf(t.n.offset_debug()), 0}, why);
+            if (tex) {
+                tex->wrapU = tex->wrapV = wrap;
+                index = addTexture(scene_, std::move(*tex));
+            } else if (why.empty()) {
+                why = "unreadable";
+            }
         }
-        if (!mean) {
+        if (index < 0) {
             notes.push_back(fmt::format("{} texture '{}': {} -> grey {} (mitsuba.texture_rho)", name,
                                         fs::path(file).filename().string(), why, opt_.textureRho));
             return grey;
         }
+        lastBitmap_ = index;
+        const RGB* mean = &scene_.textures[size_t(index)]->mean;
+        lastBitmapNote_ = notes.size();
         notes.push_back(fmt::format("{} texture '{}' -> its mean ({:.3g}, {:.3g}, {:.3g})", name,
                                     fs::path(file).filename().string(), mean->r, mean->g, mean->b));
         return *mean;
-    }
-
-    static std::optional<RGB> pngMean(const std::string& file, bool raw, std::string& why) {
-        png_image img;
-        std::memset(&img, 0, sizeof(img));
-        img.version = PNG_IMAGE_VERSION;
-        if (!png_image_begin_read_from_file(&img, file.c_str())) {
-            why = std::string("unreadable PNG (") + img.message + ")";
-            return std::nullopt;
-        }
-        if (uint64_t(img.width) * img.height > (uint64_t(1) << 27)) {
-            png_image_free(&img);
-            why = "image larger than 2^27 pixels";
-            return std::nullopt;
-        }
-        // libpng's simplified API decodes sRGB to linear for the LINEAR format.
-        img.format = raw ? PNG_FORMAT_RGB : PNG_FORMAT_LINEAR_RGB;
-        size_t n = size_t(img.width) * img.height * 3;
-        Vec3 sum(0.0);
-        if (raw) {
-            std::vector<uint8_t> px(n);
-            if (!png_image_finish_read(&img, nullptr, px.data(), 0, nullptr)) {
-                why = std::string("unreadable PNG (") + img.message + ")";
-                return std::nullopt;
-            }
-            for (size_t i = 0; i < n; ++i) sum[i % 3] += px[i] / 255.0;
-        } else {
-            std::vector<uint16_t> px(n);
-            if (!png_image_finish_read(&img, nullptr, px.data(), 0, nullptr)) {
-                why = std::string("unreadable PNG (") + img.message + ")";
-                return std::nullopt;
-            }
-            for (size_t i = 0; i < n; ++i) sum[i % 3] += px[i] / 65535.0;
-        }
-        return n ? sum / double(n / 3) : RGB(0.0);
-    }
-
-    /// The mean of an image stb_image reads (JPEG, BMP, TGA, GIF, PSD, PIC,
-    /// PNM; Radiance HDR). Like Mitsuba's bitmap texture: 8- and 16-bit
-    /// images are sRGB-encoded unless raw = true, and are decoded to linear
-    /// RGB per texel before averaging (the mean of the encoded values would
-    /// be darker: the transfer function is convex); HDR is linear. Grey
-    /// images count as r = g = b; alpha is ignored (as PNG above).
-    static std::optional<RGB> stbMean(const std::string& file, bool raw, std::string& why) {
-        std::FILE* f = std::fopen(file.c_str(), "rb");
-        if (!f) {
-            why = "cannot open";
-            return std::nullopt;
-        }
-        std::unique_ptr<std::FILE, int (*)(std::FILE*)> guard(f, &std::fclose);
-        // The header alone first: a few bytes may claim 65535 x 65535 texels,
-        // which stbi_load would allocate. Same bound as PNG and OpenEXR.
-        int w = 0, h = 0, comp = 0;
-        if (!stbi_info_from_file(f, &w, &h, &comp)) {
-            const char* r = stbi_failure_reason();
-            why = std::string("unreadable image (stb_image: ") + (r ? r : "unknown format") + ")";
-            return std::nullopt;
-        }
-        if (w <= 0 || h <= 0 || uint64_t(w) * uint64_t(h) > (uint64_t(1) << 27)) {
-            why = fmt::format("image of {} x {} texels is outside 1 .. 2^27 texels", w, h);
-            return std::nullopt;
-        }
-        const bool hdr = stbi_is_hdr_from_file(f) != 0;
-        const bool wide = !hdr && stbi_is_16_bit_from_file(f) != 0;
-        const size_t n = size_t(w) * size_t(h);
-        Vec3 sum(0.0);
-        auto failed = [&] {
-            const char* r = stbi_failure_reason();
-            why = std::string("unreadable image (stb_image: ") + (r ? r : "decoding failed") + ")";
-            return std::nullopt;
-        };
-        int dw = 0, dh = 0, dc = 0;
-        if (hdr) {
-            // stbi_loadf would apply its own 2.2 gamma to LDR files; HDR
-            // (Radiance RGBE) is returned as stored: linear.
-            std::unique_ptr<float, void (*)(void*)> px(stbi_loadf_from_file(f, &dw, &dh, &dc, 3), &stbi_image_free);
-            if (!px || dw != w || dh != h) return failed();
-            for (size_t i = 0; i < 3 * n; ++i) sum[int(i % 3)] += double(px.get()[i]);
-        } else if (wide) {
-            std::unique_ptr<uint16_t, void (*)(void*)> px(stbi_load_from_file_16(f, &dw, &dh, &dc, 3),
-                                                          &stbi_image_free);
-            if (!px || dw != w || dh != h) return failed();
-            for (size_t i = 0; i < 3 * n; ++i) {
-                double v = px.get()[i] / 65535.0;
-                sum[int(i % 3)] += raw ? v : srgbToLinear(v);
-            }
-        } else {
-            std::unique_ptr<stbi_uc, void (*)(void*)> px(stbi_load_from_file(f, &dw, &dh, &dc, 3), &stbi_image_free);
-            if (!px || dw != w || dh != h) return failed();
-            double lut[256];
-            for (int k = 0; k < 256; ++k) lut[k] = raw ? k / 255.0 : srgbToLinear(k / 255.0);
-            for (size_t i = 0; i < 3 * n; ++i) sum[int(i % 3)] += lut[px.get()[i]];
-        }
-        RGB mean = sum / double(n);
-        if (!std::isfinite(mean.r) || !std::isfinite(mean.g) || !std::isfinite(mean.b)) {
-            why = "non-finite texel values";
-            return std::nullopt;
-        }
-        return mean;
-    }
-
-    static std::optional<RGB> exrMean(const std::string& file, std::string& why) {
-        try {
-            Imf::RgbaInputFile in(file.c_str());
-            Imath::Box2i dw = in.dataWindow();
-            int64_t w = int64_t(dw.max.x) - dw.min.x + 1, h = int64_t(dw.max.y) - dw.min.y + 1;
-            if (w <= 0 || h <= 0 || w * h > (int64_t(1) << 27)) {
-                why = "image size out of range";
-                return std::nullopt;
-            }
-            Imf::Array2D<Imf::Rgba> px(h, w);
-            in.setFrameBuffer(&px[0][0] - dw.min.x - dw.min.y * w, 1, size_t(w));
-            in.readPixels(dw.min.y, dw.max.y);
-            Vec3 sum(0.0);
-            for (int64_t y = 0; y < h; ++y)
-                for (int64_t x = 0; x < w; ++x) sum += Vec3(float(px[y][x].r), float(px[y][x].g), float(px[y][x].b));
-            return sum / double(w * h);
-        } catch (const std::exception& e) {
-            why = std::string("unreadable OpenEXR (") + e.what() + ")";
-            return std::nullopt;
-        }
     }
 
     // --- transforms --------------------------------------------------------
@@ -916,11 +818,15 @@ class Loader {
         };
         BsdfInfo info;
         if (type == "diffuse" || type == "roughdiffuse" || type == "difftrans") {
+            lastBitmap_ = -1;
             info.rho = colorProp(b, type == "difftrans" ? "transmittance" : "reflectance", false, notes).value_or(RGB(0.5));
+            keepBitmap(info, notes);
             if (type != "diffuse") notes.push_back(type + " -> Lambertian with its reflectance");
         } else if (type == "plastic" || type == "roughplastic" || type == "pplastic" || type == "phong" ||
                    type == "ward") {
+            lastBitmap_ = -1;
             info.rho = colorProp(b, "diffuse_reflectance", false, notes).value_or(RGB(0.5));
+            keepBitmap(info, notes);
             notes.push_back(type + ": glossy part dropped, albedo = diffuse_reflectance");
         } else if (type == "conductor" || type == "roughconductor") {
             RGB spec = colorProp(b, "specular_reflectance", false, notes).value_or(RGB(1.0));
@@ -941,7 +847,9 @@ class Loader {
             }
             info.rho = spec * f0;
         } else if (type == "principled" || type == "principledthin") {
+            lastBitmap_ = -1;
             info.rho = colorProp(b, "base_color", false, notes).value_or(RGB(0.5));
+            keepBitmap(info, notes);
             notes.push_back(type + " -> albedo = base_color");
         } else if (type == "twosided") {
             Node front = nested(0);
@@ -974,6 +882,14 @@ class Loader {
             notes.push_back(fmt::format("{} has no diffuse albedo -> grey {} (mitsuba.default_rho)", type, opt_.defaultRho));
         }
         return info;
+    }
+
+    /// A diffuse albedo that was a bitmap keeps it (the "-> its mean" note
+    /// no longer applies).
+    void keepBitmap(BsdfInfo& info, std::vector<std::string>& notes) {
+        info.texture = lastBitmap_;
+        if (lastBitmap_ >= 0 && lastBitmapNote_ < notes.size())
+            notes.erase(notes.begin() + std::ptrdiff_t(lastBitmapNote_));
     }
 
     /// The BSDF of a shape's element, resolved once per BSDF node, with one
@@ -1064,7 +980,9 @@ class Loader {
         uint32_t material = materialFor(bsdfNode, info, emitterNode);
 
         bool flip = boolProp(s, "flip_normals", false);
-        std::vector<std::vector<Vec3>> polys = geometry(s, type);
+        std::vector<std::vector<Vec2>> polyUVs;  // per polygon; empty: none
+        std::vector<std::vector<Vec3>> polys = geometry(s, type, polyUVs);
+        const bool textured = scene_.materials[material].diffuseMap.texture >= 0;
         // Analytic shapes keep Mitsuba's normal (transformed by the inverse
         // transpose), so a mirroring transform must not turn them inside out;
         // meshes follow their transformed winding like Mitsuba's face normals.
@@ -1074,7 +992,11 @@ class Loader {
         if (faces_ > opt_.maxFaces)
             fail(s, "the scene yields more than {} faces (setting mitsuba.max_faces)", opt_.maxFaces);
         std::vector<Vec3> w;
-        for (const auto& p : polys) {
+        std::vector<Vec2> uvw;
+        for (size_t pi = 0; pi < polys.size(); ++pi) {
+            const auto& p = polys[pi];
+            const bool hasUV = textured && pi < polyUVs.size() && polyUVs[pi].size() == p.size();
+            if (hasUV) uvw = polyUVs[pi];
             w.clear();
             for (const Vec3& v : p) {
                 w.push_back(Vec3(m * glm::dvec4(v, 1.0)));
@@ -1087,7 +1009,8 @@ class Loader {
                             "face areas overflow", std::max({a.x, a.y, a.z}));
             }
             if (flip) std::reverse(w.begin(), w.end());
-            addPolygon(scene_, w, material);
+            if (flip && hasUV) std::reverse(uvw.begin(), uvw.end());
+            addPolygon(scene_, w, material, hasUV ? &uvw : nullptr);
         }
     }
 
@@ -1104,6 +1027,11 @@ class Loader {
         if (info && !info->transparent) {
             mat.rho = info->rho;
             mat.twoSided = info->twoSided;
+            // rho(x) = the bitmap (scale 1); rho, its clamped mean over all
+            // texels, stays the fallback of shapes without UVs.
+            mat.diffuseMap.texture = info->texture;
+            mat.diffuseMap.clampRho = opt_.clampRho;
+            mat.diffuseMap.clampKey = "mitsuba.clamp_rho";
         } else if (!info) {
             mat.rho = RGB(std::min(0.5, opt_.clampRho > 0 ? opt_.clampRho : 0.5));
         }
@@ -1140,7 +1068,11 @@ class Loader {
                     "mitsuba.max_faces = {}", type, n, expected, opt_.maxFaces);
     }
 
-    std::vector<std::vector<Vec3>> geometry(const Node& s, const std::string& type) {
+    /// The shape's polygons in its object space; `uvs` gets their texture
+    /// coordinates (v up) where the shape has them: OBJ meshes' vt, the
+    /// rectangle's (Mitsuba's uv with v flipped, as its OBJ reader flips vt).
+    std::vector<std::vector<Vec3>> geometry(const Node& s, const std::string& type,
+                                            std::vector<std::vector<Vec2>>& uvs) {
         std::vector<std::vector<Vec3>> polys;
         const int n = opt_.resolution;
         if (type == "obj" || type == "ply" || type == "serialized") {
@@ -1170,6 +1102,8 @@ class Loader {
             if (type == "obj") {
                 ObjOptions o;
                 o.clampRho = 0.99;  // the .mtl is not used: never fail on it
+                o.keepUVs = true;   // the XML's bitmap needs them; the .mtl's maps are not read
+                o.readTextures = false;
                 sub = loadObj(file, o);
             } else {
                 sub = loadPly(file, PlyOptions{});
@@ -1180,13 +1114,19 @@ class Loader {
             scene_.stats.droppedDegenerate += sub.stats.droppedDegenerate;
             scene_.stats.triangulatedFaces += sub.stats.triangulatedFaces;  // e.g. a non-planar quad
             polys.reserve(sub.patches.size());
-            for (const Patch& p : sub.patches)
+            for (const Patch& p : sub.patches) {
                 polys.emplace_back(p.v.begin(), p.v.begin() + p.numVertices());
+                if (sub.cornerUVs.empty()) continue;
+                uvs.resize(polys.size());
+                if (const auto* row = patchUVs(sub, p))
+                    uvs.back().assign(row->begin(), row->begin() + p.numVertices());
+            }
             return polys;
         }
         checkAnalyticBudget(s, type, n);
         if (type == "rectangle") {
             polys.push_back({{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}});
+            uvs.push_back({{0, 1}, {1, 1}, {1, 0}, {0, 0}});
         } else if (type == "cube") {
             for (int axis = 0; axis < 3; ++axis)
                 for (int sign = -1; sign <= 1; sign += 2) {

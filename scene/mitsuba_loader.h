@@ -51,15 +51,16 @@
 //                measured, hair, ...     mitsuba.default_rho grey
 //              A shape without BSDF is diffuse 0.5 (Mitsuba's default).
 //              Colours: rgb (linear), srgb (sRGB-decoded), float, spectrum;
-//              texture: the mean of a bitmap over its texels, in linear RGB
-//              (PNG through libpng's sRGB decoding; OpenEXR as stored; JPEG,
-//              BMP, TGA, GIF, PSD, PNM through stb_image, 8/16-bit values
-//              sRGB-decoded per texel as Mitsuba's bitmap does, Radiance HDR as
-//              stored; `raw` = true skips the sRGB decoding; alpha ignored),
-//              checkerboard the mean of its two colours; always with a
-//              warning. A bitmap that is missing, unreadable or larger than
-//              2^27 texels (checked from its header before decoding) gets
-//              mitsuba.texture_rho grey with a warning naming the file. Channels
+//              texture: a bitmap as the diffuse albedo (diffuse reflectance,
+//              plastic diffuse_reflectance, principled base_color, also under
+//              twosided/mask/bumpmap) is kept as the material's texture
+//              (scene/texture.h: sRGB-decoded unless `raw`, wrap_mode; UVs of
+//              obj shapes and rectangles; each patch gets its own mean); any
+//              other bitmap is replaced by its mean over all texels, with a
+//              warning; checkerboard the mean of its two colours. A bitmap
+//              that is missing or unreadable gets mitsuba.texture_rho grey
+//              with a warning naming the file; decoded texels count against
+//              texture.max_mb (an error, checked from the header). Channels
 //              >= 1 become mitsuba.clamp_rho with a warning (path-tracer
 //              scenes often use 1.0; 0 makes them an error).
 //              `twosided` sets Material::twoSided; emitsBothSides stays false
@@ -119,6 +120,7 @@ struct MitsubaOptions {
     double textureRho = 0.5;
     uint64_t maxFaces = 20000000;
     uint64_t maxInflatedBytes = uint64_t(1024) << 20;  ///< mitsuba.max_inflated_mb
+    uint64_t textureBudget = uint64_t(2048) << 20;  ///< texture.max_mb, decoded bytes
     std::map<std::string, std::string> params;  ///< $NAME values from settings
 };
 

@@ -15,6 +15,7 @@
 
 #include "core/error.h"
 #include "core/parse.h"
+#include "scene/texture.h"
 #include "scene/triangulate.h"
 
 namespace hrad::scene {
@@ -204,33 +205,52 @@ std::string trimmed(std::string s) {
     return s;
 }
 
-}  // namespace
-
-Scene loadObj(const std::string& path, const ObjOptions& options) {
-    std::map<std::string, MtlMaterial> mtl;
-    preScan(path, mtl);
-
-    tinyobj::ObjReaderConfig config;
-    config.triangulate = false;
-    config.vertex_color = false;
-    config.mtl_search_path = std::filesystem::path(path).parent_path().string();
-    tinyobj::ObjReader reader;
-    if (!reader.ParseFromFile(path, config)) {
-        std::string msg = trimmed(reader.Error());
-        throwInputError(locationFromMessage(path, msg), "OBJ: {}", msg.empty() ? "parse failed" : msg);
+/// map_Kd of material m: decoded once per file (sRGB, the convention of
+/// OBJ textures), repeat or (-clamp on) clamp; rho(x) = Kd * texel (MTL spec:
+/// map_Kd multiplies Kd), or the texel alone with obj.texture_kd = replace.
+/// A file that is missing or cannot be decoded is a warning naming it; the
+/// material keeps Kd.
+void bindDiffuseMap(Scene& scene, Material& mat, const tinyobj::material_t& m,
+                    const MtlMaterial* mm, const std::string& path, const ObjOptions& options,
+                    TextureBudget& budget, std::map<std::string, int32_t>& decoded) {
+    if (m.diffuse_texname.empty()) return;
+    const std::string file =
+        (std::filesystem::path(path).parent_path() / m.diffuse_texname).lexically_normal().string();
+    auto it = decoded.find(file);
+    if (it == decoded.end()) {
+        std::string why;
+        const SourceLocation where = mm ? SourceLocation{mm->where.file, mm->where.line, 0}
+                                        : SourceLocation{path, 0, 0};
+        std::optional<Texture> t = decodeTextureFile(file, TextureEncoding::Srgb, budget, where, why);
+        if (!t) {
+            scene.stats.warnings.push_back(fmt::format(
+                "{}: material '{}': map_Kd '{}' {}; the material's reflectance Kd is used", path,
+                m.name, file, why));
+            it = decoded.emplace(file, -2).first;
+        } else {
+            const TextureWrap wrap = m.diffuse_texopt.clamp ? TextureWrap::Clamp : TextureWrap::Repeat;
+            t->wrapU = t->wrapV = wrap;
+            it = decoded.emplace(file, addTexture(scene, std::move(*t))).first;
+        }
     }
+    if (it->second < 0) return;
+    mat.diffuseMap.texture = it->second;
+    mat.diffuseMap.scale = options.textureReplacesKd ? RGB(1.0) : mat.rho;
+    mat.diffuseMap.clampRho = options.clampRho > 0 ? options.clampRho : 0.0;
+    mat.diffuseMap.clampKey = "obj.clamp_rho";
+    // The fallback for faces without UVs: the texture's mean times the scale.
+    const RGB mean = mat.diffuseMap.scale * scene.textures[size_t(it->second)]->mean;
+    for (int c = 0; c < 3; ++c)
+        mat.rho[c] = mean[c] < 1.0 ? mean[c] : (options.clampRho > 0 ? options.clampRho : mat.rho[c]);
+}
 
-    Scene scene;
-    scene.name = path;
-    scene.source = "obj";
-    if (!reader.Warning().empty()) {
-        std::istringstream ws(reader.Warning());
-        std::string w;
-        while (std::getline(ws, w))
-            if (!trimmed(w).empty()) scene.stats.warnings.push_back(fmt::format("{}: {}", path, trimmed(w)));
-    }
-
-    const auto& mats = reader.GetMaterials();
+/// The MTL materials tinyobjloader read, with Kd and Ke as hrad parsed them
+/// (`mtl`), range-checked and clamped (obj.clamp_rho), and their map_Kd.
+void addMaterials(Scene& scene, const std::vector<tinyobj::material_t>& mats,
+                  const std::map<std::string, MtlMaterial>& mtl, const std::string& path,
+                  const ObjOptions& options) {
+    TextureBudget budget{options.textureBudget};
+    std::map<std::string, int32_t> decoded;  // texture file -> index (-2: failed)
     for (const auto& m : mats) {
         Material mat;
         mat.name = m.name;
@@ -270,21 +290,62 @@ Scene loadObj(const std::string& path, const ObjOptions& options) {
             }
         }
         mat.twoSided = options.twoSided;
+        if (options.readTextures) bindDiffuseMap(scene, mat, m, mm, path, options, budget, decoded);
         scene.addMaterial(mat);
     }
+
+}
+
+}  // namespace
+
+Scene loadObj(const std::string& path, const ObjOptions& options) {
+    std::map<std::string, MtlMaterial> mtl;
+    preScan(path, mtl);
+
+    tinyobj::ObjReaderConfig config;
+    config.triangulate = false;
+    config.vertex_color = false;
+    config.mtl_search_path = std::filesystem::path(path).parent_path().string();
+    tinyobj::ObjReader reader;
+    if (!reader.ParseFromFile(path, config)) {
+        std::string msg = trimmed(reader.Error());
+        throwInputError(locationFromMessage(path, msg), "OBJ: {}", msg.empty() ? "parse failed" : msg);
+    }
+
+    Scene scene;
+    scene.name = path;
+    scene.source = "obj";
+    if (!reader.Warning().empty()) {
+        std::istringstream ws(reader.Warning());
+        std::string w;
+        while (std::getline(ws, w))
+            if (!trimmed(w).empty()) scene.stats.warnings.push_back(fmt::format("{}: {}", path, trimmed(w)));
+    }
+
+    const auto& mats = reader.GetMaterials();
+    addMaterials(scene, mats, mtl, path, options);
 
     const auto& attrib = reader.GetAttrib();
     const auto& verts = attrib.vertices;
     uint32_t defaultMaterial = UINT32_MAX;
+    const auto& texcoords = attrib.texcoords;
     std::vector<Vec3> poly;
+    std::vector<Vec2> uv;
     for (const auto& shape : reader.GetShapes()) {
         const auto& mesh = shape.mesh;
         size_t offset = 0;
         for (size_t f = 0; f < mesh.num_face_vertices.size(); ++f) {
             size_t n = mesh.num_face_vertices[f];
             poly.clear();
+            uv.clear();
+            bool hasUV = true;
             for (size_t k = 0; k < n; ++k) {
                 int vi = mesh.indices[offset + k].vertex_index;
+                const int ti = mesh.indices[offset + k].texcoord_index;
+                if (ti >= 0 && size_t(2 * ti + 1) < texcoords.size())
+                    uv.emplace_back(texcoords[2 * size_t(ti)], texcoords[2 * size_t(ti) + 1]);
+                else
+                    hasUV = false;
                 if (vi < 0 || size_t(3 * vi + 2) >= verts.size())
                     throwInputError(SourceLocation{path, 0, 0}, "face in shape '{}' refers to a missing vertex",
                                     shape.name);
@@ -302,7 +363,10 @@ Scene loadObj(const std::string& path, const ObjOptions& options) {
             } else {
                 material = uint32_t(mid);
             }
-            addPolygon(scene, poly, material);
+            // UVs only where the material has a texture to look up.
+            const bool wantsUV =
+                hasUV && (options.keepUVs || scene.materials[material].diffuseMap.texture >= 0);
+            addPolygon(scene, poly, material, wantsUV ? &uv : nullptr);
         }
     }
     if (scene.stats.defaultMaterialFaces > 0)

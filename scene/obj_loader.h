@@ -9,7 +9,8 @@
 // the text checks what tinyobjloader accepts silently, so errors carry a line:
 // non-finite or malformed vertex coordinates and face indices that name no
 // vertex. A material with rho outside [0, 1) is reported at its `newmtl` line
-// in the .mtl file.
+// in the .mtl file. map_Kd: per-vertex UVs (vt) on faces of textured
+// materials and the decoded texture (scene/texture.h); rho(x) = Kd * texel.
 #pragma once
 
 #include <string>
@@ -27,6 +28,14 @@ struct ObjOptions {
     /// Every material is two-sided (OBJ has no per-material flag); emitters
     /// still emit from the front only.
     bool twoSided = false;
+    /// obj.texture_kd = replace: rho(x) is the map_Kd texel alone, not Kd
+    /// times it (exporters that write the texture's mean colour as Kd).
+    bool textureReplacesKd = false;
+    /// UVs on every face that has them, textured or not (Mitsuba's obj
+    /// shapes, whose BSDF comes from the XML), and whether map_Kd is read.
+    bool keepUVs = false;
+    bool readTextures = true;
+    uint64_t textureBudget = uint64_t(2048) << 20;  ///< texture.max_mb, decoded bytes
 };
 
 /// Loads an OBJ file (and its MTL libraries); throws InputError with file:line.

@@ -1,4 +1,5 @@
 #include "scene/scene.h"
+#include "scene/texture.h"
 
 #include <algorithm>
 #include <cmath>
@@ -93,6 +94,7 @@ void Scene::applyMaterials() {
         p.rho = m.rho;
         p.emission = (p.backSide && !m.emitsBothSides) ? RGB(0.0) : m.emission;
     }
+    if (!textures.empty()) applyTextureMeans(*this);
 }
 
 size_t Scene::addBackSides(bool all) {
@@ -116,6 +118,17 @@ size_t Scene::addBackSides(bool all) {
         } else {
             std::swap(back.v[1], back.v[2]);
             back.v[3] = back.v[2];
+        }
+        if (back.uvs != UINT32_MAX) {
+            std::array<glm::vec2, 4> uv = cornerUVs[back.uvs];
+            if (back.kind == PatchKind::Quad) {
+                std::swap(uv[1], uv[3]);
+            } else {
+                std::swap(uv[1], uv[2]);
+                uv[3] = uv[2];
+            }
+            back.uvs = uint32_t(cornerUVs.size());
+            cornerUVs.push_back(uv);
         }
         back.normal = -patches[i].normal;
         back.backSide = true;

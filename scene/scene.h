@@ -13,6 +13,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,6 +24,19 @@
 namespace hrad::scene {
 
 enum class PatchKind : uint8_t { Triangle = 3, Quad = 4 };
+
+struct Texture;  // scene/texture.h
+
+/// How a material uses a diffuse texture: rho(x) = scale * texel(uv(x))
+/// (scene/texture.h).
+struct TextureBinding {
+    int32_t texture = -1;  ///< index in Scene::textures, -1 none
+    RGB scale{1.0};
+    /// Patch means >= 1 in a channel become this (the loader's clamp_rho);
+    /// 0 makes them an error naming clampKey.
+    double clampRho = 0.99;
+    const char* clampKey = "clamp_rho";
+};
 
 struct Material {
     std::string name;
@@ -36,6 +50,10 @@ struct Material {
     /// area emitters emit from the front only; MGF and glTF materials are the
     /// same on both faces.
     bool emitsBothSides = false;
+    /// The diffuse texture (OBJ map_Kd, Mitsuba bitmap, glTF baseColorTexture);
+    /// rho is then its mean over all texels times the scale, the fallback for
+    /// patches without UVs (scene/texture.h).
+    TextureBinding diffuseMap{};
     bool isEmitter() const { return emission.r > 0 || emission.g > 0 || emission.b > 0; }
 };
 
@@ -46,6 +64,7 @@ struct Material {
 /// For a triangle, p(u,v) = v0 + u (v1-v0) + v (v2-v0) with u,v >= 0, u+v <= 1.
 struct Patch {
     PatchKind kind = PatchKind::Triangle;
+    bool backSide = false;  ///< see twin below
     uint32_t material = 0;
     std::array<Vec3, 4> v{};  ///< v[3] unused (equal to v[2]) for triangles
     Vec3 normal{0.0};         ///< unit normal
@@ -59,7 +78,9 @@ struct Patch {
     /// marks the copy made by Scene::addBackSides(). Visibility keeps one
     /// polygon per pair and reports the side a ray arrives at.
     uint32_t twin = UINT32_MAX;
-    bool backSide = false;
+    /// Row of Scene::cornerUVs holding this patch's texture coordinates at
+    /// v[0..3] (UINT32_MAX: none); a back side's row follows its winding.
+    uint32_t uvs = UINT32_MAX;
 
     int numVertices() const { return kind == PatchKind::Quad ? 4 : 3; }
     bool isEmitter() const { return emission.r > 0 || emission.g > 0 || emission.b > 0; }
@@ -172,6 +193,10 @@ class Scene {
     uint32_t sourceOf(uint32_t p) const { return sourcePatch.empty() ? p : sourcePatch[p]; }
     /// Number of patches of the scene without meshing (patches.size() when empty).
     size_t numSourcePatches() const;
+    /// Decoded diffuse textures (Material::diffuseMap), shared by copies.
+    std::vector<std::shared_ptr<const Texture>> textures;
+    /// Texture coordinates per patch corner (Patch::uvs), v up (texture.h).
+    std::vector<std::array<glm::vec2, 4>> cornerUVs;
 
     uint32_t addMaterial(Material m);
     /// Adds a triangle or quad with material index; computes normal and area.

@@ -1,5 +1,7 @@
 // Polygon intake (see triangulate.h). The only file of hrad that includes CGAL.
 #include "scene/triangulate.h"
+#include "scene/element.h"
+#include "scene/texture.h"
 
 #include <CGAL/Arr_segment_traits_2.h>
 #include <CGAL/Arrangement_2.h>
@@ -189,7 +191,49 @@ bool triangulatePolygon(const std::vector<Vec3>& v, std::vector<std::array<Vec3,
     return !tris.empty();
 }
 
-size_t addPolygon(Scene& scene, const std::vector<Vec3>& input, uint32_t material) {
+namespace {
+
+/// Gives the patches [first, end) corner UVs from the polygon's vertices
+/// (each corner the UV of the nearest input vertex: corners are copies).
+void attachUVs(Scene& scene, size_t first, const std::vector<Vec3>& input,
+               const std::vector<Vec2>& uvs) {
+    for (size_t k = first; k < scene.patches.size(); ++k) {
+        Patch& p = scene.patches[k];
+        std::array<glm::vec2, 4> row{};
+        for (int c = 0; c < p.numVertices(); ++c) {
+            size_t best = 0;
+            double bestD = 1e300;
+            for (size_t i = 0; i < input.size(); ++i) {
+                const Vec3 d = input[i] - p.v[size_t(c)];
+                const double d2 = glm::dot(d, d);
+                if (d2 < bestD) {
+                    bestD = d2;
+                    best = i;
+                }
+            }
+            row[size_t(c)] = glm::vec2(uvs[best]);
+        }
+        if (p.kind == PatchKind::Triangle) row[3] = row[2];
+        p.uvs = uint32_t(scene.cornerUVs.size());
+        scene.cornerUVs.push_back(row);
+    }
+}
+
+size_t addPolygonPatches(Scene& scene, const std::vector<Vec3>& input, uint32_t material);
+
+}  // namespace
+
+size_t addPolygon(Scene& scene, const std::vector<Vec3>& input, uint32_t material,
+                  const std::vector<Vec2>* uvs) {
+    const size_t first = scene.patches.size();
+    const size_t added = addPolygonPatches(scene, input, material);
+    if (uvs && uvs->size() == input.size() && added) attachUVs(scene, first, input, *uvs);
+    return added;
+}
+
+namespace {
+
+size_t addPolygonPatches(Scene& scene, const std::vector<Vec3>& input, uint32_t material) {
     ++scene.stats.inputFaces;
     std::vector<Vec3> v = cleanPolygon(input);
     if (v.size() < 3) {
@@ -232,6 +276,8 @@ size_t addPolygon(Scene& scene, const std::vector<Vec3>& input, uint32_t materia
     for (const auto& t : tris) added += scene.addTriangle(t[0], t[1], t[2], material) ? 1 : 0;
     return added;
 }
+
+}  // namespace
 
 namespace {
 
@@ -487,6 +533,17 @@ SplitStats splitIntersections(Scene& scene, std::vector<uint32_t>* origin, bool 
             Patch& added = scene.patches.back();
             added.rho = old[i].rho;
             added.emission = old[i].emission;
+            if (old[i].uvs < scene.cornerUVs.size()) {
+                // A piece's corners take the UVs of the patch they lie on.
+                std::array<glm::vec2, 4> row{};
+                for (int c = 0; c < 3; ++c)
+                    row[size_t(c)] = glm::vec2(uvAt(old[i], scene.cornerUVs[old[i].uvs],
+                                                    patchInverse(old[i], t[size_t(c)]).x,
+                                                    patchInverse(old[i], t[size_t(c)]).y));
+                row[3] = row[2];
+                added.uvs = uint32_t(scene.cornerUVs.size());
+                scene.cornerUVs.push_back(row);
+            }
             if (origin) origin->push_back(i);
             ++st.pieces;
         }

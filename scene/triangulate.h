@@ -34,7 +34,11 @@ namespace hrad::scene {
 
 /// Adds a polygon (vertices in order, counter-clockwise seen from the front)
 /// to the scene; returns the number of patches added (0 when dropped).
-size_t addPolygon(Scene& scene, const std::vector<Vec3>& vertices, uint32_t material);
+/// `uvs`, when given (one per vertex), become each patch's corner UVs
+/// (Scene::cornerUVs): a patch corner takes the UV of the input vertex at its
+/// position (the nearest one for a point a triangulation inserted).
+size_t addPolygon(Scene& scene, const std::vector<Vec3>& vertices, uint32_t material,
+                  const std::vector<Vec2>* uvs = nullptr);
 
 /// Removes consecutive duplicates and collinear/spike vertices (relative
 /// tolerance `relTol` times the polygon's bounding-box diagonal).

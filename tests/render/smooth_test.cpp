@@ -145,3 +145,29 @@ TEST(Smooth, IsTheDefaultAndFlatIsASetting) {
 
 }  // namespace
 }  // namespace hrad::render
+
+namespace hrad::render {
+namespace {
+
+// A patch far smaller than the vertex quantum (1e-7 of the scene diagonal):
+// its edges' midpoints fall on their end points' keys. They are not
+// T-vertices; before this was checked, each such edge recursed to level 30
+// on both halves (2^30 anchors: the bathroom's smooth render ran out of
+// memory in VertexInterpolation).
+TEST(Smooth, EdgesShorterThanTheQuantumHaveNoTVertices) {
+    scene::Scene s;
+    const uint32_t m = s.addMaterial({"grey", RGB(0.5), RGB(0.0)});
+    s.addQuad({0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, m);
+    const double h = 1e-8;
+    s.addQuad({0.3, 0.3, 0.5}, {0.3 + h, 0.3, 0.5}, {0.3 + h, 0.3 + h, 0.5}, {0.3, 0.3 + h, 0.5}, m);
+    ASSERT_EQ(s.patches.size(), 2u);
+    std::vector<std::vector<LeafField::Leaf>> leaves(2);
+    leaves[0].push_back({scene::kRootKey, RGB(1.0)});
+    for (int c = 0; c < 4; ++c) leaves[1].push_back({scene::childKey(scene::kRootKey, c), RGB(0.2 * (c + 1))});
+    LeafField field(s, std::move(leaves));
+    VertexInterpolation vi(field, SmoothSettings{});
+    EXPECT_LT(vi.numAnchored(), 16u);
+}
+
+}  // namespace
+}  // namespace hrad::render

@@ -3,6 +3,7 @@
 // camera and doubleSided, and the bad-input cases of issue 12 item 7.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -12,6 +13,10 @@
 
 #include "core/error.h"
 #include "scene/gltf_loader.h"
+#include "scene/loader.h"
+#include "scene/element.h"
+#include "scene/texture.h"
+#include "scene/element.h"
 #include "scene/loader.h"
 #include "tests/test_util.h"
 
@@ -286,7 +291,11 @@ TEST(GltfLoader, BaseColorTextureMeanMultipliesTheFactor) {
     // texels white and black: sRGB-decoded mean 0.5 in every channel
     EXPECT_NEAR(red->rho.r, 0.8 * 0.5, 1e-12);
     EXPECT_NEAR(red->rho.g, 0.2 * 0.5, 1e-12);
-    EXPECT_TRUE(hasWarning(s, "'red': baseColorTexture replaced by its mean"));
+    // Kept as the material's texture (each textured patch gets its own mean);
+    // these primitives have no TEXCOORD_0, so they keep the mean above.
+    EXPECT_FALSE(hasWarning(s, "'red': baseColorTexture replaced by its mean"));
+    EXPECT_GE(red->diffuseMap.texture, 0);
+    EXPECT_EQ(s.cornerUVs.size(), 0u);
 }
 
 TEST(GltfLoader, UnloadableTextureKeepsTheFactorWithAWarning) {
@@ -305,9 +314,52 @@ TEST(GltfLoader, HugeTextureIsNotDecoded) {
     json j = sceneJson(dataUri(geometryBuffer()));
     useBaseColorTexture(j, "data:image/png;base64," + base64(png));
     auto file = test::writeFile(dir / "scene.gltf", j.dump());
-    Scene s = loadGltf(file.string());
-    EXPECT_NEAR(findMaterial(s, "red")->rho.r, 0.8, 1e-12);
-    EXPECT_TRUE(hasWarning(s, "more than the 1 GiB")) << (s.stats.warnings.empty() ? "" : s.stats.warnings[0]);
+    // Refused from the header before decoding (texture.max_mb, 2048 MiB by
+    // default; 16000^2 float RGB texels are 2.9 GiB): an error naming it.
+    InputError e = loadError(file);
+    EXPECT_NE(std::string(e.what()).find("texture.max_mb"), std::string::npos) << e.what();
+}
+
+TEST(GltfLoader, TexCoordsAndBaseColorTextureAreKept) {
+    // The quad of geometryBuffer() with TEXCOORD_0 (bytes 96..127): corners
+    // (0,0) (1,0) (1,1) (0,1) in glTF's t-down sense.
+    std::vector<unsigned char> b = geometryBuffer();
+    for (float v : {0.f, 0.f, 1.f, 0.f, 1.f, 1.f, 0.f, 1.f}) put(b, v);
+    json j = sceneJson(dataUri(b));
+    j["buffers"][0]["byteLength"] = 128;
+    j["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", 96}, {"byteLength", 32}});
+    j["accessors"].push_back({{"bufferView", 3}, {"componentType", 5126}, {"count", 4}, {"type", "VEC2"}});
+    j["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = 3;
+    useBaseColorTexture(j, "data:image/bmp;base64," + base64(bmp2x1()));
+    j["samplers"] = json::array({{{"wrapS", 33071}, {"wrapT", 10497}}});  // CLAMP_TO_EDGE, REPEAT
+    j["textures"][0]["sampler"] = 0;
+    auto dir = test::tempDir("gltf_uv");
+    auto file = test::writeFile(dir / "scene.gltf", j.dump());
+    Scene s = loadScene(file.string());
+    ASSERT_EQ(s.textures.size(), 1u);
+    EXPECT_EQ(s.textures[0]->wrapU, TextureWrap::Clamp);
+    EXPECT_EQ(s.textures[0]->wrapV, TextureWrap::Repeat);
+    size_t textured = 0;
+    for (const Patch& p : s.patches) {
+        if (s.materials[p.material].name != "red") continue;
+        const auto* uv = patchUVs(s, p);
+        ASSERT_TRUE(uv);
+        ++textured;
+        // hrad keeps v up: every stored v is 1 - t of the file.
+        for (int c = 0; c < 3; ++c) EXPECT_TRUE((*uv)[size_t(c)].y == 0.f || (*uv)[size_t(c)].y == 1.f);
+        // The white texel is the left one (u < 1/2), whatever v (one row):
+        // rho there is baseColorFactor.
+        const Vec2 at = patchInverse(p, p.centroid());
+        const Vec2 st = uvAt(p, *uv, at.x, at.y);
+        const RGB rho = textureRho(s, p, at.x, at.y);
+        const double white = std::clamp(1.5 - 2 * st.x, 0.0, 1.0);  // bilinear, clamp, centres 1/4, 3/4
+        EXPECT_NEAR(rho.r, 0.8 * white, 1e-6) << st.x;
+        // Each triangle of the quad gets its own mean (one is more white
+        // than black, the other the reverse); both stay below the factor.
+        EXPECT_LT(p.rho.r, 0.8);
+    }
+    EXPECT_EQ(textured, 2u);
+    EXPECT_GT(std::fabs(s.patches[0].rho.r - s.patches[1].rho.r), 0.05);
 }
 
 TEST(GltfLoader, FansLinesAndDefaultMaterial) {

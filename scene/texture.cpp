@@ -1,0 +1,327 @@
+// Diffuse textures (see texture.h).
+#include "scene/texture.h"
+
+#include <fmt/format.h>
+#include <stb/stb_image.h>
+
+#include <ImfArray.h>
+#include <ImfRgbaFile.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include "scene/element.h"
+
+namespace hrad::scene {
+
+namespace {
+
+constexpr uint64_t kBytesPerTexel = 3 * sizeof(float);
+
+/// sRGB transfer function inverse (IEC 61966-2-1).
+double srgbToLinear(double v) {
+    return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4);
+}
+
+int wrapIndex(int i, int n, TextureWrap mode) {
+    switch (mode) {
+        case TextureWrap::Clamp: return std::clamp(i, 0, n - 1);
+        case TextureWrap::Mirror: {
+            int m = ((i % (2 * n)) + 2 * n) % (2 * n);
+            return m < n ? m : 2 * n - 1 - m;
+        }
+        case TextureWrap::Repeat: break;
+    }
+    return ((i % n) + n) % n;
+}
+
+void finish(Texture& t) {
+    Vec3 sum(0.0);
+    const size_t n = size_t(t.width) * size_t(t.height);
+    for (size_t i = 0; i < n; ++i)
+        sum += Vec3(t.texels[3 * i], t.texels[3 * i + 1], t.texels[3 * i + 2]);
+    t.mean = n ? sum / double(n) : RGB(0.0);
+}
+
+std::optional<Texture> decodeExr(const std::string& file, TextureBudget& budget,
+                                 const SourceLocation& where, std::string& why) {
+    std::optional<Imf::RgbaInputFile> in;
+    try {
+        in.emplace(file.c_str());
+    } catch (const std::exception& e) {
+        why = std::string("unreadable OpenEXR (") + e.what() + ")";
+        return std::nullopt;
+    }
+    Imath::Box2i dw = in->dataWindow();
+    const int64_t w = int64_t(dw.max.x) - dw.min.x + 1, h = int64_t(dw.max.y) - dw.min.y + 1;
+    if (w <= 0 || h <= 0 || w > (1 << 20) || h > (1 << 20)) {
+        why = fmt::format("image size {} x {} out of range", w, h);
+        return std::nullopt;
+    }
+    budget.reserve(w, h, where);
+    Texture t;
+    t.file = file;
+    t.width = int(w);
+    t.height = int(h);
+    try {
+        Imf::Array2D<Imf::Rgba> px(h, w);
+        in->setFrameBuffer(&px[0][0] - dw.min.x - dw.min.y * w, 1, size_t(w));
+        in->readPixels(dw.min.y, dw.max.y);
+        t.texels.resize(size_t(w * h) * 3);
+        for (int64_t y = 0; y < h; ++y)
+            for (int64_t x = 0; x < w; ++x) {
+                float* o = &t.texels[size_t(y * w + x) * 3];
+                o[0] = float(px[y][x].r);
+                o[1] = float(px[y][x].g);
+                o[2] = float(px[y][x].b);
+            }
+    } catch (const std::exception& e) {
+        budget.used -= uint64_t(w * h) * kBytesPerTexel;
+        why = std::string("unreadable OpenEXR (") + e.what() + ")";
+        return std::nullopt;
+    }
+    return t;
+}
+
+/// 8-bit, 16-bit or HDR images through stb_image, header first.
+std::optional<Texture> decodeStb(const std::string& file, TextureEncoding enc,
+                                 TextureBudget& budget, const SourceLocation& where,
+                                 std::string& why) {
+    std::FILE* f = std::fopen(file.c_str(), "rb");
+    if (!f) {
+        why = "cannot open";
+        return std::nullopt;
+    }
+    std::unique_ptr<std::FILE, int (*)(std::FILE*)> guard(f, &std::fclose);
+    int w = 0, h = 0, comp = 0;
+    if (!stbi_info_from_file(f, &w, &h, &comp) || w <= 0 || h <= 0) {
+        const char* r = stbi_failure_reason();
+        why = std::string("unreadable image (stb_image: ") + (r ? r : "unknown format") + ")";
+        return std::nullopt;
+    }
+    budget.reserve(w, h, where);
+    const bool hdr = stbi_is_hdr_from_file(f) != 0;
+    const bool wide = !hdr && stbi_is_16_bit_from_file(f) != 0;
+    int dw = 0, dh = 0, dc = 0;
+    Texture t;
+    t.file = file;
+    auto failed = [&] {
+        budget.used -= uint64_t(w) * uint64_t(h) * kBytesPerTexel;
+        const char* r = stbi_failure_reason();
+        why = std::string("unreadable image (stb_image: ") + (r ? r : "decoding failed") + ")";
+        return std::nullopt;
+    };
+    if (hdr) {
+        // stbi_loadf would apply a 2.2 gamma to LDR files; Radiance HDR is
+        // returned as stored: linear.
+        std::unique_ptr<float, void (*)(void*)> px(stbi_loadf_from_file(f, &dw, &dh, &dc, 3),
+                                                   &stbi_image_free);
+        if (!px || dw != w || dh != h) return failed();
+        t.width = w;
+        t.height = h;
+        t.texels.assign(px.get(), px.get() + size_t(w) * size_t(h) * 3);
+    } else if (wide) {
+        std::unique_ptr<uint16_t, void (*)(void*)> px(stbi_load_from_file_16(f, &dw, &dh, &dc, 3),
+                                                      &stbi_image_free);
+        if (!px || dw != w || dh != h) return failed();
+        t = textureFromPixels(file, w, h, 3, 16, reinterpret_cast<const unsigned char*>(px.get()),
+                              enc);
+    } else {
+        std::unique_ptr<stbi_uc, void (*)(void*)> px(stbi_load_from_file(f, &dw, &dh, &dc, 3),
+                                                     &stbi_image_free);
+        if (!px || dw != w || dh != h) return failed();
+        t = textureFromPixels(file, w, h, 3, 8, px.get(), enc);
+    }
+    return t;
+}
+
+}  // namespace
+
+RGB Texture::lookup(double u, double v) const {
+    if (!std::isfinite(u)) u = 0;
+    if (!std::isfinite(v)) v = 0;
+    // Texel centres at (i + 0.5) / width; v up, row 0 at the top.
+    const double x = u * width - 0.5, y = (1.0 - v) * height - 0.5;
+    const double fx = std::floor(x), fy = std::floor(y);
+    const double ax = x - fx, ay = y - fy;
+    // Far outside [0, 1] the index arithmetic must stay in int range.
+    const double lim = 1e9;
+    const int x0 = int(std::clamp(fx, -lim, lim)), y0 = int(std::clamp(fy, -lim, lim));
+    const int xa = wrapIndex(x0, width, wrapU), xb = wrapIndex(x0 + 1, width, wrapU);
+    const int ya = wrapIndex(y0, height, wrapV), yb = wrapIndex(y0 + 1, height, wrapV);
+    auto at = [&](int xi, int yi) {
+        const float* p = &texels[(size_t(yi) * size_t(width) + size_t(xi)) * 3];
+        return RGB(p[0], p[1], p[2]);
+    };
+    return (1 - ay) * ((1 - ax) * at(xa, ya) + ax * at(xb, ya)) +
+           ay * ((1 - ax) * at(xa, yb) + ax * at(xb, yb));
+}
+
+void TextureBudget::reserve(int64_t width, int64_t height, const SourceLocation& where) {
+    const uint64_t need = uint64_t(width) * uint64_t(height) * kBytesPerTexel;
+    if (used + need > maxBytes)
+        throwInputError(where,
+                        "texture of {} x {} texels needs {:.1f} MiB decoded; with the {:.1f} MiB of "
+                        "the scene's other textures that is more than texture.max_mb = {}",
+                        width, height, double(need) / (1 << 20), double(used) / (1 << 20),
+                        maxBytes >> 20);
+    used += need;
+}
+
+Texture textureFromPixels(const std::string& name, int width, int height, int components,
+                          int bits, const unsigned char* data, TextureEncoding enc) {
+    Texture t;
+    t.file = name;
+    t.width = width;
+    t.height = height;
+    const size_t n = size_t(width) * size_t(height);
+    t.texels.resize(3 * n);
+    std::vector<float> lut8(256);
+    for (int k = 0; k < 256; ++k)
+        lut8[size_t(k)] = float(enc == TextureEncoding::Srgb ? srgbToLinear(k / 255.0) : k / 255.0);
+    const auto* wide = reinterpret_cast<const uint16_t*>(data);
+    for (size_t i = 0; i < n; ++i)
+        for (int c = 0; c < 3; ++c) {
+            // Grey (1 or 2 components: grey, alpha) counts as r = g = b.
+            const size_t src = i * size_t(components) + size_t(components >= 3 ? c : 0);
+            float v;
+            if (bits == 16) {
+                const double x = wide[src] / 65535.0;
+                v = float(enc == TextureEncoding::Srgb ? srgbToLinear(x) : x);
+            } else {
+                v = lut8[data[src]];
+            }
+            t.texels[3 * i + size_t(c)] = v;
+        }
+    finish(t);
+    return t;
+}
+
+std::optional<Texture> decodeTextureFile(const std::string& file, TextureEncoding enc,
+                                         TextureBudget& budget, const SourceLocation& where,
+                                         std::string& why) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(file, ec)) {
+        why = "not found";
+        return std::nullopt;
+    }
+    std::string ext = std::filesystem::path(file).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
+    std::optional<Texture> t = ext == ".exr" ? decodeExr(file, budget, where, why)
+                                             : decodeStb(file, enc, budget, where, why);
+    if (!t) return t;
+    finish(*t);
+    if (!std::isfinite(t->mean.r) || !std::isfinite(t->mean.g) || !std::isfinite(t->mean.b) ||
+        t->mean.r < 0 || t->mean.g < 0 || t->mean.b < 0) {
+        budget.used -= t->bytes();
+        why = "non-finite or negative texel values";
+        return std::nullopt;
+    }
+    return t;
+}
+
+int32_t addTexture(Scene& scene, Texture t) {
+    scene.textures.push_back(std::make_shared<const Texture>(std::move(t)));
+    return int32_t(scene.textures.size() - 1);
+}
+
+const std::array<glm::vec2, 4>* patchUVs(const Scene& scene, const Patch& p) {
+    return p.uvs < scene.cornerUVs.size() ? &scene.cornerUVs[p.uvs] : nullptr;
+}
+
+Vec2 uvAt(const Patch& p, const std::array<glm::vec2, 4>& uv, double u, double v) {
+    auto c = [&](int i) { return Vec2(uv[size_t(i)]); };
+    if (p.kind == PatchKind::Quad)
+        return (1 - u) * (1 - v) * c(0) + u * (1 - v) * c(1) + u * v * c(2) + (1 - u) * v * c(3);
+    return c(0) + u * (c(1) - c(0)) + v * (c(2) - c(0));
+}
+
+const TextureBinding* patchTexture(const Scene& scene, const Patch& p) {
+    if (p.uvs >= scene.cornerUVs.size() || p.material >= scene.materials.size()) return nullptr;
+    const TextureBinding& b = scene.materials[p.material].diffuseMap;
+    if (b.texture < 0 || size_t(b.texture) >= scene.textures.size() || !scene.textures[size_t(b.texture)])
+        return nullptr;
+    return &b;
+}
+
+RGB textureRho(const Scene& scene, const Patch& p, double u, double v) {
+    const TextureBinding& b = *patchTexture(scene, p);
+    const Vec2 st = uvAt(p, scene.cornerUVs[p.uvs], u, v);
+    return b.scale * scene.textures[size_t(b.texture)]->lookup(st.x, st.y);
+}
+
+RGB patchTextureMean(const Scene& scene, const Patch& p) {
+    const TextureBinding& b = *patchTexture(scene, p);
+    const Texture& t = *scene.textures[size_t(b.texture)];
+    const auto& uv = scene.cornerUVs[p.uvs];
+    // The UV footprint in texels (shoelace area of the corner UVs) sets the
+    // grid: about two samples per texel along each axis, 4 .. 64 per axis.
+    double a2 = 0;
+    const int n = p.numVertices();
+    for (int i = 0; i < n; ++i) {
+        const glm::vec2 &q0 = uv[size_t(i)], &q1 = uv[size_t((i + 1) % n)];
+        a2 += double(q0.x) * q1.y - double(q1.x) * q0.y;
+    }
+    const double texels = 0.5 * std::fabs(a2) * t.width * t.height;
+    const int k = int(std::clamp(std::ceil(2.0 * std::sqrt(texels)), 4.0, 64.0));
+    // A quad: midpoints of a k x k grid on its square, weighted by the
+    // Jacobian of its bilinear map (area measure). A triangle: the centroids
+    // of its k^2 congruent sub-triangles (k - i - j upright, inverted ones
+    // between), equal weights; exact for rho linear in (u, v).
+    const Domain root{};
+    RGB sum(0.0);
+    double wsum = 0;
+    if (p.kind == PatchKind::Quad) {
+        for (int j = 0; j < k; ++j)
+            for (int i = 0; i < k; ++i) {
+                const double a = (i + 0.5) / k, c = (j + 0.5) / k;
+                const double w = elementJacobian(p, root, a, c);
+                sum += w * textureRho(scene, p, a, c);
+                wsum += w;
+            }
+    } else {
+        for (int j = 0; j < k; ++j)
+            for (int i = 0; i + j < k; ++i) {
+                sum += textureRho(scene, p, (i + 1.0 / 3) / k, (j + 1.0 / 3) / k);
+                wsum += 1;
+                if (i + j + 1 < k) {
+                    sum += textureRho(scene, p, (i + 2.0 / 3) / k, (j + 2.0 / 3) / k);
+                    wsum += 1;
+                }
+            }
+    }
+    return wsum > 0 ? sum / wsum : b.scale * t.mean;
+}
+
+size_t applyTextureMeans(Scene& scene) {
+    size_t textured = 0, clamped = 0;
+    for (Patch& p : scene.patches) {
+        const TextureBinding* b = patchTexture(scene, p);
+        if (!b) continue;
+        RGB m = patchTextureMean(scene, p);
+        bool over = false;
+        for (int c = 0; c < 3; ++c)
+            if (m[c] >= 1.0) {
+                if (!(b->clampRho > 0))
+                    throwInputError(SourceLocation{scene.textures[size_t(b->texture)]->file, 0, 0},
+                                    "material '{}': the texture's mean on a patch is {:.4g} >= 1 "
+                                    "(set {}, e.g. 0.99, to clamp)",
+                                    scene.materials[p.material].name, m[c], b->clampKey);
+                m[c] = b->clampRho;
+                over = true;
+            }
+        clamped += over ? 1 : 0;
+        p.rho = m;
+        ++textured;
+    }
+    if (clamped)
+        scene.stats.warnings.push_back(fmt::format(
+            "{}: {} textured patches have a mean reflectance >= 1 in a channel, clamped (clamp_rho)",
+            scene.name, clamped));
+    return textured;
+}
+
+}  // namespace hrad::scene
