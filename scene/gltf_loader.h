@@ -76,7 +76,7 @@ namespace hrad::scene {
 
 struct GltfOptions {
     double defaultRho = 0.5;
-    double clampRho = 0.99;
+    double clampRho = 0.99;  ///< scene.clamp_rho (scene.h clampReflectance)
     double emissionScale = 1.0;
     size_t maxFaces = 20000000;
 };
