@@ -22,6 +22,9 @@ struct SolveOptions {
     bool errorMap = false;  ///< --error-map (needs --reference-level)
     bool writeRegions = false;  ///< --regions: regions.csv (needs --reference-level)
     bool writeSolution = true;  ///< solution.hrsol (--no-solution turns it off)
+    /// --reference: "" (none, or --reference-level), "full-matrix" or "montecarlo"
+    std::string reference;
+    std::string cacheDir;  ///< --cache: reference cache folder ("" : $HRAD_CACHE or ~/.cache/hrad)
 };
 
 struct RenderCliOptions {

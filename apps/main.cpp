@@ -1,16 +1,20 @@
 // The `hrad` command line. This is the only translation unit that includes
 // CLI11 (slow to compile); it turns flags into Params (each remembering the
 // flag it came from) and dispatches to apps/cmd_*.cpp.
+#include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <memory>
 
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 
 #include "apps/commands.h"
 #include "core/error.h"
 #include "core/log.h"
+#include "core/suggest.h"
 #include "core/version.h"
 
 using namespace hrad;
@@ -26,6 +30,141 @@ void addSets(Params& params, const std::vector<std::string>& sets) {
         params.setFromText(kv.substr(0, eq), kv.substr(eq + 1),
                            {"command line (--set " + kv.substr(0, eq) + ")", 0, 0});
     }
+}
+
+// ---- "did you mean": a better message than CLI11's for a malformed line --------
+// CLI11 says "A subcommand is required" for `hrad solv cornell`, "The
+// following arguments were not expected: 1e-3 --epz" for `--epz 1e-3`, and
+// lists the arguments in reverse for `--width 64` before `solve`. On a parse
+// error the arguments are walked again against the parser's own tables (its
+// subcommands and options, never a typed list) to name what is wrong and the
+// nearest known names (core/suggest.h).
+
+bool looksLikeOption(const std::string& t) {
+    if (t.size() < 2 || t[0] != '-') return false;
+    return !(std::isdigit(static_cast<unsigned char>(t[1])) || t[1] == '.');  // -1, -.5
+}
+
+/// "hrad solve", "hrad results export" (the root's own name is argv[0]'s path).
+std::string commandPath(const CLI::App* a) {
+    std::string path;
+    for (; a && a->get_parent(); a = a->get_parent())
+        path = a->get_name() + (path.empty() ? "" : " " + path);
+    return path.empty() ? "hrad" : "hrad " + path;
+}
+
+/// The option named `name` (--x or -x) of `a` or of the commands above it
+/// (whose options fall through), or null.
+const CLI::Option* findOption(const CLI::App* a, const std::string& name) {
+    for (; a; a = a->get_parent())
+        for (const CLI::Option* o : a->get_options({})) {
+            if (!o->nonpositional()) continue;
+            for (const auto& l : o->get_lnames())
+                if ("--" + l == name) return o;
+            for (const auto& sn : o->get_snames())
+                if ("-" + sn == name) return o;
+        }
+    return nullptr;
+}
+
+std::vector<std::string> optionNames(const CLI::App* a) {
+    std::vector<std::string> names;
+    for (; a; a = a->get_parent())
+        for (const CLI::Option* o : a->get_options({}))
+            for (const auto& l : o->get_lnames()) names.push_back("--" + l);
+    return names;
+}
+
+std::vector<std::string> subcommandNames(const CLI::App* a) {
+    std::vector<std::string> names;
+    for (const CLI::App* s : a->get_subcommands({})) names.push_back(s->get_name());
+    return names;
+}
+
+/// The subcommands below `a` (at any depth) that have option `name`.
+void optionOwners(const CLI::App* a, const std::string& name, std::vector<std::string>& owners) {
+    for (const CLI::App* s : a->get_subcommands({})) {
+        for (const CLI::Option* o : s->get_options({}))
+            for (const auto& l : o->get_lnames())
+                if ("--" + l == name) owners.push_back(commandPath(s));
+        optionOwners(s, name, owners);
+    }
+}
+
+/// "'a', 'b' and 'c'" (quote "`": `a` and `b`).
+std::string joinNames(const std::vector<std::string>& names, const char* quote = "'") {
+    std::string s;
+    for (size_t i = 0; i < names.size(); ++i)
+        s += (i == 0 ? "" : i + 1 == names.size() ? " and " : ", ") + std::string(quote) +
+             names[i] + quote;
+    return s;
+}
+
+/// An option that is not `cur`'s: one of a subcommand's written before it,
+/// or a misspelling.
+std::string unknownOption(const CLI::App* cur, const std::string& name) {
+    std::vector<std::string> owners;
+    if (cur->get_subcommands({}).size() > 0) optionOwners(cur, name, owners);
+    if (!owners.empty())
+        return fmt::format("'{}' is an option of {}: write it after the subcommand, e.g. `{} "
+                           "SCENE {} ...`",
+                           name, joinNames(owners, "`"), owners.front(), name);
+    const std::string hint = didYouMean(nearestNames(name, optionNames(cur)));
+    return fmt::format("unknown option '{}' for `{}`{}{} (see `{} --help`)", name,
+                       commandPath(cur), hint.empty() ? "" : "; ", hint, commandPath(cur));
+}
+
+/// A value-taking option at args[i] without its value.
+std::string missingValue(const CLI::App* cur, const CLI::Option* o, const std::string& name,
+                         const std::vector<std::string>& args, size_t i) {
+    if (o->get_type_size_max() <= 0 || o->get_items_expected_min() == 0) return "";
+    if (i + 1 < args.size()) {
+        const std::string& next = args[i + 1];
+        const auto subs = subcommandNames(cur);
+        const bool isCommand = std::find(subs.begin(), subs.end(), next) != subs.end();
+        if (!looksLikeOption(next) && !isCommand) return "";
+        return fmt::format("option '{}' needs a value ({}) before '{}'", name,
+                           o->get_description(), next);
+    }
+    return fmt::format("option '{}' needs a value ({})", name, o->get_description());
+}
+
+/// What is wrong with the command line, or "" to let CLI11 say it.
+std::string diagnose(CLI::App& app, const std::vector<std::string>& args) {
+    const CLI::App* cur = &app;
+    bool positionalSeen = false;  // of the current command
+    for (size_t i = 0; i < args.size(); ++i) {
+        const std::string& t = args[i];
+        if (t == "--") break;
+        if (looksLikeOption(t)) {
+            const std::string name = t.substr(0, t.find('='));
+            const CLI::Option* o = findOption(cur, name);
+            if (!o) return unknownOption(cur, name);
+            if (t.find('=') != std::string::npos) continue;
+            std::string missing = missingValue(cur, o, name, args, i);
+            if (!missing.empty()) return missing;
+            if (o->get_type_size_max() > 0 && o->get_items_expected_min() > 0) ++i;  // its value
+            continue;
+        }
+        const auto subs = cur->get_subcommands({});
+        auto sub = std::find_if(subs.begin(), subs.end(),
+                                [&](const CLI::App* s) { return s->get_name() == t; });
+        if (sub != subs.end()) {
+            cur = *sub;
+            positionalSeen = false;
+            continue;
+        }
+        if (!subs.empty() && !positionalSeen && cur->get_options([](const CLI::Option* o) {
+                                                      return !o->nonpositional();
+                                                  }).empty()) {
+            const std::string hint = didYouMean(nearestNames(t, subcommandNames(cur)));
+            return fmt::format("unknown command '{}'{}{} (the commands of `{}` are {})", t,
+                               hint.empty() ? "" : "; ", hint, commandPath(cur),
+                               joinNames(subcommandNames(cur), ""));
+        }
+        positionalSeen = true;
+    }
+    return "";
 }
 
 }  // namespace
@@ -84,11 +223,19 @@ int main(int argc, char** argv) {
     solve->add_option("-o,--output", so.outDir, "output folder")->capture_default_str();
     auto* refLevelOpt = solve->add_option("--reference-level", refLevel,
                       "also solve a full-matrix reference at this uniform level and report the error");
+    solve->add_option("--reference", so.reference,
+                      "also compute a reference and report the error (summary.json \"error\", as "
+                      "a study row): montecarlo (mc.* settings, cached as a sweep's) or "
+                      "full-matrix (fm.*)")
+        ->check(CLI::IsMember({"full-matrix", "montecarlo"}));
+    solve->add_option("--cache", so.cacheDir,
+                      "with --reference montecarlo: reference cache folder (default $HRAD_CACHE or "
+                      "~/.cache/hrad)");
     solve->add_flag("--regions", so.writeRegions,
-                    "with --reference-level: write regions.csv, the solution's average and the "
+                    "with a reference: write regions.csv, the solution's average and the "
                     "reference on every reference element (reference/metrics.h)");
     solve->add_flag("--error-map", errorMap,
-                    "with --reference-level: render the reference too and write reference.png, "
+                    "with a reference: render the reference too and write reference.png, "
                     "error.png (16-bit signed relative error) and error_fc.png (false colour)");
     auto* widthOpt = solve->add_option("--width", width, "image width");
     auto* heightOpt = solve->add_option("--height", height, "image height");
@@ -207,7 +354,11 @@ int main(int argc, char** argv) {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
         // --help/--version exit 0; every malformed command line is an input error: exit 2 (issue 16).
-        return app.exit(e) == 0 ? 0 : 2;
+        if (e.get_exit_code() == 0) return app.exit(e);
+        const std::string better = diagnose(app, std::vector<std::string>(argv + 1, argv + argc));
+        if (better.empty()) return app.exit(e) == 0 ? 0 : 2;
+        std::fprintf(stderr, "hrad: error: %s\n", better.c_str());
+        return 2;
     }
 
     initLogging(logLevel);

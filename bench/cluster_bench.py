@@ -130,7 +130,7 @@ def main():
                 big.append((rel, os.path.join(rp, rel), []))
         le = os.path.join(args.scenes_dir, "lost-empire", "lost_empire.obj")
         if os.path.exists(le):
-            big.append(("lost-empire", le, ["obj.clamp_rho=0.99"]))
+            big.append(("lost-empire", le, ["scene.clamp_rho=0.99"]))
         if big:
             lines += ["\n## Large scenes (oriented, bvh)\n", HEADER]
             for label, path, extra in big:

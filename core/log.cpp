@@ -8,6 +8,10 @@
 
 namespace hrad {
 
+namespace {
+constexpr double kQuietSeconds = 2.0;  ///< as PhaseProgress::kQuietSeconds
+}  // namespace
+
 void initLogging(const std::string& level) {
     // Callable again (the Python module's hrad.log_level): the logger is made once.
     auto logger = spdlog::get("hrad");
@@ -31,6 +35,8 @@ void ProgressBar::add(uint64_t n) {
     uint64_t c = current_.fetch_add(n) + n;
     if (!enabled_) return;
     double t = timer_.seconds();
+    // Phases under ~2 s print nothing (the summary reports them).
+    if (t < kQuietSeconds) return;
     // Redraw at most 10x per second on a terminal; every 10 s otherwise.
     double interval = tty_ ? 0.1 : 10.0;
     if (t - lastDraw_ < interval) return;
@@ -43,8 +49,8 @@ void ProgressBar::add(uint64_t n) {
 void ProgressBar::done() {
     if (finished_) return;
     finished_ = true;
-    // Short phases (under a second) print nothing: the summary reports them.
-    if (enabled_ && timer_.seconds() > 1.0) draw(total_, true);
+    // Short phases print nothing: the summary reports them.
+    if (enabled_ && timer_.seconds() > kQuietSeconds) draw(total_, true);
 }
 
 namespace {

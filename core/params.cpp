@@ -1,5 +1,7 @@
 #include "core/params.h"
 
+#include "core/suggest.h"
+
 #include "core/parse.h"
 
 #include <algorithm>
@@ -249,9 +251,16 @@ std::vector<std::string> Params::unusedKeys() const {
 }
 
 void Params::reportUnused() const {
-    for (const auto& [k, e] : entries_)
-        if (!e.used)
-            throwInputError(e.where, "unknown setting '{}' (no component reads it)", prefix_ + k);
+    for (const auto& [k, e] : entries_) {
+        if (e.used) continue;
+        // The near keys among those read (their readers declared them):
+        // "hr.epz" -> "did you mean 'oracle.eps'?" (core/suggest.h).
+        std::vector<std::string> known;
+        for (const auto& r : records()) known.push_back(r.first);
+        const std::string hint = didYouMean(nearestKeys(prefix_ + k, known));
+        throwInputError(e.where, "unknown setting '{}' (no component reads it{})", prefix_ + k,
+                        hint.empty() ? "" : "; " + hint);
+    }
 }
 
 std::string Params::valueToString(const Value& v) {

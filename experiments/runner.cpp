@@ -9,7 +9,9 @@
 #include <ctime>
 #include <optional>
 
+#include "core/cpu_time.h"
 #include "core/memory.h"
+#include "core/phase_progress.h"
 #include "core/safe_file.h"
 #include "core/timer.h"
 #include "core/version.h"
@@ -234,6 +236,17 @@ void requireSolvable(const scene::Scene& sc, const Params& settings) {
     }
 }
 
+/// The loader's warnings on the log, one line per distinct warning with its
+/// count (core/warning_log.h); a long list is cut, `hrad info` shows it whole.
+void logLoadWarnings(const scene::Scene& sc) {
+    constexpr size_t kShown = 20;
+    const WarningLog& w = sc.stats.warnings;
+    for (size_t i = 0; i < w.size() && i < kShown; ++i) spdlog::warn("{}", w[i]);
+    if (w.size() > kShown)
+        spdlog::warn("... {} more kinds of loader warning ({} in all); `hrad info {}` lists them",
+                     w.size() - kShown, w.total(), sc.name);
+}
+
 std::string referenceDescription(const Resolved& r) {
     if (r.refFm) return "full-matrix " + r.refFm->describe();
     if (r.refMc) return "montecarlo " + r.refMc->describe();
@@ -446,8 +459,11 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     // ---- settings: read and validate everything before any work ----------------
     Resolved r = resolve(p);
     Timer tLoad;
+    PhaseProgress loading("loading " + p.sceneLabel, ctx.progress);  // core/phase_progress.h
     auto scene = std::make_shared<scene::Scene>(transport::loadScene(p.scene, p.settings));
+    loading.done();
     const scene::Scene& sc = *scene;
+    logLoadWarnings(sc);
     requireSolvable(sc, p.settings);
     double loadSeconds = tLoad.seconds();
     // The scene's film (Mitsuba sensor) sets the image size the user left
@@ -464,7 +480,8 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
                                  {"emitters", sc.numEmitters()},
                                  {"total_area", sc.totalArea()},
                                  {"emitted_power", rgbJson(sc.emittedPower())},
-                                 {"dropped_degenerate", sc.stats.droppedDegenerate}};
+                                 {"dropped_degenerate", sc.stats.droppedDegenerate},
+                                 {"warnings", sc.stats.warnings.total()}};
     if (sc.stats.discontinuity.sources > 0) {
         // What discontinuity meshing cut (transport/discontinuity.h).
         const scene::DiscontinuityStats& d = sc.stats.discontinuity;
@@ -485,7 +502,9 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         throw Error("outputs requested but no artefact folder given");
 
     Timer tVis;
+    PhaseProgress building("ray-tracing structure", ctx.progress);
     auto visibility = std::make_shared<transport::Visibility>(sc);
+    building.done();
     const transport::Visibility& vis = *visibility;
     double visSeconds = tVis.seconds();
 
@@ -768,6 +787,9 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     summary["artefacts"] = artefacts;
     summary["memory"] = memoryJson();
     summary["wall_seconds"] = total.seconds();
+    // CPU time of the whole process (all threads, core/cpu_time.h), not wall
+    // time summed over threads.
+    summary["cpu_seconds"] = processCpuSeconds();
     return summary;
 }
 

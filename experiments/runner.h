@@ -52,7 +52,7 @@
 //         reference_cached, reference_stats, reflected_by_material[{material, area,
 //         reflected, reference_reflected}] (ten at most, largest difference first),
 //         [mc_stderr_l2_lum, mc_stderr_l2_rgb, mc_stderr_l2_nonemitter_lum]},
-//   artefacts{...}, wall_seconds
+//   artefacts{...}, wall_seconds, cpu_seconds (the process's CPU time, all threads)
 //
 // Error per iteration (outputs.history_error): the reference is computed
 // before the solve and an HrSolver iteration hook records the L2 luminance

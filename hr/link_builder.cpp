@@ -1,5 +1,7 @@
 #include "hr/link_builder.h"
 
+#include "core/cpu_time.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -169,14 +171,12 @@ Link LinkBuilder::make(const Hierarchy& h, uint32_t r, uint32_t s, uint32_t& ray
     LinkKindCost& c = cost_.local();
     // Timed once per stride (LinkKindCost).
     const bool timed = c.evaluations[kind]++ % LinkKindCost::kTimingStride == 0;
-    const auto t0 =
-        timed ? std::chrono::steady_clock::now() : std::chrono::steady_clock::time_point();
+    // The thread's CPU clock (core/cpu_time.h): the wall clock counted the
+    // time the thread waited for a core (issue 63).
+    const double t0 = timed ? threadCpuSeconds() : 0.0;
     Link l = evaluate(h, r, s, rays);
     c.rays[kind] += rays;
-    if (timed)
-        c.seconds[kind] +=
-            double(LinkKindCost::kTimingStride) *
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (timed) c.seconds[kind] += double(LinkKindCost::kTimingStride) * (threadCpuSeconds() - t0);
     return l;
 }
 

@@ -34,7 +34,8 @@ namespace hrad::hr {
 
 /// Link evaluations, rays and CPU seconds (summed over threads) by kind, in
 /// the order surface-surface, surface <- cluster, cluster <- surface,
-/// cluster-cluster. The seconds are estimated from every kTimingStride-th
+/// cluster-cluster. The seconds are the evaluating threads' CPU time
+/// (core/cpu_time.h, not wall time), estimated from every kTimingStride-th
 /// evaluation of each kind (per thread) times the stride: reading the clock
 /// twice per evaluation cost 1.4 % of the bathroom's CPU.
 struct LinkKindCost {

@@ -22,6 +22,7 @@
 #include "hr/checks/registry.h"
 #include "oracles/registry.h"
 #include "transport/reachability.h"
+#include "core/phase_progress.h"
 
 namespace hrad::hr {
 
@@ -342,7 +343,9 @@ void HrSolver::buildHierarchy(HrResult& res) {
     res.clusterModel = cluster::clusterModelName(clusterModel_);
     findReachable(res);
     if (cluster::transferModel(clusterModel_).hasClusters()) {
+        PhaseProgress phase("cluster tree", progress_);  // core/phase_progress.h
         res.clusterTree = std::make_unique<cluster::ClusterTree>(*scene_, s_.cluster, included_);
+        phase.done();
         res.clusterBuildSeconds = res.clusterTree->buildSeconds();
         spdlog::info(
             "cluster tree ({}{}): {} clusters ({} face clusters, {} planar), depth {}, {:.3f} s",
@@ -361,8 +364,10 @@ void HrSolver::buildHierarchy(HrResult& res) {
     links_.setLinker(linker_.get());
     if (res.clusterTree && h.transferModel().handsOverByOpenness() &&
         s_.clusterLink.visibleHandover) {
+        PhaseProgress phase("hand-over openness", progress_);
         res.openness =
             std::make_unique<cluster::SurfaceOpenness>(*scene_, *res.clusterTree, *vis_, s_.seed);
+        phase.done();
         res.opennessRays = res.openness->rays();
         res.opennessSeconds = res.openness->seconds();
         h.setOpenness(res.openness.get());
@@ -375,8 +380,10 @@ void HrSolver::buildHierarchy(HrResult& res) {
 void HrSolver::findReachable(HrResult& res) {
     included_.clear();
     if (s_.reachRays <= 0) return;
+    PhaseProgress phase("reachability", progress_);
     transport::Reachability reach = transport::reachablePatches(
         *scene_, *vis_, s_.reachRays, reseed(1, s_.seed), s_.reachRetryRays);
+    phase.done();
     res.unreachablePatches = reach.unreachable;
     res.reachRays = reach.rays;
     res.reachSeconds = reach.seconds;

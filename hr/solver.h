@@ -168,7 +168,7 @@ struct HrResult {
     uint64_t unopenedLinks = 0, deferredLinksLeft = 0;
     /// Links that had to be opened when refinement stopped early and got a
     /// stand-in transfer instead (cluster.stand_in, Link::kStandIn), the
-    /// rays and CPU seconds (summed over threads) those cost, and the power
+    /// rays and wall seconds (of the phase that made them) those cost, and the power
     /// the stand-ins carry in the final solution (max channel) over the
     /// reflected power.
     uint64_t standInLinks = 0, standInRays = 0;

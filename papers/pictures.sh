@@ -35,8 +35,8 @@ cornell_obj|cornell-box/CornellBox-Original.obj|
 cbox_mitsuba|cornell-box-mitsuba/cbox.xml|--cluster oriented
 corridor|renderpark-mgf/corridor.mgf|--cluster oriented
 classroom|renderpark-mgf/salon/classroom.mgf|--cluster oriented
-lost_empire|lost-empire/lost_empire.obj|--cluster oriented --set obj.clamp_rho=0.99 --set obj.texture_kd=replace
-holodeck|holodeck/holodeck.obj|--cluster oriented --set obj.clamp_rho=0.99
+lost_empire|lost-empire/lost_empire.obj|--cluster oriented --set scene.clamp_rho=0.99 --set obj.texture_kd=replace
+holodeck|holodeck/holodeck.obj|--cluster oriented --set scene.clamp_rho=0.99
 bathroom|bathroom/scene.present.xml|--cluster oriented --set hr.max_links=15000000
 modern_hall|modern-hall/staircase2/scene.xml|--cluster oriented"
 

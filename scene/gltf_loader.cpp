@@ -694,7 +694,7 @@ uint32_t Loader::material(int index, const std::string& where) {
         m.diffuseMap.texture = baseColorTexture(bct.index, model_.textures[size_t(bct.index)].source);
         m.diffuseMap.scale = base;
         m.diffuseMap.clampRho = opt_.clampRho;
-        m.diffuseMap.clampKey = "gltf.clamp_rho";
+        m.diffuseMap.clampKey = "scene.clamp_rho";
     }
     bool emits = emissive.r > 0 || emissive.g > 0 || emissive.b > 0;
     RGB emissiveTex = emits && strength > 0 ? textureMean(gm.emissiveTexture.index, index, m.name, "emissiveTexture") : RGB(1.0);
@@ -702,22 +702,16 @@ uint32_t Loader::material(int index, const std::string& where) {
     m.emission = std::numbers::pi * emissive * strength * emissiveTex * opt_.emissionScale;
     for (int c = 0; c < 3; ++c)
         if (!std::isfinite(m.emission[c])) mfail("", "emission overflows");
-    if (opt_.clampRho > 0) {
-        bool clamped = false;
-        for (int c = 0; c < 3; ++c)
-            if (m.rho[c] >= 1.0) {
-                m.rho[c] = opt_.clampRho;
-                clamped = true;
-            }
-        if (clamped)
-            warn(fmt::format("material '{}': reflectance >= 1 clamped to {} (gltf.clamp_rho)", m.name, opt_.clampRho));
-    } else {
-        for (int c = 0; c < 3; ++c)
-            if (m.rho[c] >= 1.0)
-                mfail(".pbrMetallicRoughness",
-                      fmt::format("reflectance ({:.6g}, {:.6g}, {:.6g}) must be < 1 per channel (set "
-                                  "gltf.clamp_rho, e.g. 0.99, to clamp)",
-                                  m.rho.r, m.rho.g, m.rho.b));
+    const RGB given = m.rho;
+    switch (clampReflectance(m.rho, opt_.clampRho)) {  // scene.h: one rule for every format
+        case RhoCheck::Clamped:
+            warn(fmt::format("material '{}': {}", m.name, clampedNote(opt_.clampRho)));
+            break;
+        case RhoCheck::TooLarge:
+            mfail(".pbrMetallicRoughness",
+                  fmt::format("reflectance ({:.6g}, {:.6g}, {:.6g}) must be < 1 per channel ({})",
+                              given.r, given.g, given.b, kClampRhoHint));
+        case RhoCheck::Fine: break;
     }
     m.twoSided = gm.doubleSided;
     m.emitsBothSides = gm.doubleSided;
@@ -879,6 +873,8 @@ Scene Loader::load() {
         if (e == "KHR_lights_punctual")
             warn("KHR_lights_punctual lights (point, spot, directional) are not supported and are ignored; only "
                  "emissive materials emit");
+    for (size_t i = 0; i < model_.lights.size(); ++i)
+        scene_.stats.dropEmitter(model_.lights[i].type, fmt::format("{} light {}", path_, i));
 
     const size_t numNodes = model_.nodes.size();
     std::vector<int> parent(numNodes, -1);

@@ -36,8 +36,8 @@
 //     are ignored: the diffuse albedo is baseColor, as a path tracer that
 //     treats the surface as Lambertian would see it.
 //     Reflectance channels >= 1 (glTF's default baseColorFactor is 1, so
-//     white is common) become gltf.clamp_rho with one warning per material;
-//     with gltf.clamp_rho = 0 they are an error, as for obj.clamp_rho.
+//     white is common) become scene.clamp_rho with one warning per material;
+//     with scene.clamp_rho = 0 they are an error, as in every format.
 //     `doubleSided` -> Material::twoSided and emitsBothSides (glTF materials
 //     are the same on both faces). A primitive without material gets a grey
 //     "default" (gltf.default_rho), with one warning.
@@ -63,8 +63,7 @@
 //
 // Settings (Params keys, read in scene/loader.cpp):
 //   gltf.default_rho    double 0.5   grey reflectance of primitives without material
-//   gltf.clamp_rho      double 0.99  reflectance channels >= 1 become this (< 1),
-//                                    with a warning; 0 = an error instead
+//   (reflectance >= 1: scene.clamp_rho, scene/loader.h, as for every format)
 //   gltf.emission_scale double 1.0   multiplies every emission (unit conversion)
 //   gltf.max_faces      int    2e7   most triangles the scene may yield after
 //                                    instancing (meshes used by many nodes)
@@ -79,7 +78,7 @@ namespace hrad::scene {
 
 struct GltfOptions {
     double defaultRho = 0.5;
-    double clampRho = 0.99;
+    double clampRho = 0.99;  ///< scene.clamp_rho (scene.h clampReflectance)
     double emissionScale = 1.0;
     size_t maxFaces = 20000000;
     uint64_t textureBudget = uint64_t(2048) << 20;  ///< texture.max_mb, decoded bytes

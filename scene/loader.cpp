@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "core/log.h"
+#include "core/suggest.h"
 #include "core/timer.h"
 #include "scene/builtin.h"
 #include "scene/gltf_loader.h"
@@ -29,6 +30,23 @@ bool isBuiltinName(const std::string& spec) {
 
 namespace {
 
+/// scene.clamp_rho, the reflectance rule of every format (scene.h
+/// clampReflectance). The per-format keys it replaced are refused with its name.
+double clampRho(const Params& params) {
+    for (const char* old : {"obj.clamp_rho", "gltf.clamp_rho", "mitsuba.clamp_rho"})
+        if (params.has(old)) {
+            params.markUsed(old);
+            throwInputError(params.where(old),
+                            "setting '{}' is now 'scene.clamp_rho' (one rule for every format)",
+                            old);
+        }
+    return params.getDouble(
+        {"scene.clamp_rho",
+         "every format: reflectance channels >= 1 (Kd 1, a white base colour) become this, "
+         "with a warning per material (0: an error)"},
+        0.99, 0.0, 0.999999);
+}
+
 // Each format's settings, read from Params (with range checks).
 MgfOptions mgfOptions(const Params& params) {
     MgfOptions mgf;
@@ -44,6 +62,7 @@ MgfOptions mgfOptions(const Params& params) {
     mgf.defaultSides = int(params.getInt(
         {"mgf.default_sides", "MGF: sides of a material without a sides statement (1 or 2)"},
         mgf.defaultSides, 1, 2));
+    mgf.clampRho = clampRho(params);
     return mgf;
 }
 
@@ -64,10 +83,7 @@ ObjOptions objOptions(const Params& params) {
                          obj.defaultRho, 0.0, 1.0);
     if (!(obj.defaultRho < 1.0))
         throwInputError(params.where("obj.default_rho"), "setting 'obj.default_rho' must be < 1");
-    obj.clampRho = params.getDouble(
-        {"obj.clamp_rho",
-         "OBJ: reflectance >= 1 becomes this (0: an error); 0.99 loads scenes with Kd = 1"},
-        obj.clampRho, 0.0, 0.999999);
+    obj.clampRho = clampRho(params);
     obj.twoSided = params.getBool({"obj.two_sided", "OBJ: every face two-sided"}, obj.twoSided);
     obj.textureReplacesKd =
         params.getEnum({"obj.texture_kd",
@@ -85,6 +101,7 @@ PlyOptions plyOptions(const Params& params) {
         {"ply.default_rho", "PLY: reflectance of faces without colour"}, ply.defaultRho, 0.0, 1.0);
     if (!(ply.defaultRho < 1.0))
         throwInputError(params.where("ply.default_rho"), "setting 'ply.default_rho' must be < 1");
+    ply.clampRho = clampRho(params);
     return ply;
 }
 
@@ -96,9 +113,7 @@ GltfOptions gltfOptions(const Params& params) {
                          gltf.defaultRho, 0.0, 1.0);
     if (!(gltf.defaultRho < 1.0))
         throwInputError(params.where("gltf.default_rho"), "setting 'gltf.default_rho' must be < 1");
-    gltf.clampRho =
-        params.getDouble({"gltf.clamp_rho", "glTF: reflectance >= 1 becomes this (0: an error)"},
-                         gltf.clampRho, 0.0, 0.999999);
+    gltf.clampRho = clampRho(params);
     gltf.emissionScale = params.getDouble(
         {"gltf.emission_scale", "glTF: factor on emissive colours (radiosity units)"},
         gltf.emissionScale, 0.0, 1e30);
@@ -113,9 +128,7 @@ MitsubaOptions mitsubaOptions(const Params& params) {
     m.textureBudget = textureBudget(params);
     m.resolution = int(params.getInt(
         {"mitsuba.resolution", "Mitsuba: segments around analytic shapes"}, m.resolution, 3, 4096));
-    m.clampRho = params.getDouble(
-        {"mitsuba.clamp_rho", "Mitsuba: reflectance >= 1 becomes this (0: an error)"}, m.clampRho,
-        0.0, 0.999999);
+    m.clampRho = clampRho(params);
     m.defaultRho =
         params.getDouble({"mitsuba.default_rho", "Mitsuba: reflectance of shapes without a BSDF"},
                          m.defaultRho, 0.0, 0.999999);
@@ -353,6 +366,11 @@ Scene loadScene(const std::string& spec, const Params& params, const Reachabilit
     const int splitRays = int(params.getInt(
         {"split_reach_rays", "rays per piece to find unreachable pieces after split_intersections"},
         256, 1, 1 << 20));
+    const bool skipMissing =
+        params.getEnum({"scene.missing",
+                        "files the scene names that are not there (meshes, includes, spectra, "
+                        "textures): error (list them all) or skip (warn and load the rest)"},
+                       "error", {"error", "skip"}) == "skip";
     const double uniformRho = params.getDouble(
         {"uniform_rho", "override every material's reflectance with this grey (-1: the scene's)"},
         -1.0, -1.0, 0.999999);
@@ -373,11 +391,16 @@ Scene loadScene(const std::string& spec, const Params& params, const Reachabilit
                 if (e == ext) format = &f;
                 known += (known.empty() ? "" : ", ") + e;
             }
-        if (!format)
+        if (!format) {
+            // "cornel" or "ofice:2": the nearest built-in names (core/suggest.h).
+            const std::string hint =
+                didYouMean(nearestNames(spec.substr(0, spec.find(':')), builtinNames()));
             throwInputError(SourceLocation{spec, 0, 0},
-                            "unknown scene file extension '{}' (expected one of {}, or a "
-                            "built-in name: cornell, furnace, plates:..., office:N)",
-                            ext, known);
+                            "{} (expected a file ending in one of {}, or a built-in name: {})",
+                            hint.empty() ? fmt::format("unknown scene file extension '{}'", ext)
+                                         : fmt::format("unknown scene '{}'; {}", spec, hint),
+                            known, fmt::format("{}", fmt::join(builtinNames(), ", ")));
+        }
         // error_code forms: a name the system refuses (too long, ...) is an
         // input error, not a std::filesystem exception.
         std::error_code ec;
@@ -389,6 +412,7 @@ Scene loadScene(const std::string& spec, const Params& params, const Reachabilit
                             "scene path is not a regular file (a folder or device)");
         scene = format->load(spec, params);
         scene.name = spec;
+        scene.stats.missingFiles.apply(skipMissing, scene.stats.warnings);  // scene/missing_files.h
     }
     // Two-sided materials become front/back patch pairs (scene.h, Patch::twin).
     auto makeSides = [&](Scene& s) {

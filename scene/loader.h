@@ -15,8 +15,9 @@
 //   mgf.max_faces    int    2e7    most faces, and most statements executed after
 //                                  xf/include expansion, an MGF file may yield
 //   obj.default_rho  double 0.5    grey reflectance for faces with no material
-//   obj.clamp_rho    double 0      when > 0, Kd channels >= 1 become this value (with
-//                                  a warning) instead of being an error
+//   scene.clamp_rho  double 0.99   every format: reflectance channels >= 1 become this
+//                                  (a warning per material); 0: an error at the file:line
+//                                  (scene.h clampReflectance; replaces obj/gltf/mitsuba.clamp_rho)
 //   mgf.white_point  string "E"    white of the xy -> RGB conversion: "E"
 //                                  (equal energy, as Radiance/MGF) or "D65"
 //   ply.emission     double 1.0    E of faces coloured pure white (255,255,255)
@@ -29,13 +30,16 @@
 //   texture.max_mb   int    2048   MiB of decoded textures per scene (12 bytes a
 //                                  texel), checked before decoding (scene/texture.h)
 //   gltf.default_rho double 0.5    grey reflectance of glTF primitives without material
-//   gltf.clamp_rho   double 0.99   glTF reflectance channels >= 1 become this (0: error)
 //   gltf.emission_scale double 1   multiplies glTF emission (E = pi * emissive)
 //   gltf.max_faces   int    2e7    most triangles a glTF scene may yield after instancing
 //   two_sided        string "auto" "auto": materials say which surfaces are two-
 //                                  sided (MGF sides 2, ...); "all": every
 //                                  surface; "none": ignore the flags (one-sided)
 //   validate         bool   true   run Scene::validate() (rho range, emitter)
+//   scene.missing    string "error" files the scene names that are not there (meshes,
+//                                  includes, spectra, textures): "error" names them all
+//                                  in one message; "skip" warns once per file and loads
+//                                  the rest (scene/missing_files.h)
 //   uniform_rho      double (unset) every material's and patch's reflectance becomes
 //                                  this grey. A conservation check on any scene: with
 //                                  one reflectance everywhere the light a solver hands

@@ -206,9 +206,6 @@ class MgfLoader {
             throwInputError(SourceLocation{path, 0, 0},
                             "the scene has {} faces, more than mgf.max_faces = {}; raise the "
                             "setting to load it", scene_.patches.size(), opt_.maxFaces);
-        for (auto& [kind, where] : warned_)
-            if (where.second > 1)
-                scene_.stats.warnings[where.first] += fmt::format(" ({} times in all)", where.second);
         return std::move(scene_);
     }
 
@@ -236,7 +233,6 @@ class MgfLoader {
     std::unordered_map<std::string, MgfVertex> vertices_;
     MgfVertex* vertex_ = nullptr;
     size_t executed_ = 0;  ///< statements executed so far, after expansion
-    std::map<std::string, std::pair<size_t, int>> warned_;  ///< kind -> (warning index, count)
 
     const FileText& file(const std::string& path, const SourceLocation& from) {
         std::error_code ec;
@@ -250,11 +246,9 @@ class MgfLoader {
         return ref;
     }
 
-    // One warning per kind; run() appends how often the kind occurred.
+    // One line per kind, with how often it occurred (core/warning_log.h).
     void warnOnce(const std::string& kind, const std::string& msg) {
-        auto [it, inserted] = warned_.try_emplace(kind, scene_.stats.warnings.size(), 0);
-        ++it->second.second;
-        if (inserted) scene_.stats.warnings.push_back(msg);
+        scene_.stats.warnings.add(kind, msg);
     }
 
     [[noreturn]] void fail(const FileText& f, const Stmt& s, const std::string& msg) const {
@@ -295,13 +289,19 @@ class MgfLoader {
         Material mat;
         mat.name = materialName_;
         mat.rho = toRgb(m.rdColour, m.rd);
-        double mx = maxComponent(mat.rho);
-        if (mx >= 1.0) {
-            mat.rho *= 0.999 / mx;
-            warnOnce("saturated:" + materialName_,
-                     fmt::format("material '{}': rd = {} with its colour has a channel >= 1; scaled "
-                                 "down to 0.999",
-                                 materialName_, m.rd));
+        const RGB given = mat.rho;
+        switch (clampReflectance(mat.rho, opt_.clampRho)) {  // scene.h: one rule for every format
+            case RhoCheck::Clamped:
+                warnOnce("saturated:" + materialName_,
+                         fmt::format("material '{}': rd = {} with its colour has a channel >= 1: {}",
+                                     materialName_, m.rd, clampedNote(opt_.clampRho)));
+                break;
+            case RhoCheck::TooLarge:
+                throwInputError(SourceLocation{scene_.name, 0, 0},
+                                "material '{}': rd = {} with its colour is ({:.6g}, {:.6g}, {:.6g}), "
+                                ">= 1 ({})",
+                                materialName_, m.rd, given.r, given.g, given.b, kClampRhoHint);
+            case RhoCheck::Fine: break;
         }
         mat.emission = toRgb(m.edColour, m.ed);
         // MGF spec: `sides 2` makes the material visible from both sides; an
@@ -461,6 +461,12 @@ class MgfLoader {
                 if (s.tok.size() < 2) fail(f, s, "'i' needs a file name");
                 std::filesystem::path p(s.tok[1]);
                 if (p.is_relative()) p = std::filesystem::path(f.path).parent_path() / p;
+                std::error_code ec;
+                if (!std::filesystem::exists(p, ec)) {  // scene.missing (scene/missing_files.h)
+                    scene_.stats.missingFiles.add(SourceLocation{f.path, s.line, 0}, "included file",
+                                                  p.string());
+                    continue;
+                }
                 const FileText& inc = file(p.string(), SourceLocation{f.path, s.line, 0});
                 if (s.tok.size() > 2) {
                     std::vector<Xf> list = parseXf(f, s, 2);

@@ -54,6 +54,7 @@ struct MgfOptions {
     /// closed, one-sided geometry; hrad follows RenderPark: 1. An explicit
     /// `sides` statement is always obeyed.
     int defaultSides = 1;
+    double clampRho = 0.99;  ///< scene.clamp_rho (scene.h clampReflectance)
 };
 
 Scene loadMgf(const std::string& path, const MgfOptions& options = {});

@@ -195,12 +195,15 @@ class Loader {
         for (const auto& [id, n] : ids_)
             if (std::string(n.n.name()) == "emitter" && !usedEmitters_.count(n.key()) &&
                 attr(n, "type") == "area")
+            {
                 warn(n, fmt::format("area emitter '{}' is attached to no shape: ignored", id));
-        for (const auto& [text, at] : warnings_)
-            if (at.second > 1)
-                scene_.stats.warnings[at.first] += fmt::format(" ({} times in all)", at.second);
-        if (scene_.patches.empty())
+                scene_.stats.dropEmitter("area emitter on no shape", where(n));
+            }
+        if (scene_.patches.empty()) {
+            // Nothing left: the missing files are the news (throws if any).
+            scene_.stats.missingFiles.apply(false, scene_.stats.warnings);
             throwInputError(SourceLocation{path, 0, 0}, "the scene has no shape hrad can use");
+        }
         return std::move(scene_);
     }
 
@@ -221,7 +224,6 @@ class Loader {
     std::map<std::pair<const void*, const void*>, uint32_t> materials_;
     std::set<const void*> usedEmitters_;
     std::set<std::string> warnedOnce_;
-    std::map<std::string, std::pair<size_t, uint64_t>> warnings_;  ///< text -> (index, count)
     uint64_t shapesVisited_ = 0;  ///< shapes met, through instances included
     uint64_t inflated_ = 0;       ///< bytes .serialized meshes inflated to so far
     bool haveCamera_ = false;
@@ -246,14 +248,11 @@ class Loader {
     [[noreturn]] void fail(const Node& n, fmt::format_string<Args...> f, Args&&... args) const {
         throwInputError(loc(n), f, std::forward<Args>(args)...);
     }
-    /// One warning per element and message: an element seen again through
-    /// instances is counted, not repeated (10^8 instances of a skipped shape
-    /// held 7.6 GiB of warnings, issue 64); run() appends the counts.
+    /// Counted, not repeated (core/warning_log.h): an element seen again
+    /// through instances, or the same problem on other elements, adds to one
+    /// line (10^8 instances of a skipped shape held 7.6 GiB of warnings, issue 64).
     void warn(const Node& n, const std::string& msg) {
-        std::string text = fmt::format("{}: warning: {}", where(n), msg);
-        auto [it, inserted] = warnings_.try_emplace(std::move(text), scene_.stats.warnings.size(), 0);
-        if (inserted) scene_.stats.warnings.push_back(it->first);
-        ++it->second.second;
+        scene_.stats.warnings.push_back(fmt::format("{}: warning: {}", where(n), msg));
     }
 
     // --- parsing and includes --------------------------------------------
@@ -320,7 +319,12 @@ class Loader {
                 std::string rel = attr(n, "filename");
                 fs::path p = filePath(n, rel);
                 std::error_code ec;
-                if (!fs::is_regular_file(p, ec)) fail(n, "included file '{}' not found", p.string());
+                if (fs::exists(p, ec) && !fs::is_regular_file(p, ec))
+                    fail(n, "included file '{}' is not a regular file", p.string());
+                if (!fs::exists(p, ec)) {  // scene.missing (scene/missing_files.h)
+                    scene_.stats.missingFiles.add(loc(n), "included file", p.string());
+                    continue;
+                }
                 std::string canon = fs::weakly_canonical(p, ec).string();
                 if (contains(includeStack_, canon)) fail(n, "'{}' includes itself (include cycle)", rel);
                 if (depth >= 32) fail(n, "includes nested deeper than 32 levels");
@@ -520,8 +524,12 @@ class Loader {
             std::error_code ec;
             if (fs::exists(file, ec) && !fs::is_regular_file(file, ec))
                 fail(p, "spectrum file '{}' is not a regular file (a FIFO, device or folder)", file);
+            if (!fs::exists(file, ec)) {  // scene.missing: grey, or no emission
+                scene_.stats.missingFiles.add(loc(p), "spectrum file", file);
+                return emission ? RGB(0.0) : RGB(opt_.defaultRho);
+            }
             std::ifstream in(file);
-            if (!in) fail(p, "spectrum file '{}' not found", file);
+            if (!in) fail(p, "spectrum file '{}' cannot be read", file);
             std::string line;
             int ln = 0;
             while (std::getline(in, line)) {
@@ -585,6 +593,7 @@ class Loader {
             fail(t, "wrap_mode '{}' must be repeat, mirror or clamp", wrapName);
         std::error_code ec;
         if (!fs::is_regular_file(file, ec)) {
+            if (!fs::exists(file, ec)) scene_.stats.missingFiles.add(loc(t), "texture", file);  // scene.missing
             notes.push_back(fmt::format("{} texture '{}' not found -> grey {} (mitsuba.texture_rho)", name, file,
                                         opt_.textureRho));
             return grey;
@@ -714,6 +723,7 @@ class Loader {
             std::string type = attr(n, "type");
             if (!contains(kEmitterTypes, type))
                 fail(n, "unknown emitter plugin '{}' (expected one of {})", type, joinNames(kEmitterTypes));
+            if (type != "area") scene_.stats.dropEmitter(type, where(n));
             if (type != "area")
                 warn(n, fmt::format("'{}' emitter not supported by radiosity (only area emitters on shapes): "
                                     "ignored", type));
@@ -900,17 +910,16 @@ class Loader {
         std::vector<std::string> notes;
         BsdfInfo info = bsdf(b, notes, 0);
         if (!info.transparent) {
-            bool clamped = false;
-            for (int c = 0; c < 3; ++c) {
+            for (int c = 0; c < 3; ++c)
                 if (!(info.rho[c] >= 0)) fail(b, "negative reflectance");
-                if (info.rho[c] >= 1.0) {
-                    if (opt_.clampRho <= 0)
-                        fail(b, "reflectance {} >= 1 (set mitsuba.clamp_rho to clamp it)", info.rho[c]);
-                    info.rho[c] = opt_.clampRho;
-                    clamped = true;
-                }
+            const RGB given = info.rho;
+            switch (clampReflectance(info.rho, opt_.clampRho)) {  // scene.h: one rule for every format
+                case RhoCheck::Clamped: notes.push_back(clampedNote(opt_.clampRho)); break;
+                case RhoCheck::TooLarge:
+                    fail(b, "reflectance ({:.6g}, {:.6g}, {:.6g}) >= 1 ({})", given.r, given.g, given.b,
+                         kClampRhoHint);
+                case RhoCheck::Fine: break;
             }
-            if (clamped) notes.push_back(fmt::format("reflectance >= 1 clamped to {} (mitsuba.clamp_rho)", opt_.clampRho));
         }
         std::string id = b.n.attribute("id") ? b.n.attribute("id").value() : "";
         if (!notes.empty()) {
@@ -1031,7 +1040,7 @@ class Loader {
             // texels, stays the fallback of shapes without UVs.
             mat.diffuseMap.texture = info->texture;
             mat.diffuseMap.clampRho = opt_.clampRho;
-            mat.diffuseMap.clampKey = "mitsuba.clamp_rho";
+            mat.diffuseMap.clampKey = "scene.clamp_rho";
         } else if (!info) {
             mat.rho = RGB(std::min(0.5, opt_.clampRho > 0 ? opt_.clampRho : 0.5));
         }
@@ -1080,7 +1089,12 @@ class Loader {
             if (!fp) fail(s, "{} shape needs a 'filename'", type);
             std::string file = filePath(fp, attr(fp, "value"));
             std::error_code ec;
-            if (!fs::is_regular_file(file, ec)) fail(fp, "mesh file '{}' not found", file);
+            if (fs::exists(file, ec) && !fs::is_regular_file(file, ec))
+                fail(fp, "mesh file '{}' is not a regular file", file);
+            if (!fs::exists(file, ec)) {  // scene.missing: the shape adds nothing
+                scene_.stats.missingFiles.add(loc(fp), "mesh file", file);
+                return polys;
+            }
             if (type == "serialized") {
                 // Checked as a number before it becomes an index: a value no
                 // integer type holds must not be cast (fuzz finding).
@@ -1101,7 +1115,7 @@ class Loader {
             Scene sub;
             if (type == "obj") {
                 ObjOptions o;
-                o.clampRho = 0.99;  // the .mtl is not used: never fail on it
+                o.clampRho = 0.99;  // the .mtl is not used: never fail on it (nor warn: not kept)
                 o.keepUVs = true;   // the XML's bitmap needs them; the .mtl's maps are not read
                 o.readTextures = false;
                 sub = loadObj(file, o);

@@ -61,8 +61,8 @@
 //              that is missing or unreadable gets mitsuba.texture_rho grey
 //              with a warning naming the file; decoded texels count against
 //              texture.max_mb (an error, checked from the header). Channels
-//              >= 1 become mitsuba.clamp_rho with a warning (path-tracer
-//              scenes often use 1.0; 0 makes them an error).
+//              >= 1 become scene.clamp_rho with a warning (path-tracer
+//              scenes often use 1.0; 0 makes them an error), as in every format.
 //              `twosided` sets Material::twoSided; emitsBothSides stays false
 //              since Mitsuba area lights emit from the front only.
 //   spectra    "lambda:value, ..." lists (piecewise linear, zero outside) or
@@ -94,8 +94,6 @@
 // Settings (Params keys):
 //   mitsuba.resolution  int    24    segments around disk/sphere/cylinder
 //                                    (3..4096; spheres have half as many rings)
-//   mitsuba.clamp_rho   double 0.99  reflectance channels >= 1 become this
-//                                    (< 1) with a warning; 0 = error instead
 //   mitsuba.default_rho double 0.5   grey of BSDFs without a diffuse albedo
 //   mitsuba.texture_rho double 0.5   grey of textures that cannot be read or
 //                                    are not evaluated (e.g. bitmap-driven
@@ -115,7 +113,7 @@ namespace hrad::scene {
 
 struct MitsubaOptions {
     int resolution = 24;
-    double clampRho = 0.99;
+    double clampRho = 0.99;  ///< scene.clamp_rho (scene.h clampReflectance)
     double defaultRho = 0.5;
     double textureRho = 0.5;
     uint64_t maxFaces = 20000000;

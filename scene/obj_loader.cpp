@@ -125,7 +125,7 @@ void scanMtl(const std::string& mpath, std::map<std::string, MtlMaterial>& mtl) 
 
 // Checks the OBJ text for what tinyobjloader accepts silently, and the
 // material libraries it names (which must exist).
-void preScan(const std::string& path, std::map<std::string, MtlMaterial>& mtl) {
+void preScan(const std::string& path, std::map<std::string, MtlMaterial>& mtl, MissingFiles& missing) {
     std::ifstream in(path);
     if (!in) throwInputError(SourceLocation{path, 0, 0}, "cannot open file");
     std::string line;
@@ -182,9 +182,13 @@ void preScan(const std::string& path, std::map<std::string, MtlMaterial>& mtl) {
                 std::filesystem::path mp = dir / n;
                 if (std::filesystem::is_directory(mp, ec))
                     throwInputError(SourceLocation{path, lineNo, 0}, "material library '{}' is a folder", n);
+                if (!std::filesystem::exists(mp, ec)) {  // scene.missing: default materials
+                    missing.add(SourceLocation{path, lineNo, 0}, "material library", mp.string());
+                    continue;
+                }
                 if (!std::filesystem::is_regular_file(mp, ec))
                     throwInputError(SourceLocation{path, lineNo, 0},
-                                    "material library '{}' not found (looked for {})", n, mp.string());
+                                    "material library '{}' is not a regular file", n);
                 mtllibs.emplace_back(mp.string(), lineNo);
             }
         }
@@ -237,7 +241,7 @@ void bindDiffuseMap(Scene& scene, Material& mat, const tinyobj::material_t& m,
     mat.diffuseMap.texture = it->second;
     mat.diffuseMap.scale = options.textureReplacesKd ? RGB(1.0) : mat.rho;
     mat.diffuseMap.clampRho = options.clampRho > 0 ? options.clampRho : 0.0;
-    mat.diffuseMap.clampKey = "obj.clamp_rho";
+    mat.diffuseMap.clampKey = "scene.clamp_rho";
     // The fallback for faces without UVs: the texture's mean times the scale.
     const RGB mean = mat.diffuseMap.scale * scene.textures[size_t(it->second)]->mean;
     for (int c = 0; c < 3; ++c)
@@ -245,7 +249,7 @@ void bindDiffuseMap(Scene& scene, Material& mat, const tinyobj::material_t& m,
 }
 
 /// The MTL materials tinyobjloader read, with Kd and Ke as hrad parsed them
-/// (`mtl`), range-checked and clamped (obj.clamp_rho), and their map_Kd.
+/// (`mtl`), range-checked and clamped (scene.clamp_rho), and their map_Kd.
 void addMaterials(Scene& scene, const std::vector<tinyobj::material_t>& mats,
                   const std::map<std::string, MtlMaterial>& mtl, const std::string& path,
                   const ObjOptions& options) {
@@ -260,18 +264,9 @@ void addMaterials(Scene& scene, const std::vector<tinyobj::material_t>& mats,
         const MtlMaterial* mm = own != mtl.end() ? &own->second : nullptr;
         mat.rho = mm && mm->kd ? *mm->kd : RGB(m.diffuse[0], m.diffuse[1], m.diffuse[2]);
         mat.emission = mm && mm->ke ? *mm->ke : RGB(m.emission[0], m.emission[1], m.emission[2]);
-        if (options.clampRho > 0) {
-            bool clamped = false;
-            for (int c = 0; c < 3; ++c)
-                if (mat.rho[c] >= 1.0) {
-                    mat.rho[c] = options.clampRho;
-                    clamped = true;
-                }
-            if (clamped)
-                scene.stats.warnings.push_back(fmt::format(
-                    "{}: material '{}': reflectance >= 1 clamped to {} (obj.clamp_rho)", path,
-                    m.name, options.clampRho));
-        }
+        if (clampReflectance(mat.rho, options.clampRho) == RhoCheck::Clamped)  // scene.h
+            scene.stats.warnings.push_back(fmt::format("{}: material '{}': {}", path, m.name,
+                                                       clampedNote(options.clampRho)));
         for (int c = 0; c < 3; ++c) {
             bool rhoOk = mat.rho[c] >= 0.0 && mat.rho[c] < 1.0;
             bool eOk = mat.emission[c] >= 0.0 && std::isfinite(mat.emission[c]);
@@ -284,8 +279,8 @@ void addMaterials(Scene& scene, const std::vector<tinyobj::material_t>& mats,
                 if (!rhoOk)
                     throwInputError(where,
                                     "material '{}': reflectance Kd ({:.6g}, {:.6g}, {:.6g}) must be in "
-                                    "[0, 1) per channel (set obj.clamp_rho, e.g. 0.99, to clamp)",
-                                    m.name, mat.rho.r, mat.rho.g, mat.rho.b);
+                                    "[0, 1) per channel ({})",
+                                    m.name, mat.rho.r, mat.rho.g, mat.rho.b, kClampRhoHint);
                 throwInputError(where, "material '{}': emission Ke must be finite and >= 0", m.name);
             }
         }
@@ -300,7 +295,8 @@ void addMaterials(Scene& scene, const std::vector<tinyobj::material_t>& mats,
 
 Scene loadObj(const std::string& path, const ObjOptions& options) {
     std::map<std::string, MtlMaterial> mtl;
-    preScan(path, mtl);
+    MissingFiles missing;
+    preScan(path, mtl, missing);
 
     tinyobj::ObjReaderConfig config;
     config.triangulate = false;
@@ -313,6 +309,7 @@ Scene loadObj(const std::string& path, const ObjOptions& options) {
     }
 
     Scene scene;
+    scene.stats.missingFiles = std::move(missing);
     scene.name = path;
     scene.source = "obj";
     if (!reader.Warning().empty()) {

@@ -21,10 +21,10 @@ namespace hrad::scene {
 
 struct ObjOptions {
     double defaultRho = 0.5;  ///< reflectance of faces with no material
-    /// Reflectances >= 1 (e.g. Kd 1 in scenes made for path tracers) are an
-    /// error unless this is set: then each such channel becomes `clampRho`'s
-    /// value (< 1) with one warning per material. 0 = off.
-    double clampRho = 0.0;
+    /// Reflectance channels >= 1 (Kd 1 in scenes made for path tracers)
+    /// become this, one warning per material; 0: an error (scene.clamp_rho,
+    /// the rule of every loader: scene.h clampReflectance).
+    double clampRho = 0.99;
     /// Every material is two-sided (OBJ has no per-material flag); emitters
     /// still emit from the front only.
     bool twoSided = false;

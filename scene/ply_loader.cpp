@@ -276,7 +276,12 @@ Scene loadPly(const std::string& path, const PlyOptions& options) {
         } else {
             m.name = fmt::format("ply_{:02x}{:02x}{:02x}", int(std::lround(c.r * 255)), int(std::lround(c.g * 255)),
                                  int(std::lround(c.b * 255)));
-            m.rho = glm::min(glm::max(c, RGB(0.0)), RGB(0.99));
+            m.rho = glm::max(c, RGB(0.0));
+            const RGB given = m.rho;
+            if (clampReflectance(m.rho, options.clampRho) == RhoCheck::TooLarge)  // scene.h
+                throwInputError(SourceLocation{path, 0, 0},
+                                "face colour ({:.6g}, {:.6g}, {:.6g}): reflectance must be < 1 ({})",
+                                given.r, given.g, given.b, kClampRhoHint);
         }
         uint32_t id = scene.addMaterial(m);
         byColour[key] = id;

@@ -27,6 +27,7 @@ namespace hrad::scene {
 struct PlyOptions {
     double emission = 1.0;    ///< E of pure white faces
     double defaultRho = 0.5;  ///< rho of faces without colour
+    double clampRho = 0.99;   ///< colour channels >= 1 become this (scene.clamp_rho; 0: an error)
 };
 
 Scene loadPly(const std::string& path, const PlyOptions& options = {});

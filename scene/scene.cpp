@@ -185,6 +185,21 @@ size_t Scene::count(PatchKind k) const {
     return n;
 }
 
+RhoCheck clampReflectance(RGB& rho, double clamp) {
+    RhoCheck r = RhoCheck::Fine;
+    for (int c = 0; c < 3; ++c)
+        if (rho[c] >= 1.0) {
+            if (!(clamp > 0.0)) return RhoCheck::TooLarge;
+            rho[c] = clamp;
+            r = RhoCheck::Clamped;
+        }
+    return r;
+}
+
+std::string clampedNote(double clamp) {
+    return fmt::format("reflectance >= 1 clamped to {} (scene.clamp_rho)", clamp);
+}
+
 void Scene::validate() const {
     SourceLocation where{name, 0, 0};
     if (patches.empty()) throwInputError(where, "scene has no (non-degenerate) faces");
@@ -210,8 +225,21 @@ void Scene::validate() const {
                                 mat.name);
         }
     }
-    if (numEmitters() == 0)
-        throwInputError(where, "scene has no emitter (no face with emission > 0)");
+    if (numEmitters() == 0) {
+        // Say what the loader dropped: "3 emitters of unsupported types were
+        // dropped: envmap (scene.xml:12), ..." (issue 63).
+        std::string dropped;
+        for (const std::string& d : stats.droppedEmitters) dropped += (dropped.empty() ? "" : ", ") + d;
+        if (stats.droppedEmitterCount > stats.droppedEmitters.size())
+            dropped += fmt::format(", ... ({} more)", stats.droppedEmitterCount - stats.droppedEmitters.size());
+        throwInputError(where, "scene has no emitter (no face with emission > 0){}",
+                        stats.droppedEmitterCount == 0
+                            ? std::string()
+                            : fmt::format("; {} emitter{} of unsupported types {} dropped: {}",
+                                          stats.droppedEmitterCount,
+                                          stats.droppedEmitterCount == 1 ? "" : "s",
+                                          stats.droppedEmitterCount == 1 ? "was" : "were", dropped));
+    }
     // Each emission finite, their power may still overflow (Ke 1e308 on a
     // face of area 2): the solve would write emitted_power null and exit 0.
     const RGB power = emittedPower();

@@ -20,6 +20,8 @@
 
 #include "core/error.h"
 #include "core/types.h"
+#include "core/warning_log.h"
+#include "scene/missing_files.h"
 
 namespace hrad::scene {
 
@@ -56,6 +58,18 @@ struct Material {
     TextureBinding diffuseMap{};
     bool isEmitter() const { return emission.r > 0 || emission.g > 0 || emission.b > 0; }
 };
+
+/// The one reflectance rule of every loader (setting scene.clamp_rho, read
+/// in scene/loader.cpp): a channel >= 1 (an MTL `Kd 1`, a glTF base colour
+/// 1, a Mitsuba reflectance 1, a saturated MGF colour, a white PLY float
+/// colour) becomes `clamp`, or, with clamp = 0, is an error the loader
+/// reports at its file:line ending in kClampRhoHint. Radiosity needs rho < 1
+/// (a closed scene of rho = 1 has no finite solution).
+enum class RhoCheck { Fine, Clamped, TooLarge };
+RhoCheck clampReflectance(RGB& rho, double clamp);
+/// "reflectance >= 1 clamped to 0.99 (scene.clamp_rho)", for the warning.
+std::string clampedNote(double clamp);
+inline constexpr const char* kClampRhoHint = "set scene.clamp_rho, e.g. 0.99, to clamp";
 
 /// A root patch. Vertices are counter-clockwise seen from the front (the side
 /// the normal points to). For a quad, v[0..3] are in order around the boundary
@@ -168,7 +182,20 @@ struct LoadStats {
     uint64_t splitCandidates = 0;
     double loadSeconds = 0.0;
     DiscontinuityStats discontinuity;
-    std::vector<std::string> warnings;
+    WarningLog warnings;  ///< counted, not repeated (core/warning_log.h)
+    /// Files the scene names that are not there, skipped by the loader;
+    /// loadScene applies scene.missing (scene/missing_files.h).
+    MissingFiles missingFiles;
+    /// Emitters the loader could not use (an envmap, a point light, an area
+    /// emitter on no shape), "type (file:line)", the first kMaxDropped of
+    /// droppedEmitterCount: a scene left without emitter names them.
+    static constexpr size_t kMaxDropped = 8;
+    std::vector<std::string> droppedEmitters;
+    uint64_t droppedEmitterCount = 0;
+    void dropEmitter(const std::string& type, const std::string& where) {
+        if (droppedEmitters.size() < kMaxDropped) droppedEmitters.push_back(type + " (" + where + ")");
+        ++droppedEmitterCount;
+    }
 };
 
 class Scene {

@@ -70,7 +70,8 @@ TEST(Cli, MalformedSceneFilesNameFileAndLine) {
     hrad::test::writeFile(dir / "rho.mtl", "newmtl bright\nKd 1.2 0.5 0.5\nKe 1 1 1\n");
     for (const auto& c : cases) {
         auto path = hrad::test::writeFile(dir / c.name, c.text);
-        Result r = run("info " + path.string());
+        // scene.clamp_rho = 0: Kd >= 1 is an error at its line (the default clamps it).
+        Result r = run("--set scene.clamp_rho=0 info " + path.string());
         EXPECT_EQ(r.code, 2) << c.name << ": " << r.output;
         EXPECT_NE(r.output.find(c.expect), std::string::npos) << c.name << ": " << r.output;
         EXPECT_NE(r.output.find("error"), std::string::npos) << r.output;
@@ -677,4 +678,118 @@ TEST(Cli, HelpNamesComeFromTheRegistries) {
     EXPECT_NE(h.output.find("bfa, ff, error, kv, uniform"), std::string::npos) << h.output;
     EXPECT_NE(h.output.find("none, isotropic, oriented"), std::string::npos) << h.output;
     EXPECT_NE(h.output.find(".obj"), std::string::npos) << h.output;
+}
+
+// Issue 63 item 5: a malformed command line names what is wrong and the
+// nearest known names (subcommands, options, built-in scenes and setting keys
+// from the parser's and the readers' own tables).
+TEST(Cli, DidYouMean) {
+    auto dir = hrad::test::tempDir("cli_did_you_mean");
+    const std::string out = " -o " + (dir / "never").string();
+    struct Case {
+        std::string args, expect;
+    } cases[] = {
+        {"solv cornell", "unknown command 'solv'; did you mean 'solve'?"},
+        {"solve cornell --epz 1e-3" + out, "unknown option '--epz' for `hrad solve`; did you mean '--eps'?"},
+        {"--set hr.epz=1 solve cornell" + out, "unknown setting 'hr.epz' (no component reads it; did you mean 'oracle.eps'?)"},
+        {"--set oracle.epz=1 solve cornell" + out, "did you mean 'oracle.eps'?"},
+        {"--width 64 solve cornell" + out, "'--width' is an option of `hrad solve` and `hrad render`: write it after the subcommand"},
+        {"solve cornel" + out, "unknown scene 'cornel'; did you mean 'cornell'?"},
+        {"results exprt a", "unknown command 'exprt'; did you mean 'export'?"},
+        {"--set solve cornell" + out, "option '--set' needs a value"},
+        {"solve cornell --threads", "option '--threads' needs a value"},
+        {"solve cornell" + out + " --eps", "option '--eps' needs a value"},
+    };
+    for (const auto& c : cases) {
+        Result r = run(c.args);
+        EXPECT_EQ(r.code, 2) << c.args << ": " << r.output;
+        EXPECT_NE(r.output.find(c.expect), std::string::npos) << c.args << ": " << r.output;
+    }
+    // Global options before or after the subcommand.
+    EXPECT_EQ(run("--threads 1 info furnace").code, 0);
+    EXPECT_EQ(run("info furnace --threads 1").code, 0);
+    // None of the failed solves left its output folder behind.
+    EXPECT_FALSE(std::filesystem::exists(dir / "never"));
+}
+
+// Issue 63 item 2: a failed solve leaves no empty output folder (nor its
+// parents); a folder that was there stays.
+TEST(Cli, FailedSolveLeavesNoEmptyFolder) {
+    auto dir = hrad::test::tempDir("cli_failed_solve");
+    auto dark = hrad::test::writeFile(dir / "dark.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    Result r = run("solve " + dark.string() + " -o " + (dir / "a" / "b").string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("no emitter"), std::string::npos) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(dir / "a"));
+    std::filesystem::create_directories(dir / "kept");
+    r = run("solve " + dark.string() + " -o " + (dir / "kept").string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_TRUE(std::filesystem::is_directory(dir / "kept"));
+}
+
+// Issue 63 item 3: `hrad solve --reference montecarlo` writes a study row's
+// error block (the runner's code) and prints it; the reference is cached as
+// a sweep's, so `hrad reference` with the same mc.* finds it.
+TEST(Cli, SolveAgainstAMonteCarloReference) {
+    auto dir = hrad::test::tempDir("cli_solve_mc");
+    const std::string mc = "--set mc.level=0 --set mc.samples=64 --set mc.seed=3 ";
+    const std::string args = mc + "solve cornell --eps 1e-2 --reference montecarlo --no-images "
+                                  "--no-ply --no-solution --cache " + (dir / "cache").string() +
+                             " -o " + (dir / "out").string();
+    Result r = run(args);
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("error vs montecarlo"), std::string::npos) << r.output;
+    nlohmann::json s;
+    std::ifstream(dir / "out" / "summary.json") >> s;
+    ASSERT_TRUE(s.contains("error")) << s.dump();
+    const auto& e = s["error"];
+    for (const char* k : {"l1_lum", "l2_lum", "linf_lum", "l1_rgb", "l2_rgb", "linf_rgb",
+                          "l1_reflected_lum", "l2_reflected_lum", "l1_nonemitter_lum",
+                          "l2_nonemitter_lum", "mean_ratio_nonemitter", "regions", "reference",
+                          "reference_seconds", "reference_cached", "reference_stats",
+                          "reflected_by_material", "mc_stderr_l2_lum", "mc_stderr_l2_rgb",
+                          "mc_stderr_l2_nonemitter_lum"})
+        EXPECT_TRUE(e.contains(k)) << k;
+    EXPECT_EQ(e["reference"].get<std::string>().rfind("montecarlo level=0 ", 0), 0u) << e.dump();
+    EXPECT_FALSE(e["reference_cached"].get<bool>());
+    EXPECT_GT(e["mc_stderr_l2_lum"].get<double>(), 0.0);
+    // A coarse solve against a noisy reference: an error, but not nonsense.
+    EXPECT_GT(e["l2_lum"].get<double>(), 0.0);
+    EXPECT_LT(e["l2_lum"].get<double>(), 1.0);
+    EXPECT_EQ(s["reference_settings"]["mc.samples"], 64);
+    EXPECT_FALSE(s["settings"].contains("mc.samples"));
+    // Again: from the cache, the same numbers.
+    r = run(args);
+    ASSERT_EQ(r.code, 0) << r.output;
+    nlohmann::json again;
+    std::ifstream(dir / "out" / "summary.json") >> again;
+    EXPECT_TRUE(again["error"]["reference_cached"].get<bool>());
+    EXPECT_EQ(again["error"]["l2_lum"], e["l2_lum"]);
+    // The cache is the one `hrad reference` (and a sweep) use.
+    r = run(mc + "reference cornell --kind montecarlo --cache " + (dir / "cache").string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    EXPECT_NE(r.output.find("cached reference for cornell"), std::string::npos) << r.output;
+    // --reference and --reference-level disagree.
+    r = run("solve cornell --reference montecarlo --reference-level 1 -o " + (dir / "x").string());
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find("contradicts --reference-level"), std::string::npos) << r.output;
+}
+
+// Issue 63 item 4: the CPU figures are CPU time: the link kinds' CPU seconds
+// (thread CPU clocks) cannot exceed the process's CPU time, however many
+// threads wait for a core.
+TEST(Cli, LinkCostSecondsAreCpuTime) {
+    auto dir = hrad::test::tempDir("cli_cpu");
+    Result r = run("--threads 4 solve cornell --eps 1e-3 --no-images --no-ply --no-solution -o " +
+                   dir.string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    nlohmann::json s;
+    std::ifstream(dir / "summary.json") >> s;
+    ASSERT_TRUE(s.contains("cpu_seconds")) << s.dump();
+    ASSERT_TRUE(s.contains("link_cost")) << s.dump();
+    double sum = 0;
+    for (const auto& v : s["link_cost"]["cpu_seconds"]) sum += v.get<double>();
+    EXPECT_GT(sum, 0.0);
+    // The strided estimate (every 8th evaluation times 8) may overshoot a little.
+    EXPECT_LT(sum, 1.25 * s["cpu_seconds"].get<double>()) << s["link_cost"].dump();
 }

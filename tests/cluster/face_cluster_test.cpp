@@ -195,7 +195,7 @@ TEST(FaceClusters, InvariantsOnSharedScenes) {
     for (const char* rel : {"lost-empire/lost_empire.obj", "renderpark-mgf/salon/classroom.mgf"}) {
         SCOPED_TRACE(rel);
         Params lp;
-        lp.set("obj.clamp_rho", 0.99);
+        lp.set("scene.clamp_rho", 0.99);
         scene::Scene s = scene::loadScene((*dir / rel).string(), lp);
         FaceForest f = buildFaceForest(s, FaceClusterParams{});
         std::vector<uint32_t> sizes;

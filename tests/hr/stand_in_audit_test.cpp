@@ -144,7 +144,7 @@ TEST(StandInAudit, StandInsCarryTheirMonteCarloPowerOnLostEmpire) {
     auto dir = test::sharedScenesDir();
     if (!dir) GTEST_SKIP() << "../shared/scenes is absent";
     Params p;
-    p.set("obj.clamp_rho", 0.99);
+    p.set("scene.clamp_rho", 0.99);
     const std::string le = (*dir / "lost-empire/lost_empire.obj").string();
     expectStandInsUnbiased(audit(le, p, "stand_in", 8));
 }
@@ -157,7 +157,7 @@ TEST(StandInAudit, DefaultStandInsCarryTheirMonteCarloPowerOnLostEmpire) {
     auto dir = test::sharedScenesDir();
     if (!dir) GTEST_SKIP() << "../shared/scenes is absent";
     Params p;
-    p.set("obj.clamp_rho", 0.99);
+    p.set("scene.clamp_rho", 0.99);
     const std::string le = (*dir / "lost-empire/lost_empire.obj").string();
     const SceneAudit a = audit(le, p, "stand_in", 8, Regime::kDefault);
     ASSERT_GT(a.g[kByArea].links + a.g[kByCosine].links, 100u);

@@ -393,7 +393,7 @@ TEST(GltfLoader, ClampRhoZeroMakesWhiteAnError) {
         FAIL() << "expected an error";
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("'white'"), std::string::npos) << e.what();
-        EXPECT_NE(std::string(e.what()).find("gltf.clamp_rho"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("scene.clamp_rho"), std::string::npos) << e.what();
     }
 }
 

@@ -289,11 +289,11 @@ TEST(MitsubaLoader, BsdfRulesTwoSidedAndClamping) {
     for (const auto& w : s.stats.warnings) clampWarnings += w.find("clamped") != std::string::npos;
     EXPECT_EQ(clampWarnings, 1);  // one warning per material, not per shape
     Params strict;
-    strict.set("mitsuba.clamp_rho", 0.0);
+    strict.set("scene.clamp_rho", 0.0);
     std::string e = loadError(dir, std::string(kLight) + R"(  <bsdf type="diffuse" id="white"><rgb name="reflectance" value="1"/></bsdf>
   <shape type="rectangle"><ref id="white"/></shape>
 )", strict);
-    EXPECT_NE(e.find("scene.xml:6: error: reflectance 1 >= 1"), std::string::npos) << e;
+    EXPECT_NE(e.find("scene.xml:6: error: reflectance (1, 1, 1) >= 1"), std::string::npos) << e;
 }
 
 TEST(MitsubaLoader, SpectraToLinearRgb) {

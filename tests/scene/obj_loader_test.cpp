@@ -114,7 +114,14 @@ TEST(ObjLoader, ErrorsNameFileAndLine) {
     EXPECT_NE(errorOf(missing.string()).find(missing.string() + ":5"), std::string::npos);
     test::writeFile(dir / "bright.mtl", "# lib\n\nnewmtl glow\nKd 0.5 1.2 0.5\nKe 1 1 1\n");
     auto bright = test::writeFile(dir / "bright.obj", "mtllib bright.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl glow\nf 1 2 3\n");
-    std::string e = errorOf(bright.string());
+    Params strict;  // scene.clamp_rho = 0: Kd >= 1 is an error (the default clamps it)
+    strict.set("scene.clamp_rho", 0.0);
+    std::string e;
+    try {
+        loadScene(bright.string(), strict);
+    } catch (const InputError& x) {
+        e = x.what();
+    }
     EXPECT_NE(e.find((dir / "bright.mtl").string() + ":4"), std::string::npos) << e;  // the Kd line
     EXPECT_NE(e.find("glow"), std::string::npos);
     auto dark = test::writeFile(dir / "dark.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
