@@ -297,7 +297,7 @@ FullMatrixResult cachedFullMatrix(const scene::Scene& scene,
                                   const transport::Visibility& visibility,
                                   const FullMatrixSettings& settings,
                                   const std::filesystem::path& cacheDir, bool* hit,
-                                  bool showProgress) {
+                                  bool showProgress, const StopPoll& stop) {
     const std::string desc = settings.describe();
     const std::string key = referenceCacheKey(scene, kFullMatrixKind, desc);
     const std::filesystem::path path = referenceCacheFile(cacheDir, "fullmatrix", key);
@@ -319,7 +319,11 @@ FullMatrixResult cachedFullMatrix(const scene::Scene& scene,
         return r;
     }
     if (hit) *hit = false;
-    FullMatrixResult r = solveFullMatrix(scene, visibility, settings, showProgress);
+    FullMatrixResult r = solveFullMatrix(scene, visibility, settings, showProgress, stop);
+    if (r.stats.interrupted) {
+        spdlog::warn("reference cache: full matrix interrupted; not stored");
+        return r;
+    }
     if (!r.stats.converged) {
         spdlog::warn("reference cache: full matrix did not converge; not stored");
         return r;
@@ -338,7 +342,7 @@ MonteCarloResult cachedMonteCarlo(const scene::Scene& scene,
                                   const transport::Visibility& visibility,
                                   const MonteCarloSettings& settings,
                                   const std::filesystem::path& cacheDir, bool* hit,
-                                  bool showProgress) {
+                                  bool showProgress, const StopPoll& stop) {
     const std::string desc = settings.describe();
     const std::string key = referenceCacheKey(scene, kMonteCarloKind, desc);
     const std::filesystem::path path = referenceCacheFile(cacheDir, "montecarlo", key);
@@ -360,7 +364,11 @@ MonteCarloResult cachedMonteCarlo(const scene::Scene& scene,
         spdlog::warn("reference cache: {} has no standard errors; recomputing", path.string());
     }
     if (hit) *hit = false;
-    MonteCarloResult r = solveMonteCarlo(scene, visibility, settings, showProgress);
+    MonteCarloResult r = solveMonteCarlo(scene, visibility, settings, showProgress, stop);
+    if (r.stats.interrupted) {
+        spdlog::warn("reference cache: Monte Carlo reference interrupted; not stored");
+        return r;
+    }
     std::string meta = fmt::format(
         "kind={}\nscene={}\nsettings={}\nregions={}\npaths={}\nrays={}\nseconds={}\n"
         "rounds={}\n",
