@@ -157,9 +157,7 @@ void writeFileAtomically(const std::string& path, const std::string& bytes) {
     std::filesystem::path target(path);
     std::error_code ec;
     if (target.has_parent_path()) std::filesystem::create_directories(target.parent_path(), ec);
-    if (ec)
-        throw Error(fmt::format("cannot create directory {}: {}", target.parent_path().string(),
-                                ec.message()));
+    if (ec) throw IoError(target.parent_path(), "cannot create the folder: " + ec.message());
     writeFileSafely(target, bytes);  // a temporary file beside it, then a rename
 }
 
@@ -421,10 +419,14 @@ void saveSolution(const std::string& path, const scene::RadiosityField& field) {
     Fnv f;
     f.bytes(w.buf.data(), w.buf.size());
     w.pod(f.h);
+    // An IoError (disk full, read-only) stays one, with its path once: the
+    // sweep records it as kind io, which --resume reruns (issue 64).
     try {
         writeFileAtomically(path, w.buf);
+    } catch (const IoError&) {
+        throw;
     } catch (const Error& e) {
-        throw InputError(SourceLocation{path, 0, 0}, e.what());
+        throw IoError(path, e.what());
     }
 }
 
