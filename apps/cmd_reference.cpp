@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/commands.h"
+#include "core/interrupt.h"
 #include "experiments/runner.h"
 
 namespace hrad::app {
@@ -26,7 +27,16 @@ int runReference(const ReferenceCliOptions& o, Params& params) {
     experiments::RunContext ctx;
     ctx.cacheDir = o.cacheDir;
     ctx.progress = o.progress;
+    // Ctrl-C or SIGTERM: the solver stops at its next row, shot or region;
+    // a partial reference is reported, never cached; exit 128 + signal.
+    catchInterrupts();
     nlohmann::json r = experiments::prepareReference(point, ctx);
+    if (const int sig = interruptSignal(); sig != 0 || r.value("interrupted", false)) {
+        fmt::print("interrupted reference for {}: {}\nstats: {}\nnot cached (interrupted: true)\n", o.scene,
+                   r.value("reference", ""), r["stats"].dump());
+        fmt::print(stderr, "hrad: interrupted by signal {}: the reference is incomplete and was not cached\n", sig);
+        return 128 + sig;
+    }
     fmt::print("{} reference for {}: {}\n", r.value("cached", false) ? "cached" : "computed",
                o.scene, r.value("reference", ""));
     fmt::print("stats: {}\n", r["stats"].dump());

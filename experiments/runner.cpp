@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "core/cpu_time.h"
+#include "core/interrupt.h"
 #include "core/memory.h"
 #include "core/phase_progress.h"
 #include "core/safe_file.h"
@@ -258,6 +259,7 @@ struct Reference {
     std::unique_ptr<scene::UniformField> field;
     std::vector<RGB> stdError;
     bool cached = false;
+    bool interrupted = false;  ///< stopped by a signal: not a reference to measure against
     json stats = json::object();
 };
 
@@ -274,9 +276,10 @@ Reference computeReference(const scene::Scene& sc, const transport::Visibility& 
         reference::FullMatrixResult res;
         if (useCache)
             res = reference::cachedFullMatrix(sc, vis, *r.refFm, cacheDirFor(ctx), &out.cached,
-                                              ctx.progress);
+                                              ctx.progress, StopPoll{ctx.cancel});
         else
-            res = reference::solveFullMatrix(sc, vis, *r.refFm, ctx.progress);
+            res = reference::solveFullMatrix(sc, vis, *r.refFm, ctx.progress, StopPoll{ctx.cancel});
+        out.interrupted = res.stats.interrupted;
         out.field = std::move(res.field);
         out.stats = json{{"elements", res.stats.elements},
                          {"form_factors", res.stats.formFactors},
@@ -286,14 +289,16 @@ Reference computeReference(const scene::Scene& sc, const transport::Visibility& 
         reference::MonteCarloResult res;
         if (useCache)
             res = reference::cachedMonteCarlo(sc, vis, *r.refMc, cacheDirFor(ctx), &out.cached,
-                                              ctx.progress);
+                                              ctx.progress, StopPoll{ctx.cancel});
         else
-            res = reference::solveMonteCarlo(sc, vis, *r.refMc, ctx.progress);
+            res = reference::solveMonteCarlo(sc, vis, *r.refMc, ctx.progress, StopPoll{ctx.cancel});
+        out.interrupted = res.stats.interrupted;
         out.field = std::move(res.field);
         out.stdError = std::move(res.stdError);
         out.stats = json{{"regions", res.stats.regions},
                          {"paths", res.stats.paths},
-                         {"rounds", res.stats.rounds}};
+                         {"rounds", res.stats.rounds},
+                         {"estimated_regions", res.stats.estimated}};
         // The walk's own cost (0 when the reference came from the cache).
         if (!out.cached) {
             out.stats["rays"] = res.stats.rays;
@@ -410,7 +415,8 @@ json prepareReference(const PointSpec& p, const RunContext& ctx) {
     out["cache_file"] = fs::is_regular_file(cacheFile, ec) ? json(cacheFile.string()) : json(nullptr);
     out["seconds"] = t.seconds();
     out["stats"] = ref.stats;
-    if (r.refMc) {
+    out["interrupted"] = ref.interrupted;
+    if (r.refMc && !ref.interrupted) {
         auto [uLum, uRgb] = mcUncertainty(ref);
         out["mc_stderr_l2_lum"] = uLum;
         out["mc_stderr_l2_rgb"] = uRgb;
@@ -419,8 +425,8 @@ json prepareReference(const PointSpec& p, const RunContext& ctx) {
     // The reference's reflected power, sum over regions of A (B - E), and
     // (Monte Carlo) its standard error from the regions' independent errors:
     // a total any solve of the same geometry can be held to, however its
-    // patches are cut.
-    {
+    // patches are cut. Not for an interrupted reference (regions missing).
+    if (!ref.interrupted) {
         const scene::UniformField& f = *ref.field;
         RGB power(0.0), var(0.0);
         for (uint32_t q = 0; q < sc.patches.size(); ++q) {
@@ -622,7 +628,14 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
     // ---- error against the reference --------------------------------------------
     if (ctx.cancel) ctx.cancel->throwIfRequested();
     std::optional<Reference> ref;
-    if (r.refKind != "none") {
+    // After SIGINT/SIGTERM no reference is computed (it would stop at once,
+    // and an error against a partial reference measures nothing).
+    const bool skipReference = interruptSignal() != 0 || (earlyRef && earlyRef->interrupted);
+    if (skipReference && r.refKind != "none") {
+        summary["error"] = nullptr;
+        summary["error_skipped"] = "interrupted: no complete reference";
+    }
+    if (r.refKind != "none" && !skipReference) {
         Timer tRef;
         ref = earlyRef ? std::move(earlyRef) : computeReference(sc, vis, r, ctx);
         timings["reference"] = earlyRef ? earlyRefSeconds : tRef.seconds();

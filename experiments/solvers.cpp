@@ -206,7 +206,7 @@ class FullMatrixEntry final : public Solver {
     SolveOutput solve(const scene::Scene& sc, const transport::Visibility& vis,
                       const SolveContext& ctx) const override {
         auto res = std::make_shared<reference::FullMatrixResult>(
-            reference::solveFullMatrix(sc, vis, settings_, ctx.progress));
+            reference::solveFullMatrix(sc, vis, settings_, ctx.progress, StopPoll{ctx.cancel}));
         SolveOutput out;
         out.field = res->field.get();
         const auto& st = res->stats;
@@ -217,6 +217,7 @@ class FullMatrixEntry final : public Solver {
                                      {"iterations", st.iterations}};
         out.summary["residual"] = st.residual;
         out.summary["converged"] = st.converged;
+        out.summary["interrupted"] = st.interrupted;
         out.timings["form_factors"] = st.ffSeconds;
         out.timings["solve"] = st.solveSeconds;
         out.memory.set("matrix", st.matrixBytes);
@@ -257,7 +258,7 @@ class ProgressiveEntry final : public Solver {
                 if (ctx.onRecord) ctx.onRecord(progressiveRecordJson(rec));
             };
         auto res = std::make_shared<reference::ProgressiveResult>(
-            reference::solveProgressive(sc, vis, settings_, ctx.progress, hook));
+            reference::solveProgressive(sc, vis, settings_, ctx.progress, hook, StopPoll{ctx.cancel}));
         SolveOutput out;
         out.field = res->field.get();
         out.summary["counts"] =
@@ -266,6 +267,7 @@ class ProgressiveEntry final : public Solver {
                  {"rays", res->rays},         {"iterations", res->shots}};
         out.summary["residual"] = res->unshotFraction;
         out.summary["converged"] = res->converged;
+        out.summary["interrupted"] = res->interrupted;
         out.timings["solve"] = res->seconds;
         out.memory.set("progressive", res->bytes);
         json hist = json::array();

@@ -17,6 +17,7 @@
 
 #include "core/cancel.h"
 #include "core/interrupt.h"
+#include "core/stop.h"
 #include "core/timer.h"
 #include "hr/hierarchy.h"
 #include "hr/settings.h"
@@ -44,6 +45,8 @@ class RefinementBudget {
 
     /// Stops on request: outOfTime() then throws Cancelled. nullptr: never.
     void setCancelToken(const CancelToken* token) { cancel_ = token; }
+    /// The token and the signal flag alone, without the clock (core/stop.h).
+    StopPoll stopPoll() const { return StopPoll{cancel_}; }
 
     /// Past hr.max_seconds, or asked to stop by SIGINT/SIGTERM (core/interrupt.h,
     /// the command line: stop at this safe point and keep the result); throws

@@ -195,8 +195,16 @@ void HrSolver::initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vect
     std::vector<std::vector<Link>> rows(k);
     std::atomic<uint64_t> rays{0}, ffs{0};
     ProgressBar bar("initial linking", k, progress);
+    // O(k^2): a signal stops it between receivers; the links made so far are
+    // iterated once and the result is marked interrupted (core/stop.h).
+    const StopPoll stop = budget_->stopPoll();
+    std::atomic<bool> stopped{false};
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, k, 4), [&](const auto& range) {
         for (uint32_t r = range.begin(); r != range.end(); ++r) {
+            if (stopped.load(std::memory_order_relaxed) || stop()) {
+                stopped = true;
+                break;
+            }
             uint64_t localRays = 0, localFf = 0;
             if (!included_.empty() && !included_[r]) {
                 bar.add(1);
@@ -216,6 +224,11 @@ void HrSolver::initialLinks(Hierarchy& h, std::vector<uint32_t>& recv, std::vect
         }
     });
     bar.done();
+    if (stopped) {
+        spdlog::warn("signal {} received during initial linking: the links made so far are "
+                     "iterated once, and the result is marked interrupted", interruptSignal());
+        res.interrupted = true;
+    }
     for (uint32_t r = 0; r < k; ++r) {
         for (const Link& l : rows[r]) {
             recv.push_back(r);

@@ -157,9 +157,7 @@ void writeFileAtomically(const std::string& path, const std::string& bytes) {
     std::filesystem::path target(path);
     std::error_code ec;
     if (target.has_parent_path()) std::filesystem::create_directories(target.parent_path(), ec);
-    if (ec)
-        throw Error(fmt::format("cannot create directory {}: {}", target.parent_path().string(),
-                                ec.message()));
+    if (ec) throw IoError(target.parent_path(), "cannot create the folder: " + ec.message());
     writeFileSafely(target, bytes);  // a temporary file beside it, then a rename
 }
 
@@ -297,7 +295,7 @@ FullMatrixResult cachedFullMatrix(const scene::Scene& scene,
                                   const transport::Visibility& visibility,
                                   const FullMatrixSettings& settings,
                                   const std::filesystem::path& cacheDir, bool* hit,
-                                  bool showProgress) {
+                                  bool showProgress, const StopPoll& stop) {
     const std::string desc = settings.describe();
     const std::string key = referenceCacheKey(scene, kFullMatrixKind, desc);
     const std::filesystem::path path = referenceCacheFile(cacheDir, "fullmatrix", key);
@@ -319,7 +317,11 @@ FullMatrixResult cachedFullMatrix(const scene::Scene& scene,
         return r;
     }
     if (hit) *hit = false;
-    FullMatrixResult r = solveFullMatrix(scene, visibility, settings, showProgress);
+    FullMatrixResult r = solveFullMatrix(scene, visibility, settings, showProgress, stop);
+    if (r.stats.interrupted) {
+        spdlog::warn("reference cache: full matrix interrupted; not stored");
+        return r;
+    }
     if (!r.stats.converged) {
         spdlog::warn("reference cache: full matrix did not converge; not stored");
         return r;
@@ -338,7 +340,7 @@ MonteCarloResult cachedMonteCarlo(const scene::Scene& scene,
                                   const transport::Visibility& visibility,
                                   const MonteCarloSettings& settings,
                                   const std::filesystem::path& cacheDir, bool* hit,
-                                  bool showProgress) {
+                                  bool showProgress, const StopPoll& stop) {
     const std::string desc = settings.describe();
     const std::string key = referenceCacheKey(scene, kMonteCarloKind, desc);
     const std::filesystem::path path = referenceCacheFile(cacheDir, "montecarlo", key);
@@ -360,7 +362,11 @@ MonteCarloResult cachedMonteCarlo(const scene::Scene& scene,
         spdlog::warn("reference cache: {} has no standard errors; recomputing", path.string());
     }
     if (hit) *hit = false;
-    MonteCarloResult r = solveMonteCarlo(scene, visibility, settings, showProgress);
+    MonteCarloResult r = solveMonteCarlo(scene, visibility, settings, showProgress, stop);
+    if (r.stats.interrupted) {
+        spdlog::warn("reference cache: Monte Carlo reference interrupted; not stored");
+        return r;
+    }
     std::string meta = fmt::format(
         "kind={}\nscene={}\nsettings={}\nregions={}\npaths={}\nrays={}\nseconds={}\n"
         "rounds={}\n",
@@ -413,10 +419,14 @@ void saveSolution(const std::string& path, const scene::RadiosityField& field) {
     Fnv f;
     f.bytes(w.buf.data(), w.buf.size());
     w.pod(f.h);
+    // An IoError (disk full, read-only) stays one, with its path once: the
+    // sweep records it as kind io, which --resume reruns (issue 64).
     try {
         writeFileAtomically(path, w.buf);
+    } catch (const IoError&) {
+        throw;
     } catch (const Error& e) {
-        throw InputError(SourceLocation{path, 0, 0}, e.what());
+        throw IoError(path, e.what());
     }
 }
 

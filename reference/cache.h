@@ -96,12 +96,12 @@ inline constexpr const char* kMonteCarloKind = "montecarlo/2";
 /// and stats hold what the metadata recorded (elements, form factors,
 /// iterations, residual, seconds of the original solve); residualHistory is
 /// empty. `hit` (optional) says which happened. A cache that cannot be
-/// written is a warning, not an error.
+/// written is a warning, not an error; an interrupted solve is not stored.
 FullMatrixResult cachedFullMatrix(const scene::Scene& scene,
                                   const transport::Visibility& visibility,
                                   const FullMatrixSettings& settings,
                                   const std::filesystem::path& cacheDir, bool* hit = nullptr,
-                                  bool showProgress = true);
+                                  bool showProgress = true, const StopPoll& stop = {});
 
 /// Monte Carlo reference through the cache (file "montecarlo-<key>.bin"),
 /// with the standard errors; stats restored from the metadata on a hit. Note
@@ -110,7 +110,7 @@ MonteCarloResult cachedMonteCarlo(const scene::Scene& scene,
                                   const transport::Visibility& visibility,
                                   const MonteCarloSettings& settings,
                                   const std::filesystem::path& cacheDir, bool* hit = nullptr,
-                                  bool showProgress = true);
+                                  bool showProgress = true, const StopPoll& stop = {});
 
 /// Solution files (`solution.hrsol`, written by `hrad solve`, read by
 /// `hrad render`): the leaves of any field with their radiosities, so a

@@ -6,6 +6,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -171,7 +172,8 @@ double FormFactorMatrix::rowSum(size_t i) const {
 
 FormFactorMatrix computeFormFactorMatrix(const scene::Scene& scene,
                                          const transport::Visibility& visibility,
-                                         const FullMatrixSettings& settings, bool showProgress) {
+                                         const FullMatrixSettings& settings, bool showProgress,
+                                         const StopPoll& stop) {
     Timer timer;
     FormFactorMatrix m;
     m.levels = scene::uniformLevels(scene, settings.level, settings.maxArea, settings.maxLevel);
@@ -199,6 +201,14 @@ FormFactorMatrix computeFormFactorMatrix(const scene::Scene& scene,
     std::vector<std::vector<double>> rowVals(n);
     std::vector<uint64_t> rowRays(n, 0);
     ProgressBar bar(fmt::format("form factors ({} el.)", n), n, showProgress);
+    // A signal leaves the remaining rows empty; the matrix is then marked.
+    std::atomic<bool> stopped{false};
+    auto stopRow = [&] {
+        if (stopped.load(std::memory_order_relaxed)) return true;
+        if (!stop()) return false;
+        stopped = true;
+        return true;
+    };
     if (settings.hemicube.enabled) {
         // Hemicube rows (Cohen & Greenberg 1985): F_ij = sum_p w_p F_{dA(p) -> j}
         // over the hemicubes' sample points p of element i.
@@ -209,6 +219,7 @@ FormFactorMatrix computeFormFactorMatrix(const scene::Scene& scene,
             std::vector<Vec3> pts;
             std::vector<double> w;
             for (size_t i = r.begin(); i != r.end(); ++i) {
+                if (stopRow()) break;
                 const transport::ElementRef& ri = refs[i];
                 const scene::Patch& patch = scene.patches[ri.patch];
                 transport::hemicubePoints(patch, ri.dom, settings.hemicube.points, pts, w);
@@ -239,6 +250,7 @@ FormFactorMatrix computeFormFactorMatrix(const scene::Scene& scene,
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 1),
                       [&](const tbb::blocked_range<size_t>& r) {
                           for (size_t i = r.begin(); i != r.end(); ++i) {
+                              if (stopRow()) break;
                               const transport::ElementRef& ri = refs[i];
                               for (size_t j = 0; j < n; ++j) {
                                   // Root patches are planar: elements of the same patch (and
@@ -257,6 +269,10 @@ FormFactorMatrix computeFormFactorMatrix(const scene::Scene& scene,
                       });
     }
     bar.done();
+    m.interrupted = stopped;
+    if (m.interrupted)
+        spdlog::warn("signal {} received: the form-factor matrix stops with rows missing; it is not "
+                     "solved (B = E), and the result is marked interrupted", interruptSignal());
 
     // Pack into CSR, freeing each row as it is copied.
     m.rowStart.assign(n + 1, 0);
@@ -281,7 +297,7 @@ double relativeResidual(const scene::Scene& scene, const FormFactorMatrix& matri
 }
 
 FullMatrixResult solveFormFactorMatrix(const scene::Scene& scene, const FormFactorMatrix& m,
-                                       const FullMatrixSettings& settings) {
+                                       const FullMatrixSettings& settings, const StopPoll& stop) {
     Timer timer;
     const size_t n = m.size();
     const System sys = makeSystem(scene, m);
@@ -297,6 +313,22 @@ FullMatrixResult solveFormFactorMatrix(const scene::Scene& scene, const FormFact
 
     std::vector<RGB> B = sys.E;  // every method starts from B = E
     const double tol = settings.tolerance;
+    // A signal: the iterate so far is the result, marked interrupted.
+    auto stopped = [&] {
+        if (!stop()) return false;
+        if (!st.interrupted)
+            spdlog::warn("signal {} received after {} iterations: the full-matrix iterate so far is the "
+                         "result, marked interrupted", interruptSignal(), st.iterations);
+        st.interrupted = true;
+        return true;
+    };
+    if (m.interrupted) {
+        st.interrupted = true;
+        st.residual = std::nan("");
+        result.field->values() = std::move(B);
+        st.solveSeconds = timer.seconds();
+        return result;
+    }
 
     if (settings.solver == MatrixSolver::Jacobi) {
         // B' = E + rho F B; the residual of B is B' - B, so each sweep yields
@@ -310,7 +342,7 @@ FullMatrixResult solveFormFactorMatrix(const scene::Scene& scene, const FormFact
                 st.converged = true;
                 break;
             }
-            if (st.iterations >= settings.maxIterations) break;
+            if (st.iterations >= settings.maxIterations || stopped()) break;
             B.swap(next);
             ++st.iterations;
         }
@@ -325,7 +357,7 @@ FullMatrixResult solveFormFactorMatrix(const scene::Scene& scene, const FormFact
                 st.converged = true;
                 break;
             }
-            if (st.iterations >= settings.maxIterations) break;
+            if (st.iterations >= settings.maxIterations || stopped()) break;
             for (size_t i = 0; i < n; ++i) B[i] = sys.E[i] + sys.rho[i] * rowTimes(m, i, B);
             ++st.iterations;
         }
@@ -362,10 +394,10 @@ FullMatrixResult solveFormFactorMatrix(const scene::Scene& scene, const FormFact
                 st.converged = true;
                 break;
             }
-            if (st.iterations >= maxShots) break;
+            if (st.iterations >= maxShots || st.interrupted) break;
             // n shots between residual checks: one check costs about as much
             // as n shots.
-            for (size_t s = 0; s < n && st.iterations < maxShots; ++s) {
+            for (size_t s = 0; s < n && st.iterations < maxShots && !stopped(); ++s) {
                 size_t j = 0;
                 double best = -1.0;
                 for (size_t i = 0; i < n; ++i) {
@@ -408,16 +440,17 @@ FullMatrixResult solveFormFactorMatrix(const scene::Scene& scene, const FormFact
     }
     result.field->values() = std::move(B);
     st.solveSeconds = timer.seconds();
-    if (!st.converged)
+    if (!st.converged && !st.interrupted)
         spdlog::warn("full matrix ({}): residual {:.3g} > tolerance {:.3g} after {} iterations",
                      solverName(settings.solver), st.residual, tol, st.iterations);
     return result;
 }
 
 FullMatrixResult solveFullMatrix(const scene::Scene& scene, const transport::Visibility& visibility,
-                                 const FullMatrixSettings& settings, bool showProgress) {
-    FormFactorMatrix m = computeFormFactorMatrix(scene, visibility, settings, showProgress);
-    return solveFormFactorMatrix(scene, m, settings);
+                                 const FullMatrixSettings& settings, bool showProgress,
+                                 const StopPoll& stop) {
+    FormFactorMatrix m = computeFormFactorMatrix(scene, visibility, settings, showProgress, stop);
+    return solveFormFactorMatrix(scene, m, settings, stop);
 }
 
 }  // namespace hrad::reference

@@ -26,6 +26,10 @@
 // does not cache; reference/cache.h's cachedFullMatrix() does, keyed by a
 // hash of the scene and the settings.
 //
+// A stop request (core/stop.h) is polled per row and per sweep or shot: an
+// interrupted matrix is not solved (B = E), an interrupted solve keeps its
+// iterate; both set `interrupted`.
+//
 // Settings: the keys below a prefix, "fm" by default (`hrad settings fm.`;
 // a study's reference: `hrad settings reference.fm.`).
 #pragma once
@@ -36,6 +40,7 @@
 #include <vector>
 
 #include "core/params.h"
+#include "core/stop.h"
 #include "scene/field.h"
 #include "scene/scene.h"
 #include "transport/formfactor.h"
@@ -85,6 +90,7 @@ struct FormFactorMatrix {
     std::vector<double> values;      ///< F_ij
     uint64_t rays = 0;               ///< occlusion rays cast
     double seconds = 0.0;            ///< wall time of the form-factor pass
+    bool interrupted = false;        ///< stopped by a signal: some rows are missing
 
     size_t size() const { return areas.size(); }
     uint64_t nonZeros() const { return values.size(); }
@@ -103,6 +109,7 @@ struct FullMatrixStats {
     int64_t iterations = 0;
     double residual = 0.0;  ///< final relative residual (see "tolerance")
     bool converged = false;
+    bool interrupted = false;  ///< stopped by a signal (core/stop.h)
     uint64_t matrixBytes = 0;  ///< CSR bytes (plus the transpose for Southwell)
     /// Relative residual after each sweep (Southwell: after every n shots).
     std::vector<double> residualHistory;
@@ -119,17 +126,18 @@ struct FullMatrixResult {
 FormFactorMatrix computeFormFactorMatrix(const scene::Scene& scene,
                                          const transport::Visibility& visibility,
                                          const FullMatrixSettings& settings,
-                                         bool showProgress = true);
+                                         bool showProgress = true, const StopPoll& stop = {});
 
 /// Solves B = E + rho F B on a precomputed matrix with settings.solver. Only
 /// the solver settings (solver, tolerance, max_iterations, ambient) are read.
 /// Non-convergence within max_iterations is not an error: stats.converged says.
 FullMatrixResult solveFormFactorMatrix(const scene::Scene& scene, const FormFactorMatrix& matrix,
-                                       const FullMatrixSettings& settings);
+                                       const FullMatrixSettings& settings, const StopPoll& stop = {});
 
 /// computeFormFactorMatrix + solveFormFactorMatrix.
 FullMatrixResult solveFullMatrix(const scene::Scene& scene, const transport::Visibility& visibility,
-                                 const FullMatrixSettings& settings, bool showProgress = true);
+                                 const FullMatrixSettings& settings, bool showProgress = true,
+                                 const StopPoll& stop = {});
 
 /// Relative residual (see "tolerance") of an arbitrary field on the matrix's
 /// elements: useful to check any solution against the full-matrix system.

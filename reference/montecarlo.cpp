@@ -6,6 +6,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -113,7 +114,8 @@ std::string MonteCarloSettings::describe() const {
 }
 
 MonteCarloResult solveMonteCarlo(const scene::Scene& scene, const transport::Visibility& visibility,
-                                 const MonteCarloSettings& settings, bool showProgress) {
+                                 const MonteCarloSettings& settings, bool showProgress,
+                                 const StopPoll& stop) {
     if (settings.samples < 2)
         throwInputError({},
                         "mc.samples = {}: need at least 2 paths per region for a standard "
@@ -141,11 +143,16 @@ MonteCarloResult solveMonteCarlo(const scene::Scene& scene, const transport::Vis
     ProgressBar bar(fmt::format("monte carlo ({} regions)", n),
                     budgeted ? uint64_t(settings.timeBudget * 1000.0) : uint64_t(n), showProgress);
     int rounds = 0;
+    std::atomic<bool> stopped{false};
     for (;;) {
         const uint64_t round = uint64_t(rounds);
         tbb::parallel_for(
             tbb::blocked_range<size_t>(0, n, 1), [&](const tbb::blocked_range<size_t>& r) {
                 for (size_t k = r.begin(); k != r.end(); ++k) {
+                    if (stopped.load(std::memory_order_relaxed) || stop()) {
+                        stopped = true;
+                        break;
+                    }
                     uint32_t pi = patchOf[k];
                     const scene::Patch& p = scene.patches[pi];
                     Vec3 corners[4];
@@ -165,7 +172,7 @@ MonteCarloResult solveMonteCarlo(const scene::Scene& scene, const transport::Vis
                 }
             });
         ++rounds;
-        if (!budgeted) break;
+        if (!budgeted || stopped) break;
         double t = timer.seconds();
         bar.add(uint64_t(1000.0 * t / rounds));  // approximate: one round's share
         if (t + t / rounds > settings.timeBudget) break;
@@ -175,12 +182,18 @@ MonteCarloResult solveMonteCarlo(const scene::Scene& scene, const transport::Vis
     result.stdError.resize(n);
     uint64_t totalRays = 0;
     for (size_t k = 0; k < n; ++k) {
-        field.value(k) = acc[k].mean;
-        result.stdError[k] = acc[k].stdError();
+        const bool estimated = acc[k].n >= 2;
+        field.value(k) = estimated ? acc[k].mean : RGB(std::nan(""));
+        result.stdError[k] = estimated ? acc[k].stdError() : RGB(std::nan(""));
+        result.stats.estimated += estimated ? 1 : 0;
+        result.stats.paths += acc[k].n;
         totalRays += rays[k];
     }
+    result.stats.interrupted = stopped;
+    if (stopped)
+        spdlog::warn("signal {} received: the Monte Carlo reference stops with {} of {} regions estimated "
+                     "(the others are NaN), marked interrupted", interruptSignal(), result.stats.estimated, n);
     result.stats.regions = n;
-    result.stats.paths = uint64_t(n) * uint64_t(settings.samples) * uint64_t(rounds);
     result.stats.rays = totalRays;
     result.stats.rounds = rounds;
     result.stats.seconds = timer.seconds();

@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "core/params.h"
+#include "core/stop.h"
 #include "core/types.h"
 #include "scene/field.h"
 #include "scene/scene.h"
@@ -71,6 +72,11 @@ struct MonteCarloStats {
     uint64_t rays = 0;   ///< intersection + shadow rays
     double seconds = 0.0;
     int rounds = 0;
+    /// Stopped by a signal (core/stop.h, polled per region): regions with
+    /// fewer than two paths then hold NaN (value and standard error), never
+    /// a silent zero; `estimated` counts the others.
+    bool interrupted = false;
+    size_t estimated = 0;
 };
 
 struct MonteCarloResult {
@@ -82,6 +88,7 @@ struct MonteCarloResult {
 /// Runs the estimator described above. Throws InputError for invalid settings
 /// (samples < 2: a standard error needs two paths).
 MonteCarloResult solveMonteCarlo(const scene::Scene& scene, const transport::Visibility& visibility,
-                                 const MonteCarloSettings& settings, bool showProgress = true);
+                                 const MonteCarloSettings& settings, bool showProgress = true,
+                                 const StopPoll& stop = {});
 
 }  // namespace hrad::reference

@@ -107,7 +107,7 @@ std::string ProgressiveSettings::describe() const {
 
 ProgressiveResult solveProgressive(const scene::Scene& scene, const transport::Visibility& visibility,
                                    const ProgressiveSettings& settings, bool showProgress,
-                                   const ProgressiveHook& hook) {
+                                   const ProgressiveHook& hook, const StopPoll& stop) {
     Timer timer;
     std::vector<uint8_t> levels =
         scene::uniformLevels(scene, settings.level, settings.maxArea, settings.maxLevel);
@@ -331,6 +331,13 @@ ProgressiveResult solveProgressive(const scene::Scene& scene, const transport::V
     uint32_t last = 0;
     record(0, 0, unshot);
     while (unshot > stopAt && res.shots < settings.maxShots) {
+        // A signal: the shots so far are the result, marked interrupted.
+        if (stop()) {
+            spdlog::warn("signal {} received after {} shots: the progressive solution so far is the "
+                         "result, marked interrupted", interruptSignal(), res.shots);
+            res.interrupted = true;
+            break;
+        }
         uint32_t j = 0;
         double best = -1;
         for (size_t i = 0; i < n; ++i) {

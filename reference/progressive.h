@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "core/params.h"
+#include "core/stop.h"
 #include "scene/field.h"
 #include "scene/scene.h"
 #include "transport/formfactor.h"
@@ -85,6 +86,7 @@ struct ProgressiveResult {
     int64_t shots = 0;
     double unshotFraction = 0;
     bool converged = false;
+    bool interrupted = false;  ///< stopped by a signal before a shot (core/stop.h)
     uint64_t formFactors = 0;
     uint64_t rays = 0;
     uint64_t bytes = 0;
@@ -97,6 +99,6 @@ using ProgressiveHook = std::function<void(const scene::RadiosityField&, Progres
 
 ProgressiveResult solveProgressive(const scene::Scene& scene, const transport::Visibility& visibility,
                                    const ProgressiveSettings& settings, bool showProgress = true,
-                                   const ProgressiveHook& hook = {});
+                                   const ProgressiveHook& hook = {}, const StopPoll& stop = {});
 
 }  // namespace hrad::reference

@@ -348,6 +348,31 @@ int componentSize(int type) {
     }
 }
 
+/// The number of elements of the JSON array starting at t[at] (-1 when the
+/// value there is not an array). tinygltf replaces a number array of the
+/// wrong length by its default, so the loader counts it in the text.
+long jsonArrayLength(const std::string& t, size_t at) {
+    if (at >= t.size() || t[at] != '[') return -1;
+    long commas = 0;
+    bool any = false, inString = false;
+    int depth = 0;
+    for (size_t i = at; i < t.size(); ++i) {
+        const char c = t[i];
+        if (inString) {
+            if (c == '\\') ++i;
+            else if (c == '"') inString = false;
+            continue;
+        }
+        if (c == '"') inString = true;
+        if (c == '[' || c == '{') ++depth;
+        else if (c == ']' || c == '}') {
+            if (--depth == 0) return any ? commas + 1 : 0;
+        } else if (c == ',' && depth == 1) ++commas;
+        if (depth >= 1 && !(c == ' ' || c == '\n' || c == '\t' || c == '\r' || (c == '[' && i == at))) any = true;
+    }
+    return -1;
+}
+
 class Loader {
   public:
     Loader(const std::string& path, const GltfOptions& options) : path_(path), opt_(options) {
@@ -395,6 +420,8 @@ class Loader {
                   std::initializer_list<int> componentTypes) const;
     Mat4 localMatrix(int node) const;
     void addMesh(int meshIndex, const Mat4& world, int node);
+    uint64_t meshTriangles(int meshIndex) const;
+    void checkFaceBudget(const std::vector<int>& roots) const;
     uint32_t material(int index, const std::string& where);
     RGB textureMean(int textureIndex, int materialIndex, const std::string& materialName, const char* slot);
     int32_t baseColorTexture(int textureIndex, int source);
@@ -664,6 +691,15 @@ uint32_t Loader::material(int index, const std::string& where) {
     auto mfail = [&](const std::string& what, const std::string& msg) {
         fail(fmt::format("materials[{}]{} (material '{}'): {}", index, what, m.name, msg));
     };
+    // A factor of the wrong length or type: an error, not tinygltf's default.
+    for (auto [what, want] : {std::pair<const char*, long>{".pbrMetallicRoughness.baseColorFactor", 4},
+                              std::pair<const char*, long>{".emissiveFactor", 3}}) {
+        const size_t at = locateJsonPath(json_, fmt::format("materials[{}]{}", index, what));
+        if (at == std::string::npos) continue;
+        const long n = jsonArrayLength(json_, at);
+        if (n != want) mfail(what, n < 0 ? fmt::format("is not an array (expected {} numbers)", want)
+                                         : fmt::format("{} numbers (expected {})", n, want));
+    }
     const auto& bc = gm.pbrMetallicRoughness.baseColorFactor;
     if (bc.size() != 4) mfail(".pbrMetallicRoughness.baseColorFactor", fmt::format("{} numbers (expected 4)", bc.size()));
     const auto& ef = gm.emissiveFactor;
@@ -815,6 +851,61 @@ void Loader::addMesh(int meshIndex, const Mat4& world, int node) {
     }
 }
 
+/// The triangles a mesh makes, from its accessors' counts: each accessor is
+/// checked as addMesh checks it (so a count beyond its buffer is reported as
+/// such), but no element is read.
+uint64_t Loader::meshTriangles(int meshIndex) const {
+    uint64_t total = 0;
+    const tinygltf::Mesh& mesh = model_.meshes[size_t(meshIndex)];
+    for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
+        const tinygltf::Primitive& prim = mesh.primitives[pi];
+        const std::string where = fmt::format("meshes[{}].primitives[{}]", meshIndex, pi);
+        int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+        auto pos = prim.attributes.find("POSITION");
+        if (pos == prim.attributes.end()) continue;
+        if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP &&
+            mode != TINYGLTF_MODE_TRIANGLE_FAN)
+            continue;
+        uint64_t n = prim.indices >= 0
+                         ? accessor(prim.indices, where + ".indices", {TINYGLTF_TYPE_SCALAR},
+                                    {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+                                     TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT})
+                               .count
+                         : accessor(pos->second, where + ".attributes.POSITION", {TINYGLTF_TYPE_VEC3},
+                                    {TINYGLTF_COMPONENT_TYPE_FLOAT, TINYGLTF_COMPONENT_TYPE_BYTE,
+                                     TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_SHORT,
+                                     TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT})
+                               .count;
+        // Counts fit their buffers (checked above), so the sum cannot overflow.
+        total += mode == TINYGLTF_MODE_TRIANGLES ? n / 3 : (n >= 3 ? n - 2 : 0);
+    }
+    return total;
+}
+
+/// gltf.max_faces over the whole node forest, before any triangle is made:
+/// 10^4 nodes each instancing one 10^4-triangle mesh (a 61 KB file) built
+/// 2 * 10^7 triangles before addMesh's running count stopped it (issue 64).
+void Loader::checkFaceBudget(const std::vector<int>& roots) const {
+    std::vector<uint64_t> perMesh(model_.meshes.size(), UINT64_MAX);
+    uint64_t total = 0, instances = 0;
+    std::vector<int> stack(roots.rbegin(), roots.rend());
+    while (!stack.empty()) {
+        const tinygltf::Node& node = model_.nodes[size_t(stack.back())];
+        stack.pop_back();
+        if (node.mesh >= 0 && size_t(node.mesh) < perMesh.size()) {
+            uint64_t& t = perMesh[size_t(node.mesh)];
+            if (t == UINT64_MAX) t = meshTriangles(node.mesh);
+            total += t;
+            ++instances;
+            if (total > opt_.maxFaces)
+                fail(fmt::format("the scene yields more than gltf.max_faces = {} triangles ({} mesh instances "
+                                 "counted so far make {}); raise the setting if this is intended",
+                                 opt_.maxFaces, instances, total));
+        }
+        for (auto c = node.children.rbegin(); c != node.children.rend(); ++c) stack.push_back(*c);
+    }
+}
+
 void Loader::camera(const std::vector<std::pair<int, Mat4>>& placed) {
     if (model_.cameras.empty()) return;
     if (placed.empty()) {
@@ -910,6 +1001,7 @@ Scene Loader::load() {
     // Depth-first over the node trees with an explicit stack. Every node has at
     // most one parent and roots have none, so each node is visited at most once
     // and a cycle (which could only involve non-root nodes) is never entered.
+    checkFaceBudget(roots);
     std::vector<std::pair<int, Mat4>> stack, cameras;
     for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.emplace_back(*it, Mat4(1.0));
     while (!stack.empty()) {

@@ -59,6 +59,9 @@ MgfOptions mgfOptions(const Params& params) {
     mgf.maxFaces = size_t(params.getInt(
         {"mgf.max_faces", "MGF: faces after xf/include expansion at most (a resource bound)"},
         int64_t(mgf.maxFaces), 1, int64_t(1) << 40));
+    mgf.maxIncludes = size_t(params.getInt(
+        {"mgf.max_includes", "MGF: include statements executed at most, repeats counted (a resource bound)"},
+        int64_t(mgf.maxIncludes), 1, int64_t(1) << 40));
     mgf.defaultSides = int(params.getInt(
         {"mgf.default_sides", "MGF: sides of a material without a sides statement (1 or 2)"},
         mgf.defaultSides, 1, 2));
@@ -413,6 +416,13 @@ Scene loadScene(const std::string& spec, const Params& params, const Reachabilit
         scene = format->load(spec, params);
         scene.name = spec;
         scene.stats.missingFiles.apply(skipMissing, scene.stats.warnings);  // scene/missing_files.h
+        // A face too large for doubles is not degenerate: dropping it would
+        // load a different scene without a word (issue 64).
+        if (scene.stats.overflowFaces > 0)
+            throwInputError(SourceLocation{spec, 0, 0},
+                            "{} faces are too large for double precision: their areas overflow "
+                            "(coordinates or transforms beyond about 1e150); rescale the scene",
+                            scene.stats.overflowFaces);
     }
     // Two-sided materials become front/back patch pairs (scene.h, Patch::twin).
     auto makeSides = [&](Scene& s) {

@@ -14,6 +14,7 @@
 //   mgf.resolution   int    16     segments around sph/cyl/cone/ring/torus
 //   mgf.max_faces    int    2e7    most faces, and most statements executed after
 //                                  xf/include expansion, an MGF file may yield
+//   mgf.max_includes int   1e5    most `i` statements executed, repeats counted
 //   obj.default_rho  double 0.5    grey reflectance for faces with no material
 //   scene.clamp_rho  double 0.99   every format: reflectance channels >= 1 become this
 //                                  (a warning per material); 0: an error at the file:line

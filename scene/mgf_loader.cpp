@@ -233,6 +233,7 @@ class MgfLoader {
     std::unordered_map<std::string, MgfVertex> vertices_;
     MgfVertex* vertex_ = nullptr;
     size_t executed_ = 0;  ///< statements executed so far, after expansion
+    size_t includes_ = 0;  ///< `i` statements executed so far, repeats counted
 
     const FileText& file(const std::string& path, const SourceLocation& from) {
         std::error_code ec;
@@ -459,6 +460,13 @@ class MgfLoader {
                 i = std::min(close, f.stmts.size());
             } else if (k == "i") {
                 if (s.tok.size() < 2) fail(f, s, "'i' needs a file name");
+                // Included files are read once, but a tree of files each
+                // including the next twice runs 2^depth includes: each one
+                // counted, before its file is looked up (issue 64: 46 s).
+                if (++includes_ > opt_.maxIncludes)
+                    fail(f, s, fmt::format("more than mgf.max_includes = {} include statements executed "
+                                           "(an include fan-out?); raise the setting to load it",
+                                           opt_.maxIncludes));
                 std::filesystem::path p(s.tok[1]);
                 if (p.is_relative()) p = std::filesystem::path(f.path).parent_path() / p;
                 std::error_code ec;

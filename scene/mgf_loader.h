@@ -47,6 +47,10 @@ struct MgfOptions {
     /// expansion (hostile or mistaken nested -a arrays); exceeding it is an
     /// InputError naming the setting.
     size_t maxFaces = 20'000'000;
+    /// Bound on the `i` statements executed, each include counted every time
+    /// it runs (a tree of files each including the next twice doubles per
+    /// level); exceeding it is an InputError naming mgf.max_includes.
+    size_t maxIncludes = 100'000;
     /// `sides` of materials that do not state it. The MGF specification's
     /// default is 2 (Ward's parser: every material starts two-sided), but
     /// RenderPark forces one-sided surfaces unless told otherwise

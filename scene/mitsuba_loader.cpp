@@ -1126,6 +1126,7 @@ class Loader {
                 if (w.find("no material") == std::string::npos && w.find("default") == std::string::npos)
                     scene_.stats.warnings.push_back(w);
             scene_.stats.droppedDegenerate += sub.stats.droppedDegenerate;
+            scene_.stats.overflowFaces += sub.stats.overflowFaces;
             scene_.stats.triangulatedFaces += sub.stats.triangulatedFaces;  // e.g. a non-planar quad
             polys.reserve(sub.patches.size());
             for (const Patch& p : sub.patches) {

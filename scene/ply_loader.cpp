@@ -62,7 +62,8 @@ struct Element {
 
 class Reader {
   public:
-    Reader(std::istream& in, const std::string& path, int format) : in_(in), path_(path), format_(format) {}
+    Reader(std::istream& in, const std::string& path, int format, uint64_t fileSize)
+        : in_(in), path_(path), format_(format), fileSize_(fileSize) {}
     int line = 0;  // ASCII: current data line
 
     // Reads one element instance: scalars in vals, lists in lists (by property).
@@ -80,7 +81,8 @@ class Reader {
                 const Property& p = e.props[i];
                 if (p.list) {
                     double n = asciiNum(ss, p.countType);
-                    if (!(n >= 0 && n < 1e7)) fail("bad list count");
+                    // Each value takes two bytes of the line at least.
+                    if (!(n >= 0 && n < 1e7 && 2 * n <= double(text.size()))) fail("bad list count");
                     lists[i].resize(size_t(n));
                     for (auto& v : lists[i]) v = asciiNum(ss, p.type);
                 } else {
@@ -92,7 +94,9 @@ class Reader {
                 const Property& p = e.props[i];
                 if (p.list) {
                     double n = binNum(p.countType);
-                    if (!(n >= 0 && n < 1e7)) fail("bad list count");
+                    // The values must be in the file before they are allocated.
+                    if (!(n >= 0 && n < 1e7 && n * typeSize(p.type) <= double(fileSize_ - uint64_t(in_.tellg()))))
+                        fail(fmt::format("bad list count {} (the file ends sooner)", n));
                     lists[i].resize(size_t(n));
                     for (auto& v : lists[i]) v = binNum(p.type);
                 } else {
@@ -116,6 +120,7 @@ class Reader {
     std::istream& in_;
     std::string path_;
     int format_;  // 0 ascii, 1 little endian, 2 big endian
+    uint64_t fileSize_;
 
     double asciiNum(std::istringstream& ss, Type t) {
         std::string tok;
@@ -237,9 +242,11 @@ Scene loadPly(const std::string& path, const PlyOptions& options) {
     // Element counts are checked against the bytes left in the file before anything is allocated:
     // an ASCII instance takes at least one line (2 bytes), a binary one at least the sum of its
     // fixed-size properties (1 byte per list count). An element without properties cannot hold data.
+    uint64_t fileSize = 0;
     {
         std::streampos here = in.tellg();
         in.seekg(0, std::ios::end);
+        fileSize = uint64_t(in.tellg());
         double remaining = double(in.tellg() - here);
         in.seekg(here);
         double needed = 0;
@@ -258,7 +265,7 @@ Scene loadPly(const std::string& path, const PlyOptions& options) {
     Scene scene;
     scene.name = path;
     scene.source = "ply";
-    Reader reader(in, path, format);
+    Reader reader(in, path, format, fileSize);
     reader.line = lineNo;
 
     std::vector<Vec3> pos;

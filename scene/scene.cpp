@@ -72,6 +72,10 @@ bool Scene::addPolygonPatch(PatchKind kind, const Vec3 (&v)[4], uint32_t materia
     double len = glm::length(nrm);
     double area = kind == PatchKind::Quad ? 0.5 * glm::length(glm::cross(v[2] - v[0], v[3] - v[1]))
                                           : 0.5 * len;
+    if (std::isinf(area) || std::isinf(len) || std::isinf(maxEdge2)) {
+        ++stats.overflowFaces;
+        return false;
+    }
     if (degenerate(area, maxEdge2) || !(len > 0)) {
         ++stats.droppedDegenerate;
         return false;

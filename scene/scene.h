@@ -172,6 +172,9 @@ struct DiscontinuityStats {
 struct LoadStats {
     uint64_t inputFaces = 0;         ///< faces read from the file (before triangulation)
     uint64_t droppedDegenerate = 0;  ///< faces of (near) zero area dropped
+    /// faces whose area or normal overflows a double (coordinates past about
+    /// 1e150): not degenerate, so loadScene refuses the scene (issue 64)
+    uint64_t overflowFaces = 0;
     uint64_t triangulatedFaces = 0;  ///< faces that had to be triangulated
     uint64_t defaultMaterialFaces = 0;
     uint64_t ignoredStatements = 0;  ///< e.g. MGF rs/ts

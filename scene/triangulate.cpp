@@ -235,6 +235,13 @@ namespace {
 
 size_t addPolygonPatches(Scene& scene, const std::vector<Vec3>& input, uint32_t material) {
     ++scene.stats.inputFaces;
+    // Areas are products of coordinates: past 1e150 they (and the diameter
+    // cleanPolygon measures) overflow, and the face looked degenerate.
+    for (const Vec3& p : input)
+        if (std::max({std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)}) > 1e150) {
+            ++scene.stats.overflowFaces;
+            return 0;
+        }
     std::vector<Vec3> v = cleanPolygon(input);
     if (v.size() < 3) {
         ++scene.stats.droppedDegenerate;
@@ -244,6 +251,10 @@ size_t addPolygonPatches(Scene& scene, const std::vector<Vec3>& input, uint32_t 
 
     Vec3 nn = newellNormal(v);
     double len = glm::length(nn);
+    if (std::isinf(len)) {
+        ++scene.stats.overflowFaces;
+        return 0;
+    }
     if (!(len > 0) || !std::isfinite(len)) {
         ++scene.stats.droppedDegenerate;
         return 0;

@@ -16,8 +16,9 @@
 //      "Triangulating a Polygonal Domain" example), with the polygon's
 //      orientation preserved. stats.triangulatedFaces counts these faces.
 // Degenerate faces (fewer than 3 distinct, non-collinear vertices, or zero
-// area) are dropped and counted in stats.droppedDegenerate. Every call counts
-// one stats.inputFaces.
+// area) are dropped and counted in stats.droppedDegenerate; faces whose area
+// overflows a double in stats.overflowFaces (loadScene refuses those scenes).
+// Every call counts one stats.inputFaces.
 //
 // CGAL (Exact_predicates_inexact_constructions_kernel) is included only by
 // triangulate.cpp and linked PRIVATE to hrad::scene.

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # scripts/fuzz.sh TARGET SECONDS: builds the libFuzzer harness
 # hrad_fuzz_TARGET in build-asan/ (scripts/asan_tree.sh) and runs it for
-# SECONDS. TARGET: obj, mgf, ply, study, hrsol (tests/fuzz/CMakeLists.txt), or
-# "all" for each in turn. The corpus grows in build-asan/fuzz/corpus/TARGET,
+# SECONDS. TARGET: a harness of tests/fuzz/CMakeLists.txt, or "all": every
+# harness, HRAD_FUZZ_PARALLEL (2) at a time, so that the wall time is about
+# ceil(10 / 2) x SECONDS; the summaries print in order and any finding fails. The corpus grows in build-asan/fuzz/corpus/TARGET,
 # seeded from tests/fuzz/seeds/TARGET (and experiments/studies for study);
 # findings (crash-*, timeout-*, leak-*, oom-*) go to build-asan/fuzz/findings/
 # and fail the script. One input may take 10 s and 2 GiB at most.
@@ -11,13 +12,27 @@ cd "$(dirname "$0")/.."
 if [ $# -ne 2 ]; then echo "usage: scripts/fuzz.sh TARGET SECONDS" >&2; exit 2; fi
 TARGET="$1"
 SECONDS_PER="$2"
-ALL=(obj mgf ply gltf mitsuba study hrsol)
-if [ "$TARGET" = all ]; then
-  for t in "${ALL[@]}"; do bash "$0" "$t" "$SECONDS_PER"; done
-  exit 0
-fi
+ALL=(obj mgf ply gltf glb mitsuba mitsuba_include serialized study hrsol)
 source scripts/asan_tree.sh
-asan_build "hrad_fuzz_$TARGET" >/dev/null
+if [ "$TARGET" = all ]; then
+  # Build every harness first (one cmake call), then run them in batches.
+  asan_build "${ALL[@]/#/hrad_fuzz_}" >/dev/null
+  par="${HRAD_FUZZ_PARALLEL:-2}"
+  out="$(mktemp -d)"
+  failed=0
+  for ((i = 0; i < ${#ALL[@]}; i += par)); do
+    pids=()
+    for t in "${ALL[@]:i:par}"; do
+      HRAD_FUZZ_BUILT=1 bash "$0" "$t" "$SECONDS_PER" >"$out/$t" 2>&1 &
+      pids+=($!)
+    done
+    for p in "${pids[@]}"; do wait "$p" || failed=1; done
+    for t in "${ALL[@]:i:par}"; do cat "$out/$t"; done
+  done
+  rm -rf "$out"
+  exit $failed
+fi
+if [ -z "${HRAD_FUZZ_BUILT:-}" ]; then asan_build "hrad_fuzz_$TARGET" >/dev/null; fi
 corpus="$ASAN_DIR/fuzz/corpus/$TARGET"
 findings="$ASAN_DIR/fuzz/findings"
 mkdir -p "$corpus" "$findings"

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <string>
 
 #include "core/error.h"
@@ -72,21 +73,26 @@ TEST(HostileInput, IncludeFanOutIsBounded) {
                                                     "  <include filename=\"f0.xml\"/>\n</scene>\n");
     std::string e = errorOf(top);
     EXPECT_NE(e.find("more than 10000 files parsed through <include>"), std::string::npos) << e;
-    // MGF: the same tree of includes is bounded by mgf.max_faces (statements executed).
+    // MGF: the same tree of includes. Files are read once, but the includes
+    // ran until mgf.max_faces = 2e7 statements (46 s); at the defaults they
+    // now stop at mgf.max_includes, before the next include is looked up.
     for (int k = 0; k < 31; ++k)
         test::writeFile(dir / ("m" + std::to_string(k) + ".mgf"),
                         k == 30 ? std::string("v a =\n p 0 0 0\n")
                                 : repeat("i m" + std::to_string(k + 1) + ".mgf\n", 2));
     auto mgf = test::writeFile(dir / "top.mgf", "i m0.mgf\n");
-    Params small;
-    small.set("mgf.max_faces", int64_t(1000));
+    e = errorOf(mgf);
+    EXPECT_NE(e.find("error: more than mgf.max_includes = 100000 include statements executed"), std::string::npos)
+        << e;
+    Params few;
+    few.set("mgf.max_includes", int64_t(10));
     e = "no error";
     try {
-        loadScene(mgf.string(), small);
+        loadScene(mgf.string(), few);
     } catch (const InputError& x) {
         e = x.what();
     }
-    EXPECT_NE(e.find("mgf.max_faces = 1000"), std::string::npos) << e;
+    EXPECT_NE(e.find("mgf.max_includes = 10 "), std::string::npos) << e;
 }
 
 TEST(HostileInput, OnlyRegularFilesAreRead) {
@@ -183,6 +189,71 @@ TEST(HostileInput, ShapesTooLargeForDoublesAreErrors) {
     auto mgf = test::writeFile(dir / "huge.mgf", "m light =\n  ed 10\nv c =\n  p 0 0 0\nsph c 1e200\n");
     e = errorOf(mgf);
     EXPECT_NE(e.find("huge.mgf:5: error: sph: radius"), std::string::npos) << e;
+}
+
+// Budgets before the allocation they guard (issue 64): a 61 KB glTF of 10^4
+// nodes each instancing one 10^4-triangle mesh built 2 * 10^7 triangles
+// before the face count stopped it; it is now refused from the node tree and
+// the accessors' counts, naming gltf.max_faces, before any triangle is made.
+TEST(HostileInput, GltfInstancingIsBudgetedBeforeBuilding) {
+    auto dir = test::tempDir("hostile_gltf_instances");
+    const int tris = 10000, nodes = 10000;
+    std::string bin(48 + 6 * size_t(tris), '\0');
+    const float v[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0};
+    std::memcpy(bin.data(), v, sizeof(v));
+    for (int i = 0; i < 3 * tris; ++i) {
+        const uint16_t k = uint16_t(i % 3);
+        std::memcpy(bin.data() + 48 + 2 * size_t(i), &k, 2);
+    }
+    test::writeFile(dir / "mesh.bin", bin);
+    std::string nodeList, sceneNodes;
+    for (int i = 0; i < nodes; ++i) {
+        nodeList += std::string(i ? "," : "") + "{\"mesh\":0}";
+        sceneNodes += std::string(i ? "," : "") + std::to_string(i);
+    }
+    auto gltf = test::writeFile(
+        dir / "inst.gltf",
+        "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[" + sceneNodes + "]}],\n\"nodes\":[" +
+            nodeList + "],\n\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1}]}],"
+            "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\",\"min\":[0,0,0],"
+            "\"max\":[1,1,0]},{\"bufferView\":1,\"componentType\":5123,\"count\":" + std::to_string(3 * tris) +
+            ",\"type\":\"SCALAR\"}],\"bufferViews\":[{\"buffer\":0,\"byteLength\":48},{\"buffer\":0,\"byteOffset\":48,"
+            "\"byteLength\":" + std::to_string(6 * tris) + "}],\"buffers\":[{\"uri\":\"mesh.bin\",\"byteLength\":" +
+            std::to_string(bin.size()) + "}]}\n");
+    std::string e = errorOf(gltf);
+    EXPECT_NE(e.find("error: the scene yields more than gltf.max_faces = 20000000 triangles (2001 mesh instances "
+                     "counted so far make 20010000)"), std::string::npos) << e;
+}
+
+// Silent wrong successes (issue 64): each was loaded with exit 0.
+TEST(HostileInput, OutOfRangeValuesAreErrorsNotDrops) {
+    auto dir = test::tempDir("hostile_silent");
+    // glTF baseColorFactor with 3 numbers gave rho 0.99 (tinygltf's default, clamped).
+    const float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    test::writeFile(dir / "tri.bin", std::string(reinterpret_cast<const char*>(v), sizeof(v)));
+    auto gltf = test::writeFile(
+        dir / "bc.gltf",
+        "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{\"attributes\":"
+        "{\"POSITION\":0},\"material\":0}]}],\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,"
+        "\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,0]}],\"bufferViews\":[{\"buffer\":0,\"byteLength\":36}],"
+        "\"buffers\":[{\"uri\":\"tri.bin\",\"byteLength\":36}],\"materials\":[{\"emissiveFactor\":[1,1,1],"
+        "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5]}}]}\n");
+    std::string e = errorOf(gltf);
+    EXPECT_NE(e.find("baseColorFactor"), std::string::npos) << e;
+    EXPECT_NE(e.find("error:"), std::string::npos) << e;
+    // Faces too large for doubles in the formats without their own check
+    // (OBJ, PLY, glTF node scales) were dropped as degenerate.
+    const std::string light = "mtllib l.mtl\nusemtl l\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    test::writeFile(dir / "l.mtl", "newmtl l\nKd 0.5 0.5 0.5\nKe 1 1 1\n");
+    auto obj = test::writeFile(dir / "huge.obj", light + "v 0 0 1e200\nv 1e200 0 1e200\nv 0 1e200 1e200\nf 4 5 6\n");
+    e = errorOf(obj);
+    EXPECT_NE(e.find("huge.obj: error: 1 faces are too large for double precision"), std::string::npos) << e;
+    auto ply = test::writeFile(dir / "huge.ply",
+                               "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
+                               "property double z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                               "end_header\n0 0 0\n1e200 0 0\n0 1e200 0\n3 0 1 2\n");
+    e = errorOf(ply);
+    EXPECT_NE(e.find("huge.ply: error: 1 faces are too large for double precision"), std::string::npos) << e;
 }
 
 }  // namespace
