@@ -614,7 +614,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
 
     // ---- the error estimate (reference/error_estimate.h) ---------------------------
     std::optional<reference::ErrorEstimate> estimate;
-    if (r.estimate) {
+    if (r.estimate && interruptSignal() == 0) {
         const reference::ErrorEstimate* known = target ? target->finalEstimate() : nullptr;
         estimate = known ? *known
                          : reference::estimateError(sc, vis, *field, *r.estimate, ctx.progress);
