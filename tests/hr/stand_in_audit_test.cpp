@@ -148,7 +148,7 @@ TEST(StandInAudit, StandInsCarryTheirMonteCarloPowerOnLostEmpire) {
     // The texel alone, as the scene's reflectance was before textures were
     // read: with map_Kd x Kd per patch (the default since 2026-12-02) the
     // stand-ins spread by area carry 1.51x their Monte Carlo power and all
-    // stand-ins 1.045x (bench/results/error_estimate.md, README limitation).
+    // stand-ins 1.045x (README, "Known limitations").
     p.set("obj.texture_kd", std::string("replace"));
     const std::string le = (*dir / "lost-empire/lost_empire.obj").string();
     expectStandInsUnbiased(audit(le, p, "stand_in", 8));
