@@ -743,10 +743,12 @@ uint32_t Loader::material(int index, const std::string& where) {
         case RhoCheck::Clamped:
             warn(fmt::format("material '{}': {}", m.name, clampedNote(opt_.clampRho)));
             break;
-        case RhoCheck::TooLarge:
+        case RhoCheck::TooLarge: {  // braced: the message's lifetime ends in this case
             mfail(".pbrMetallicRoughness",
                   fmt::format("reflectance ({:.6g}, {:.6g}, {:.6g}) must be < 1 per channel ({})",
                               given.r, given.g, given.b, kClampRhoHint));
+            break;
+        }
         case RhoCheck::Fine: break;
     }
     m.twoSided = gm.doubleSided;

@@ -297,11 +297,14 @@ class MgfLoader {
                          fmt::format("material '{}': rd = {} with its colour has a channel >= 1: {}",
                                      materialName_, m.rd, clampedNote(opt_.clampRho)));
                 break;
-            case RhoCheck::TooLarge:
-                throwInputError(SourceLocation{scene_.name, 0, 0},
+            case RhoCheck::TooLarge: {
+                // Braced: the location's lifetime ends inside this case.
+                const SourceLocation where{scene_.name, 0, 0};
+                throwInputError(where,
                                 "material '{}': rd = {} with its colour is ({:.6g}, {:.6g}, {:.6g}), "
                                 ">= 1 ({})",
                                 materialName_, m.rd, given.r, given.g, given.b, kClampRhoHint);
+            }
             case RhoCheck::Fine: break;
         }
         mat.emission = toRgb(m.edColour, m.ed);

@@ -915,9 +915,11 @@ class Loader {
             const RGB given = info.rho;
             switch (clampReflectance(info.rho, opt_.clampRho)) {  // scene.h: one rule for every format
                 case RhoCheck::Clamped: notes.push_back(clampedNote(opt_.clampRho)); break;
-                case RhoCheck::TooLarge:
+                case RhoCheck::TooLarge: {  // braced, as in every loader
                     fail(b, "reflectance ({:.6g}, {:.6g}, {:.6g}) >= 1 ({})", given.r, given.g, given.b,
                          kClampRhoHint);
+                    break;
+                }
                 case RhoCheck::Fine: break;
             }
         }
