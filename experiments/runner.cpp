@@ -680,7 +680,7 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         }
         if (estimate)
             e["estimate"] = estimateAgainstTruth(
-                *estimate, err, r.refMc ? mcUncertaintyNonEmitters(*ref, sc) : 0.0);
+                *estimate, err, r.refMc ? e["mc_stderr_l2_nonemitter_lum"].get<double>() : 0.0);
         // Error work, including the per-iteration errors (history_error), so
         // that wall - reference - error - render is the solver's own time.
         timings["error"] = tErr.seconds() + historyErrorSeconds;
