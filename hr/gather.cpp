@@ -71,7 +71,7 @@ void Hierarchy::gatherRow(uint32_t r) {
         return;
     }
     const RGB& rho = scene_->patches[patch_[r]].rho;
-    gathered_[r] = rho * sum;
+    gathered_[r] = rho * sum + (r < lightGathered.size() ? lightGathered[r] : RGB(0.0));
     for (int a = 1; a < nb_; ++a)
         gatheredHi_[size_t(r) * size_t(nb_ - 1) + size_t(a - 1)] = rho * sumHi[a];
 }

@@ -276,6 +276,7 @@ class Hierarchy {
     RGB& B(uint32_t e) { return B_[e]; }
     const RGB& gathered(uint32_t e) const { return gathered_[e]; }
     RGB& gathered(uint32_t e) { return gathered_[e]; }
+    std::vector<RGB> lightGathered;  ///< rho E from non-area lights per node, added by gatherRow (hr/light_links.h)
     /// Stable id of an element, independent of allocation order (seeds rays),
     /// drawn under the solve's seed (setSeed).
     uint64_t stableId(uint32_t e) const;

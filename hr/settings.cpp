@@ -9,6 +9,7 @@
 
 #include "core/memory.h"
 #include "hr/checks/registry.h"
+#include "hr/light_links.h"
 #include "oracles/registry.h"
 #include "scene/basis.h"
 
@@ -271,6 +272,7 @@ HrSettings HrSettings::fromParams(const Params& p) {
     readChecks(p, s);
     readIteration(p, s);
     readBasis(p, s);
+    s.lightStrata = LightLinkSettings::fromParams(p).strata;
     // Validate the oracle settings now (unknown keys included), so a bad
     // setting fails before any work is done.
     // The probe is a subset of p, so the oracle's reads are p's records.

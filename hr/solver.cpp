@@ -18,7 +18,9 @@
 #include "hr/eps_power.h"
 #include "hr/iteration_tail.h"
 #include "hr/receiver_error.h"
+#include "hr/light_links.h"
 #include "hr/refiner.h"
+#include "transport/light_irradiance.h"
 #include "hr/checks/registry.h"
 #include "oracles/registry.h"
 #include "transport/reachability.h"
@@ -56,7 +58,8 @@ HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visib
       engine_(scene, &visibility, s_.ff),
       links_(engine_, s_.judgeVisibility) {
     minArea_ = s_.minArea > 0 ? s_.minArea : s_.minAreaRel * scene.totalArea();
-    emittedPower_ = maxComponent(scene.emittedPower());
+    // Non-area lights send power too (hr/light_links.h).
+    emittedPower_ = maxComponent(scene.emittedPower()) + transport::lightsPower(scene);
     if (!(emittedPower_ > 0)) emittedPower_ = 1.0;
     epsPower_ = emittedPower_;
     emittedRadiosity_ = 0.0;
@@ -392,7 +395,8 @@ void HrSolver::buildHierarchy(HrResult& res) {
 
 void HrSolver::findReachable(HrResult& res) {
     included_.clear();
-    if (s_.reachRays <= 0) return;
+    // Reachability traces from emitting patches only: with lights it would leave out what they light.
+    if (s_.reachRays <= 0 || !scene_->lights.empty()) return;
     PhaseProgress phase("reachability", progress_);
     transport::Reachability reach = transport::reachablePatches(
         *scene_, *vis_, s_.reachRays, reseed(1, s_.seed), s_.reachRetryRays);
@@ -467,6 +471,13 @@ bool HrSolver::runStage(Hierarchy& h, HrResult& res, int stage, double eps, Loop
     if (!std::isnan(eps)) op.set("eps", eps);
     auto oracle = oracles::createOracle(s_.oracle, op);
     res.oracleDescription = oracle->describe();
+    if (!scene_->lights.empty()) {
+        if (!lightLinks_ || stage == 0)
+            lightLinks_ = std::make_shared<LightLinks>(*scene_, *vis_, LightLinkSettings{s_.lightStrata});
+        const uint64_t before = lightLinks_->rays();
+        lightLinks_->refine(h, *oracle, epsPower_, emittedRadiosity_);
+        res.totalRays += lightLinks_->rays() - before;
+    }
     // The radiosities of the last judging pass (lazy refinement); a new
     // stage (a new eps) always judges. A check that must see every iteration
     // (the full leaf budget) turns lazy refinement off; the balanced budget

@@ -67,6 +67,8 @@
 
 namespace hrad::hr {
 
+class LightLinks;
+
 /// What one iteration did (one row of the per-iteration history).
 struct IterationRecord {
     int iteration = 0;  ///< 1-based, counted across stages
@@ -381,6 +383,7 @@ class HrSolver {
     std::vector<uint8_t> included_;
     bool outOfTime() const { return budget_->outOfTime(); }
     std::unique_ptr<cluster::ClusterLinker> linker_;       ///< made by solve() with the tree
+    std::shared_ptr<LightLinks> lightLinks_;  ///< non-area lights (hr/light_links.h), per solve
     std::unique_ptr<scene::BasisSet> basis_;               ///< degree > 0
     std::unique_ptr<transport::CouplingEngine> coupling_;  ///< degree > 0
 };

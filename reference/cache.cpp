@@ -172,6 +172,11 @@ uint64_t sceneContentHash(const scene::Scene& scene) {
         f.vec(p.rho);
         f.vec(p.emission);
     }
+    // Non-area lights (scene/lights/light.h); a scene without them keeps its hash.
+    for (const auto& l : scene.lights) {
+        const std::string d = std::string("light-v1 ") + l->describe();
+        f.bytes(d.data(), d.size());
+    }
     return f.h;
 }
 

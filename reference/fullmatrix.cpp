@@ -1,6 +1,9 @@
 // Full-matrix reference solver; see fullmatrix.h for the settings and the math.
 #include "reference/fullmatrix.h"
 
+#include "core/rng.h"
+#include "transport/light_irradiance.h"
+
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -48,7 +51,7 @@ System makeSystem(const scene::Scene& scene, const FormFactorMatrix& m) {
     s.A = m.areas;
     for (size_t i = 0; i < n; ++i) {
         const scene::Patch& p = scene.patches[m.patchOf[i]];
-        s.E[i] = p.emission;
+        s.E[i] = p.emission + (m.lightE.empty() ? RGB(0.0) : m.lightE[i]);
         s.rho[i] = p.rho;
     }
     return s;
@@ -170,6 +173,26 @@ double FormFactorMatrix::rowSum(size_t i) const {
     return s;
 }
 
+/// FormFactorMatrix::lightE: the lights' direct irradiance per element times rho.
+static void computeLightE(const scene::Scene& scene, const transport::Visibility& visibility,
+                   const scene::UniformField& layout, const std::vector<transport::ElementRef>& refs,
+                   FormFactorMatrix& m) {
+    if (scene.lights.empty()) return;
+    const size_t n = layout.numElements();
+    m.lightE.assign(n, RGB(0.0));
+    std::vector<uint64_t> rays(n, 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16), [&](const auto& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+            const uint32_t p = refs[i].patch;
+            const RGB E = transport::elementLightsIrradiance(
+                scene, visibility, p, refs[i].dom, FormFactorMatrix::kLightPoints,
+                FormFactorMatrix::kLightStrata, hashIds(0x6c69676874ULL, i), rays[i]);
+            m.lightE[i] = scene.patches[p].rho * E;
+        }
+    });
+    for (uint64_t x : rays) m.rays += x;
+}
+
 FormFactorMatrix computeFormFactorMatrix(const scene::Scene& scene,
                                          const transport::Visibility& visibility,
                                          const FullMatrixSettings& settings, bool showProgress,
@@ -286,6 +309,7 @@ FormFactorMatrix computeFormFactorMatrix(const scene::Scene& scene,
         std::vector<double>().swap(rowVals[i]);
         m.rays += rowRays[i];
     }
+    computeLightE(scene, visibility, layout, refs, m);
     m.seconds = timer.seconds();
     return m;
 }

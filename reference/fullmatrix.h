@@ -88,6 +88,13 @@ struct FormFactorMatrix {
     std::vector<uint64_t> rowStart;  ///< n+1 offsets into cols/values
     std::vector<uint32_t> cols;      ///< sender j of each non-zero F_ij
     std::vector<double> values;      ///< F_ij
+    /// rho_i times element i's mean irradiance from the non-area lights
+    /// (scene/lights/light.h), part of E_direct: B = E + lightE + rho F B.
+    /// Midpoint rule of kLightPoints^2 points (transport::elementMeanPoints),
+    /// environments by kLightStrata^2 stratified cosine directions per point
+    /// (transport/light_irradiance.h). Empty without lights.
+    std::vector<RGB> lightE;
+    static constexpr int kLightPoints = 4, kLightStrata = 16;
     uint64_t rays = 0;               ///< occlusion rays cast
     double seconds = 0.0;            ///< wall time of the form-factor pass
     bool interrupted = false;        ///< stopped by a signal: some rows are missing

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/sampling.h"
+#include "transport/light_irradiance.h"
 
 namespace hrad::reference {
 
@@ -76,9 +77,24 @@ Vec3 sampleCosine(const Vec3& n, Pcg32& rng) {
     return cosineDirection(n, u1, u2);
 }
 
+RGB deltaLights(const scene::Scene& s, const transport::Visibility& vis, const Vec3& x,
+                const Vec3& n, uint32_t patch, uint64_t& rays) {
+    RGB sum(0.0);
+    for (const auto& l : s.lights)
+        if (l->isDelta()) sum += transport::lightIrradiance(*l, vis, x, n, patch, 1, 0, rays);
+    return sum;
+}
+
 RGB directLight(const scene::Scene& s, const transport::Visibility& vis, const EmitterTable& em,
                 const Vec3& x, const Vec3& n, uint32_t patch, bool mis, Pcg32& rng,
                 uint64_t& rays) {
+    const RGB lights = s.lights.empty() ? RGB(0.0) : deltaLights(s, vis, x, n, patch, rays);
+    return lights + directArea(s, vis, em, x, n, patch, mis, rng, rays);
+}
+
+RGB directArea(const scene::Scene& s, const transport::Visibility& vis, const EmitterTable& em,
+               const Vec3& x, const Vec3& n, uint32_t patch, bool mis, Pcg32& rng,
+               uint64_t& rays) {
     if (em.empty()) return RGB(0.0);
     size_t k = em.pick(rng.nextDouble());
     Vec3 y = em.shape[k].sample(rng);  // drawn even when unused: fixed stream use

@@ -59,11 +59,25 @@ struct EmitterTable {
 /// Cosine-weighted direction about n, pdf cos t / pi (core/sampling.h).
 Vec3 sampleCosine(const Vec3& n, Pcg32& rng);
 
-/// Direct light at x (front of `patch`, normal n) by next-event estimation
-/// from `em`, MIS-weighted when `mis`; `rays` counts the shadow ray.
+/// Direct light at x (front of `patch`, normal n) by next-event estimation:
+/// from the area emitters `em` (one emitter point, MIS-weighted when `mis`)
+/// plus every delta light of the scene (point, spot, sun: one shadow ray
+/// each, exact; scene/lights/light.h). Environments are not sampled here:
+/// a cosine ray that escapes picks up pi L(w) (environmentHit), which for a
+/// constant sky is already the ideal density (pdf cos t / pi is
+/// proportional to the unoccluded integrand), so MIS would add nothing.
+/// `rays` counts the shadow rays.
 RGB directLight(const scene::Scene& s, const transport::Visibility& vis, const EmitterTable& em,
                 const Vec3& x, const Vec3& n, uint32_t patch, bool mis, Pcg32& rng,
                 uint64_t& rays);
+
+/// Only the area emitters' part of directLight().
+RGB directArea(const scene::Scene& s, const transport::Visibility& vis, const EmitterTable& em,
+               const Vec3& x, const Vec3& n, uint32_t patch, bool mis, Pcg32& rng,
+               uint64_t& rays);
+/// Only the delta lights' part of directLight().
+RGB deltaLights(const scene::Scene& s, const transport::Visibility& vis, const Vec3& x,
+                const Vec3& n, uint32_t patch, uint64_t& rays);
 
 /// The MIS weight's share of an emitter q hit at y by a cosine ray from x
 /// (normal n, direction dir): q.emission * a / (a + b) (header).

@@ -17,17 +17,21 @@
 #include "core/timer.h"
 #include "reference/light_sampling.h"
 #include "scene/element.h"
+#include "transport/light_irradiance.h"
 
 namespace hrad::reference {
 
 namespace {
+
+constexpr double kPi = 3.14159265358979323846;
 
 /// One region's random walks. Not shared between tasks.
 class Walker {
   public:
     Walker(const scene::Scene& s, const transport::Visibility& vis, const EmitterTable& em,
            const MonteCarloSettings& st)
-        : scene_(s), vis_(vis), em_(em), maxDepth_(st.maxDepth), mis_(st.mis) {}
+        : scene_(s), vis_(vis), em_(em), maxDepth_(st.maxDepth), mis_(st.mis),
+          hasEnv_(transport::hasEnvironment(s)) {}
 
     uint64_t rays = 0;
 
@@ -42,7 +46,11 @@ class Walker {
             Vec3 dir = sampleCosine(p.normal, rng);
             ++rays;
             transport::RayHit hit = vis_.intersect(x, dir, 0.0, 1e300, patch);
-            if (!hit.hit) break;
+            if (!hit.hit) {
+                // Escaped: the environment's radiance, scored pi L by the cosine pdf.
+                if (hasEnv_) H += beta * (kPi * transport::environmentRadiance(scene_, dir));
+                break;
+            }
             const scene::Patch& q = scene_.patches[hit.patch];
             double cosY = -glm::dot(dir, q.normal);
             if (cosY <= 0) break;  // back face: B = 0 there
@@ -74,6 +82,7 @@ class Walker {
     const EmitterTable& em_;
     int maxDepth_;
     bool mis_;
+    bool hasEnv_;
 };
 
 }  // namespace
@@ -134,7 +143,7 @@ MonteCarloResult solveMonteCarlo(const scene::Scene& scene, const transport::Vis
         for (size_t i = 0; i < field.count(p); ++i) patchOf[field.offset(p) + i] = p;
 
     EmitterTable emitters(scene);
-    if (emitters.empty()) spdlog::warn("monte carlo reference: the scene has no emitter");
+    if (emitters.empty() && scene.lights.empty()) spdlog::warn("monte carlo reference: the scene has no emitter");
     std::vector<Welford> acc(n);
     std::vector<uint64_t> rays(n, 0);
 

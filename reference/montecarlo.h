@@ -11,7 +11,10 @@
 // chosen by power and a point on it (one shadow ray), the indirect integral by
 // one cosine-weighted direction (weight rho(y)), so
 //   H_est(x_0) = sum_{i>=0} (prod_{j=1..i} rho(x_j)) D_est(x_i).
-// Emission hit by an indirect ray is not added (D's job).
+// Emission hit by an indirect ray is not added (D's job). Non-area lights
+// (scene/lights/light.h): D includes every delta light by one shadow ray
+// (reference/light_sampling.h), and a ray that escapes the scene adds
+// pi L(w) of the environment (light otherwise escaping is lost).
 //
 // Multiple importance sampling (`mis`, default on): pure NEE has infinite
 // variance where an emitter meets a receiver at an edge (the second moment

@@ -8,6 +8,7 @@
 
 #include "core/sampling.h"
 #include "scene/element.h"
+#include "transport/light_irradiance.h"
 
 namespace hrad::render {
 
@@ -70,6 +71,10 @@ RGB Gatherer::direct(uint32_t patch, const Vec3& x, Pcg32& rng) const {
         }
         sum += p.emission * (acc / k);
     }
+    // Point, spot and sun lights: one shadow ray each, exact (transport/light_irradiance.h).
+    uint64_t rays = 0;  // not reported: the image counts no rays
+    for (const auto& l : scene_->lights)
+        if (l->isDelta()) sum += transport::lightIrradiance(*l, *vis_, x, r.normal, patch, 1, 0, rays);
     return sum;
 }
 
@@ -88,7 +93,10 @@ RGB Gatherer::finalGather(const scene::RadiosityField& field, uint32_t patch, co
         }
         Vec3 dir = cosineDir(r.normal, r1, r2);
         transport::RayHit h = vis_->intersect(x, dir, 0.0, 1e300, patch);
-        if (!h.hit) continue;
+        if (!h.hit) {
+            ind += kPi * transport::environmentRadiance(*scene_, dir);  // the sky, pi L by the cosine pdf
+            continue;
+        }
         const scene::Patch& q = scene_->patches[h.patch];
         if (glm::dot(q.normal, dir) >= 0) continue;  // the back of a one-sided patch
         Vec2 uv = glm::clamp(scene::patchInverse(q, h.point), Vec2(0.0), Vec2(1.0));
@@ -126,7 +134,11 @@ RGB Gatherer::pathTraced(uint32_t patch, const Vec3& x0, Pcg32& rng) const {
         }
         Vec3 dir = cosineDir(p.normal, rng.nextDouble(), rng.nextDouble());
         transport::RayHit h = vis_->intersect(x, dir, 0.0, 1e300, cur);
-        if (!h.hit) break;
+        if (!h.hit) {
+            // Escaped: the environment (no MIS: see final_gather.h).
+            result += throughput * (kPi * transport::environmentRadiance(*scene_, dir));
+            break;
+        }
         if (glm::dot(scene_->patches[h.patch].normal, dir) >= 0) break;
         cur = h.patch;
         x = h.point;

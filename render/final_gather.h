@@ -21,6 +21,13 @@
 // maximum RGB reflectance as survival probability). It needs no solution and
 // converges to the exact radiosity: the Monte Carlo reference image.
 //
+// Non-area lights (scene/lights/light.h) in both: D(x) adds every point,
+// spot and sun light by one shadow ray (exact), and a gather or path ray
+// that escapes adds pi L(w) of the environment (cosine sampling only: for a
+// constant sky its pdf is proportional to the unoccluded integrand, so MIS
+// with light sampling would add nothing; an importance-sampled envmap would
+// want it).
+//
 // Both are deterministic per (seed, pixel, sample): the random sequence of a
 // sample is seeded by hashIds(seed, pixel, sample), so images do not depend
 // on the tiling or on thread scheduling. Images are computed in parallel

@@ -712,6 +712,32 @@ class Loader {
         return transform(t);
     }
 
+    // --- non-area emitters (scene/lights/light.h) ------------------------------
+
+    /// Mitsuba 3's parameters of a point, spot, directional or constant
+    /// emitter: position or to_world (point), to_world looking along +z
+    /// (spot), direction or to_world's +z (directional); intensity,
+    /// irradiance, radiance default 1 as in Mitsuba.
+    LightSpec lightSpec(const Node& n, const std::string& kind) {
+        LightSpec s;
+        s.kind = kind;
+        s.where = loc(n);
+        const glm::dmat4 m = toWorld(n);
+        const char* valueName = kind == "directional" ? "irradiance"
+                                : kind == "constant"  ? "radiance"
+                                                      : "intensity";
+        std::vector<std::string> notes;
+        s.value = colorProp(n, valueName, true, notes).value_or(RGB(1.0));
+        if (!notes.empty()) warn(n, std::string(valueName) + ": " + notes.front());
+        s.position = Vec3(m * glm::dvec4(0, 0, 0, 1));
+        s.position = pointProp(n, "position", s.position);
+        s.direction = Vec3(m * glm::dvec4(0, 0, 1, 0));
+        if (kind == "directional") s.direction = pointProp(n, "direction", s.direction);
+        s.cutoffDegrees = floatProp(n, "cutoff_angle", s.cutoffDegrees);
+        s.beamDegrees = floatProp(n, "beam_width", s.beamDegrees);
+        return s;
+    }
+
     // --- top level -----------------------------------------------------------
 
     void topLevel(const Node& n) {
@@ -723,10 +749,14 @@ class Loader {
             std::string type = attr(n, "type");
             if (!contains(kEmitterTypes, type))
                 fail(n, "unknown emitter plugin '{}' (expected one of {})", type, joinNames(kEmitterTypes));
-            if (type != "area") scene_.stats.dropEmitter(type, where(n));
-            if (type != "area")
-                warn(n, fmt::format("'{}' emitter not supported by radiosity (only area emitters on shapes): "
-                                    "ignored", type));
+            if (type == "area") return;
+            if (const LightKind* kind = lightKindByMitsuba(type)) {
+                scene_.lights.push_back(makeLight(lightSpec(n, kind->name)));
+                return;
+            }
+            scene_.stats.dropEmitter(type, where(n));
+            warn(n, fmt::format("'{}' emitter not supported by radiosity (area, point, spot, directional "
+                                "and constant are): ignored", type));
         } else if (tag == "sensor") {
             sensor(n);
         } else if (tag == "medium" || tag == "volume" || tag == "phase") {

@@ -229,7 +229,7 @@ void Scene::validate() const {
                                 mat.name);
         }
     }
-    if (numEmitters() == 0) {
+    if (numEmitters() == 0 && lights.empty()) {
         // Say what the loader dropped: "3 emitters of unsupported types were
         // dropped: envmap (scene.xml:12), ..." (issue 63).
         std::string dropped;

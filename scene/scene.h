@@ -21,6 +21,7 @@
 #include "core/error.h"
 #include "core/types.h"
 #include "core/warning_log.h"
+#include "scene/lights/light.h"
 #include "scene/missing_files.h"
 
 namespace hrad::scene {
@@ -227,6 +228,9 @@ class Scene {
     std::vector<std::shared_ptr<const Texture>> textures;
     /// Texture coordinates per patch corner (Patch::uvs), v up (texture.h).
     std::vector<std::array<glm::vec2, 4>> cornerUVs;
+    /// Non-area lights (point, spot, sun, environments; scene/lights/light.h),
+    /// filled by loaders, shared by copies. Area emitters are patches.
+    LightList lights;
 
     uint32_t addMaterial(Material m);
     /// Adds a triangle or quad with material index; computes normal and area.

@@ -1,0 +1,133 @@
+// Irradiance from non-area lights; see light_irradiance.h.
+#include "transport/light_irradiance.h"
+
+#include <cmath>
+#include <limits>
+
+#include "core/rng.h"
+#include "core/sampling.h"
+
+namespace hrad::transport {
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+
+bool blocked(const Visibility& vis, const Vec3& x, const Vec3& dir, double distance,
+             uint32_t patch) {
+    if (std::isfinite(distance))
+        return vis.occluded(Segment{x, x + distance * dir, patch, UINT32_MAX});
+    return vis.intersect(x, dir, 0.0, 1e300, patch).hit;
+}
+
+/// pi L V by k x k stratified cosine directions; `vis` null: V = 1.
+RGB environmentIrradiance(const scene::Light& l, const Visibility* vis, const Vec3& x,
+                          const Vec3& n, uint32_t patch, int k, uint64_t seed, uint64_t& rays) {
+    Pcg32 rng(seed);
+    RGB sum(0.0);
+    for (int i = 0; i < k; ++i)
+        for (int j = 0; j < k; ++j) {
+            const double u1 = (i + rng.nextDouble()) / k, u2 = (j + rng.nextDouble()) / k;
+            const Vec3 w = cosineDirection(n, u1, u2);
+            const RGB L = l.radiance(w);
+            if (!(maxComponent(L) > 0)) continue;
+            if (!vis) {
+                sum += L;
+                continue;
+            }
+            ++rays;
+            if (!blocked(*vis, x, w, std::numeric_limits<double>::infinity(), patch)) sum += L;
+        }
+    return (kPi / double(k * k)) * sum;
+}
+}  // namespace
+
+RGB lightIrradiance(const scene::Light& l, const Visibility& vis, const Vec3& x, const Vec3& n,
+                    uint32_t patch, int strata, uint64_t seed, uint64_t& rays) {
+    if (!l.isDelta()) return environmentIrradiance(l, &vis, x, n, patch, strata, seed, rays);
+    const scene::LightSample s = l.sample(x, 0.5, 0.5);
+    const double c = glm::dot(n, s.dir);
+    if (!(c > 0) || !(maxComponent(s.value) > 0)) return RGB(0.0);
+    ++rays;
+    if (blocked(vis, x, s.dir, s.distance, patch)) return RGB(0.0);
+    return c * s.value;
+}
+
+RGB lightIrradianceUnoccluded(const scene::Light& l, const Vec3& x, const Vec3& n, int strata,
+                              uint64_t seed) {
+    uint64_t rays = 0;
+    if (!l.isDelta()) return environmentIrradiance(l, nullptr, x, n, UINT32_MAX, strata, seed, rays);
+    const scene::LightSample s = l.sample(x, 0.5, 0.5);
+    const double c = glm::dot(n, s.dir);
+    return c > 0 ? c * s.value : RGB(0.0);
+}
+
+RGB lightsIrradiance(const scene::Scene& s, const Visibility& vis, const Vec3& x, const Vec3& n,
+                     uint32_t patch, int strata, uint64_t seed, uint64_t& rays) {
+    RGB sum(0.0);
+    for (size_t i = 0; i < s.lights.size(); ++i)
+        sum += lightIrradiance(*s.lights[i], vis, x, n, patch, strata, hashIds(seed, i), rays);
+    return sum;
+}
+
+int elementMeanPoints(const scene::Patch& p, const scene::Domain& d, int m, std::vector<Vec3>& x,
+                      std::vector<double>& w) {
+    x.clear();
+    w.clear();
+    if (p.kind == scene::PatchKind::Quad) {
+        for (int i = 0; i < m; ++i)
+            for (int j = 0; j < m; ++j) {
+                const double a = (i + 0.5) / m, b = (j + 0.5) / m;
+                x.push_back(scene::elementPoint(p, d, a, b));
+                w.push_back(scene::elementJacobian(p, d, a, b));
+            }
+    } else {
+        for (int i = 0; i < m; ++i)
+            for (int j = 0; i + j < m; ++j) {  // upward sub-triangles: m(m+1)/2
+                x.push_back(scene::elementPoint(p, d, (i + 1.0 / 3) / m, (j + 1.0 / 3) / m));
+                w.push_back(1.0);
+            }
+        for (int i = 0; i + 1 < m; ++i)
+            for (int j = 0; i + j + 1 < m; ++j) {  // downward: m(m-1)/2
+                x.push_back(scene::elementPoint(p, d, (i + 2.0 / 3) / m, (j + 2.0 / 3) / m));
+                w.push_back(1.0);
+            }
+    }
+    double sum = 0;
+    for (double v : w) sum += v;
+    for (double& v : w) v /= sum;
+    return int(x.size());
+}
+
+RGB elementLightsIrradiance(const scene::Scene& s, const Visibility& vis, uint32_t patch,
+                            const scene::Domain& d, int m, int strata, uint64_t seed,
+                            uint64_t& rays) {
+    const scene::Patch& p = s.patches[patch];
+    std::vector<Vec3> x;
+    std::vector<double> w;
+    const int n = elementMeanPoints(p, d, m, x, w);
+    RGB sum(0.0);
+    for (int k = 0; k < n; ++k)
+        sum += w[k] * lightsIrradiance(s, vis, x[k], p.normal, patch, strata, hashIds(seed, k), rays);
+    return sum;
+}
+
+RGB environmentRadiance(const scene::Scene& s, const Vec3& dir) {
+    RGB L(0.0);
+    for (const auto& l : s.lights) L += l->radiance(dir);
+    return L;
+}
+
+bool hasEnvironment(const scene::Scene& s) {
+    for (const auto& l : s.lights)
+        if (!l->isDelta()) return true;
+    return false;
+}
+
+double lightsPower(const scene::Scene& s) {
+    const double R = 0.5 * s.bounds().diagonal();
+    double p = 0.0;
+    for (const auto& l : s.lights) p += l->power(R);
+    return p;
+}
+
+}  // namespace hrad::transport
