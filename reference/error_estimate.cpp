@@ -14,6 +14,7 @@
 #include "core/timer.h"
 #include "reference/light_sampling.h"
 #include "scene/element.h"
+#include "transport/light_irradiance.h"
 
 namespace hrad::reference {
 
@@ -70,7 +71,11 @@ RGB gatherOne(const scene::Scene& sc, const transport::Visibility& vis, const Em
     ++rays;
     hitRegion = kMiss;
     transport::RayHit h = vis.intersect(x, dir, 0.0, 1e300, pi);
-    if (!h.hit) return H;
+    if (!h.hit) {
+        // Escaped: the environment's pi L (scene/lights/; 0 without one).
+        if (!sc.lights.empty()) H += 3.14159265358979323846 * transport::environmentRadiance(sc, dir);
+        return H;
+    }
     const scene::Patch& q = sc.patches[h.patch];
     if (glm::dot(q.normal, dir) >= 0) return H;  // the back of a one-sided patch: B = 0
     Vec3 y = h.point - q.normal * glm::dot(h.point - q.v[0], q.normal);
