@@ -541,6 +541,9 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         };
     }
     solveCtx.cancel = ctx.cancel;
+    solveCtx.camera = [&] { return render::chooseCamera(sc, vis, r.render); };
+    solveCtx.imageWidth = r.render.width;
+    solveCtx.imageHeight = r.render.height;
     solveCtx.onRecord = ctx.onRecord;
     std::optional<TargetErrorDriver> target;
     if (r.target) {

@@ -67,7 +67,13 @@ class HrEntry final : public Solver {
 
     SolveOutput solve(const scene::Scene& sc, const transport::Visibility& vis,
                       const SolveContext& ctx) const override {
-        hr::HrSolver s(sc, vis, settings_);
+        hr::HrSettings settings = settings_;
+        if (settings.importance.mode == hr::ImportanceSettings::Mode::Camera && ctx.camera) {
+            settings.importance.camera = ctx.camera();
+            settings.importance.width = ctx.imageWidth;
+            settings.importance.height = ctx.imageHeight;
+        }
+        hr::HrSolver s(sc, vis, settings);
         s.setCancelToken(ctx.cancel);
         StageCallback stages(ctx);
         if (ctx.afterStage) s.setStageController(&stages);

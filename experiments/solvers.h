@@ -67,6 +67,10 @@ struct SolveContext {
     /// to next on the same hierarchy (hr/stage_controller.h; a target-error
     /// solve, experiments/target_error.h). Other solvers do not call it.
     std::function<std::optional<double>(const scene::RadiosityField&, double)> afterStage;
+    /// If set, the render camera (render.eye/target, or the scene's, or the
+    /// automatic one) and the image size: hr.importance = camera reads them.
+    std::function<scene::Camera()> camera;
+    int imageWidth = 0, imageHeight = 0;
 };
 
 /// What both callers need from a solve.

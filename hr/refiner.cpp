@@ -243,6 +243,7 @@ Decision RefinementPass::decideLink(size_t i, bool carries, size_t si, const Che
         e.linkSenderTotal = stot[si].link;
         e.senderLinks = stot[si].links;
     }
+    for (RefinementCheck* c : checks_) c->weigh(round, i, e);
     Decision d = oracles::constrain(oracle_.decide(e), e);
     for (size_t k = 0; k < checks_.size(); ++k) {
         const Decision before = d;

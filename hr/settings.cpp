@@ -148,6 +148,7 @@ void readChecks(const Params& p, HrSettings& s) {
                                "all its receivers; off only to study the published oracles"},
                               s.senderTotal);
     parseChecks(p, s);
+    s.importance = ImportanceSettings::fromParams(p);
     // true / "full", false / "off", or "balanced" (the default).
     const Params::Key leafBudget{"hr.leaf_budget",
                                  "push links down while the leaves' error exceeds the check's "
@@ -160,6 +161,12 @@ void readChecks(const Params& p, HrSettings& s) {
         s.leafBudget = v == "full"  ? HrSettings::LeafBudget::Full
                        : v == "off" ? HrSettings::LeafBudget::Off
                                     : HrSettings::LeafBudget::Balanced;
+    }
+    // The leaf budget sums unweighted errors: with importance on it is off
+    // unless set (hr/checks/importance_check.cpp).
+    if (s.importance.mode != ImportanceSettings::Mode::Off && !p.has(leafBudget.name)) {
+        s.leafBudget = HrSettings::LeafBudget::Off;
+        p.recordResolved(leafBudget.name, std::string("off"));
     }
     s.leafEstimates = p.getBool({"hr.leaf_estimates",
                                  "compute error_estimate_leaves and error_estimate_points after "

@@ -13,6 +13,7 @@
 #include "cluster/tree.h"
 #include "core/params.h"
 #include "hr/eps_power.h"
+#include "hr/importance.h"
 #include "transport/formfactor.h"
 
 namespace hrad::hr {
@@ -41,6 +42,9 @@ struct HrSettings {
     /// registry.h), by name in table order; all of them by default.
     std::vector<std::string> checks;
     bool allChecks = true;
+    /// hr.importance and its keys (hr/importance.h); the camera is set by
+    /// the caller (experiments/solvers.cpp).
+    ImportanceSettings importance;
     /// hr.leaf_estimates: compute error_estimate_leaves / _points after the
     /// solve (hr/receiver_error.h leafAverageError).
     bool leafEstimates = true;

@@ -118,6 +118,10 @@ class RefinementCheck {
     /// What the check reads from the links' estimates in this pass.
     virtual CheckNeeds needs() const { return {}; }
     virtual void prepareRound(const CheckRound&) {}
+    /// Before the oracle judges link i: may set the weights of its estimate
+    /// (LinkEstimate::importance; the importance check). Called in parallel,
+    /// in table order; the oracle and every check's amend() read the result.
+    virtual void weigh(const CheckRound&, size_t, oracles::LinkEstimate&) const {}
     /// Amends the decision d on link i of the round, judged with estimate e.
     /// Called in parallel: writes nothing but state of link i.
     virtual void amend(const CheckRound& round, size_t i, const oracles::LinkEstimate& e,

@@ -43,11 +43,12 @@ class PartialReceiversCheck final : public RefinementCheck {
         const Link& l = round.pending[i];
         double& out = misplaced_[i];
         if (l.byArea()) {
-            out = maxComponent(e.receiverRho * e.senderB) * e.F * e.receiverArea;
+            out = maxComponent(e.receiverRho * e.senderB) * e.F * e.receiverArea * e.importance;
         } else if (open_ && (l.flags & (Link::kPartial | Link::kUncertain))) {
             const double unseen = (l.flags & Link::kUncertain) ? 1.0 : 1.0 - e.visibility;
             out = maxComponent(e.receiverRho * e.senderB) *
-                  (e.visibility > 0 ? e.F / e.visibility : e.F) * unseen * e.receiverArea;
+                  (e.visibility > 0 ? e.F / e.visibility : e.F) * unseen * e.receiverArea *
+                  e.importance;
         }
     }
     void finishRound(const CheckRound& round, RoundDecisions& d) override;

@@ -35,7 +35,7 @@ class ReceiverCheck final : public RefinementCheck {
         // of a sender sum to its kernel): a receiver that cannot subdivide
         // keeps the link (oracles::receiverRefinement).
         if (d == oracles::Decision::Accept && e.receiverRange >= 0.0 &&
-            e.receiverRange * e.receiverArea > eps_ * e.emittedPower &&
+            e.receiverRange * e.receiverArea * e.importance > eps_ * e.emittedPower &&
             oracles::carriesReceiverShare(e))
             d = oracles::receiverRefinement(e);
     }

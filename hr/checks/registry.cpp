@@ -6,6 +6,8 @@ namespace hrad::hr {
 
 const std::vector<CheckEntry>& refinementChecks() {
     static const std::vector<CheckEntry> table = {
+        {"importance", makeImportanceCheck,
+         "weights each link's error by its receiver's importance (hr.importance)"},
         {"receiver", makeReceiverCheck,
          "a receiver's links together within eps (bfa, ff; hr.receiver_eps)"},
         {"leaf_budget", makeLeafBudgetCheck,

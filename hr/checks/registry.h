@@ -27,6 +27,7 @@ std::vector<std::unique_ptr<RefinementCheck>> makeRefinementChecks(
     const HrSettings& s, const std::vector<CheckEntry>& extra = {});
 
 // The factories, one per file of hr/checks/.
+std::unique_ptr<RefinementCheck> makeImportanceCheck(const HrSettings&);
 std::unique_ptr<RefinementCheck> makeReceiverCheck(const HrSettings&);
 std::unique_ptr<RefinementCheck> makeLeafBudgetCheck(const HrSettings&);
 std::unique_ptr<RefinementCheck> makeSenderTotalCheck(const HrSettings&);

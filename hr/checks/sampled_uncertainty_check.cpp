@@ -29,7 +29,7 @@ class SampledUncertaintyCheck final : public RefinementCheck {
         const Link& l = round.pending[i];
         if (d == oracles::Decision::Accept && (l.flags & Link::kSampled) &&
             maxComponent(e.receiverRho * e.senderB) * e.F * (l.uncertainty / 100.0) *
-                    e.receiverArea >
+                    e.receiverArea * e.importance >
                 eps_ * e.emittedPower)
             d = round.links.forcedDecision(round.h, round.recv[i], l.sender);
     }
