@@ -58,8 +58,7 @@ HrSolver::HrSolver(const scene::Scene& scene, const transport::Visibility& visib
       engine_(scene, &visibility, s_.ff),
       links_(engine_, s_.judgeVisibility) {
     minArea_ = s_.minArea > 0 ? s_.minArea : s_.minAreaRel * scene.totalArea();
-    // Non-area lights send power too (hr/light_links.h).
-    emittedPower_ = maxComponent(scene.emittedPower()) + transport::lightsPower(scene);
+    emittedPower_ = maxComponent(scene.emittedPower()) + transport::lightsPower(scene);  // + lights
     if (!(emittedPower_ > 0)) emittedPower_ = 1.0;
     epsPower_ = emittedPower_;
     emittedRadiosity_ = 0.0;
@@ -395,8 +394,7 @@ void HrSolver::buildHierarchy(HrResult& res) {
 
 void HrSolver::findReachable(HrResult& res) {
     included_.clear();
-    // Reachability traces from emitting patches only: with lights it would leave out what they light.
-    if (s_.reachRays <= 0 || !scene_->lights.empty()) return;
+    if (s_.reachRays <= 0 || !scene_->lights.empty()) return;  // traced from patches only
     PhaseProgress phase("reachability", progress_);
     transport::Reachability reach = transport::reachablePatches(
         *scene_, *vis_, s_.reachRays, reseed(1, s_.seed), s_.reachRetryRays);

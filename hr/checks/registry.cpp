@@ -6,8 +6,6 @@ namespace hrad::hr {
 
 const std::vector<CheckEntry>& refinementChecks() {
     static const std::vector<CheckEntry> table = {
-        {"importance", makeImportanceCheck,
-         "weights each link's error by its receiver's importance (hr.importance)"},
         {"receiver", makeReceiverCheck,
          "a receiver's links together within eps (bfa, ff; hr.receiver_eps)"},
         {"leaf_budget", makeLeafBudgetCheck,
@@ -21,6 +19,8 @@ const std::vector<CheckEntry>& refinementChecks() {
          "(cluster.partial_receivers)"},
         {"near_stand_in", makeNearStandInCheck,
          "a refused near stand-in opens the side its geometry asks for (cluster.near)"},
+        {"importance", makeImportanceCheck,
+         "weights each link's error by its receiver's importance (hr.importance)"},
     };
     return table;
 }

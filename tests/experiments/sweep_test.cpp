@@ -529,7 +529,7 @@ TEST(Store, ErrorColumnsAndOlderStores) {
                        "error_estimate_leaves >= 0 AND error_estimate_points >= 0 AND "
                        "json_extract(summary, '$.error_estimate_uncovered_share') = 0 AND "
                        "json_extract(summary, '$.refinement_checks[0].name') = 'receiver' AND "
-                       "json_array_length(json_extract(summary, '$.refinement_checks')) = 6) "
+                       "json_array_length(json_extract(summary, '$.refinement_checks')) = 7) "
                        "FROM runs WHERE scene LIKE 'plates%'");
     EXPECT_EQ(rows, std::set<std::string>{"1"});
     // An older store: the same file without the added columns.

@@ -21,7 +21,8 @@ TEST(RefinementChecks, TableIsInAmendmentOrder) {
     for (const CheckEntry& e : refinementChecks()) names.push_back(e.name);
     const std::vector<std::string> expected = {"receiver",           "leaf_budget",
                                                "sender_total",       "sampled_uncertainty",
-                                               "partial_receivers",  "near_stand_in"};
+                                               "partial_receivers",  "near_stand_in",
+                                               "importance"};
     EXPECT_EQ(names, expected);
     for (const CheckEntry& e : refinementChecks()) {
         EXPECT_NE(e.make, nullptr);
