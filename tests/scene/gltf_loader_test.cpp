@@ -532,3 +532,47 @@ TEST(GltfLoaderErrors, MaxFacesBoundsInstancing) {
         EXPECT_NE(std::string(e.what()).find("gltf.max_faces"), std::string::npos) << e.what();
     }
 }
+
+// KHR_lights_punctual (scene/lights/): a point light on a node at (0, 2, 0),
+// a spot on node 'group''s child, a directional; color times intensity.
+TEST(GltfLoader, PunctualLightsBecomeLights) {
+    auto dir = test::tempDir("gltf_lights");
+    json j = sceneJson(dataUri(geometryBuffer()));
+    j["extensionsUsed"] = json::array({"KHR_lights_punctual"});
+    j["extensions"]["KHR_lights_punctual"]["lights"] = json::array({
+        {{"type", "point"}, {"color", {1, 0.5, 0.25}}, {"intensity", 4}},
+        {{"type", "spot"}, {"intensity", 2}, {"spot", {{"innerConeAngle", 0.2}, {"outerConeAngle", 0.5}}}},
+        {{"type", "directional"}, {"intensity", 3}},
+    });
+    j["nodes"].push_back({{"translation", {0, 2, 0}}, {"extensions", {{"KHR_lights_punctual", {{"light", 0}}}}}});
+    j["nodes"].push_back({{"translation", {0, 3, 0}}, {"extensions", {{"KHR_lights_punctual", {{"light", 1}}}}}});
+    j["nodes"].push_back({{"extensions", {{"KHR_lights_punctual", {{"light", 2}}}}}});
+    j["scenes"][0]["nodes"].push_back(5);
+    j["scenes"][0]["nodes"].push_back(6);
+    j["scenes"][0]["nodes"].push_back(7);
+    auto file = test::writeFile(dir / "scene.gltf", j.dump(2));
+    Scene s = loadGltf(file.string());
+    ASSERT_EQ(s.lights.size(), 3u);
+    EXPECT_STREQ(s.lights[0]->name(), "point");
+    LightSample a = s.lights[0]->sample(Vec3(0.0), 0.5, 0.5);  // 2 m below: I / 4
+    EXPECT_NEAR(a.value.r, 1.0, 1e-12);
+    EXPECT_NEAR(a.value.g, 0.5, 1e-12);
+    EXPECT_NEAR(a.dir.y, 1.0, 1e-12);
+    // The spot shines along the node's -Z: a point 3 m below it is outside its 0.5 rad cone.
+    EXPECT_EQ(s.lights[1]->sample(Vec3(0.0), 0.5, 0.5).value.r, 0.0);
+    EXPECT_NEAR(s.lights[1]->sample(Vec3(0, 3, -1), 0.5, 0.5).value.r, 2.0, 1e-12);
+    LightSample d = s.lights[2]->sample(Vec3(0.0), 0.5, 0.5);  // light travels along -Z
+    EXPECT_NEAR(d.dir.z, 1.0, 1e-12);
+    EXPECT_NEAR(d.value.r, 3.0, 1e-12);
+}
+
+TEST(GltfLoader, MissingPunctualLightIsAnError) {
+    auto dir = test::tempDir("gltf_lights_bad");
+    json j = sceneJson(dataUri(geometryBuffer()));
+    j["nodes"].push_back({{"extensions", {{"KHR_lights_punctual", {{"light", 3}}}}}});
+    j["scenes"][0]["nodes"].push_back(5);
+    auto file = test::writeFile(dir / "scene.gltf", j.dump(2));
+    InputError e = loadError(file);
+    EXPECT_NE(std::string(e.what()).find("light 3 does not exist"), std::string::npos) << e.what();
+}
+
