@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "cluster/link.h"
 #include "cluster/openness.h"
 #include "cluster/tree.h"
 #include "core/rng.h"
@@ -35,6 +36,10 @@ RGB OrientedModel::sent(const ClusterTree& tree, uint32_t c, const RadiantMoment
         out[k] = std::clamp(p, 0.0, ab) / proj;
     }
     return out;
+}
+
+const char* OrientedModel::handOver(const ClusterLinkSettings& settings) const {
+    return settings.visibleHandover ? "openness" : "none";
 }
 
 void OrientedModel::opennessSums(const scene::Scene& scene, const ClusterTree& tree,

@@ -16,8 +16,9 @@
 //                   hands over by what each surface sees of the sender
 //                   (seenWeights(), cluster.stand_in_handover = seen).
 //
-// The hierarchy (hr/) keeps the links and their flags; the sums over a
-// cluster's surfaces that decide a hand-over are here. Measurements:
+// The hierarchy (hr/) keeps the links and their flags, and the hand-over
+// that handOver() names (hr/openness_handover.h) applies the sums over a
+// cluster's surfaces that are here. Measurements:
 // papers/notes/2026-12-01-cluster-transfer.md.
 #pragma once
 
@@ -47,7 +48,8 @@ class OrientedModel final : public TransferModel {
     double maxProjectedFraction() const override { return 1.0; }
     Receive receives() const override { return Receive::ByCosine; }
     bool sendsByDirection() const override { return true; }
-    bool handsOverByOpenness() const override { return true; }
+    /// "openness" when cluster.handover = visible, else "none" (by cosine).
+    const char* handOver(const ClusterLinkSettings& settings) const override;
     RGB sent(const ClusterTree& tree, uint32_t c, const RadiantMoments& m, const RGB& meanB,
              const Vec3& d) const override;
 
@@ -68,7 +70,7 @@ class OrientedModel final : public TransferModel {
     /// link f, whose sources are sources[begin[f] .. begin[f + 1]),
     /// seen[f * count + k] (count the surfaces below c, k in tree order)
     /// receives sum_j weight_j sum_x F(x -> j) v(x, j) over k's openness
-    /// points x (Hierarchy::handOverStandIns).
+    /// points x (hr/openness_handover.h).
     static void seenWeights(const scene::Scene& scene, const ClusterTree& tree,
                             const SurfaceOpenness& openness, const transport::Visibility& vis,
                             uint64_t seed, uint32_t c, std::span<const uint32_t> begin,

@@ -15,8 +15,9 @@
 // sent() towards each receiver instead of the mean radiosity.
 //
 // One file per model: none_model.h, isotropic_model.h, oriented_model.h
-// (the oriented model also owns the hand-over by openness and by what each
-// surface sees: cluster/openness.h). The table that names them is
+// (the oriented model also owns the sums of its hand-over by openness and
+// by what each surface sees: cluster/openness.h; handOver() names the row
+// of hr/handover.h that applies them). The table that names them is
 // transfer.cpp (clusterModelNames, parseClusterModel, transferModel).
 // Measurements behind the models' choices:
 // papers/notes/2026-12-01-cluster-transfer.md.
@@ -33,6 +34,7 @@
 namespace hrad::cluster {
 
 class ClusterTree;
+struct ClusterLinkSettings;
 
 /// Per cluster and RGB channel: sum A_k B_k, sum A_k B_k n_k,
 /// sum A_k B_k n_k n_k^T (xx, xy, xz, yy, yz, zz) over the surfaces below.
@@ -64,11 +66,15 @@ class TransferModel {
     virtual double maxProjectedFraction() const = 0;
     virtual Receive receives() const = 0;
     bool receivesByCosine() const { return receives() == Receive::ByCosine; }
-    /// Whether the model hands a link's light to a receiving cluster's
-    /// surfaces by their openness towards the sender (cluster/openness.h,
-    /// cluster.handover = visible): the solver then traces the openness
-    /// table (Hierarchy::setOpenness).
-    virtual bool handsOverByOpenness() const { return false; }
+    /// The hand-over the model's receiving clusters use under `settings`:
+    /// the name of a row of the hand-over table (hr/handover.h), through
+    /// which the solver makes it. "none" (the default): links hand their
+    /// light over as receives() says; the oriented model names "openness"
+    /// when cluster.handover = visible (cluster/openness.h).
+    virtual const char* handOver(const ClusterLinkSettings& settings) const {
+        (void)settings;
+        return "none";
+    }
     /// Whether a cluster sends sent() (true) or its mean radiosity.
     virtual bool sendsByDirection() const { return false; }
     /// The radiosity cluster c (mean radiosity meanB, moments m) sends

@@ -8,9 +8,9 @@
 #include <bit>
 #include <cmath>
 
-#include "cluster/openness.h"
 #include "core/error.h"
 #include "core/timer.h"
+#include "hr/handover.h"
 #include "hr/hierarchy.h"
 
 namespace hrad::hr {
@@ -115,48 +115,45 @@ std::vector<RGB> Hierarchy::clusterDown() const {
     return down;
 }
 
-struct Hierarchy::LazyView {
-    bool made = false;
-    cluster::SurfaceOpenness::View view;
-};
-
 template <class F>
-void Hierarchy::forEachShare(uint32_t c, uint32_t root, LazyView& lv, F&& f) const {
-    // With the openness table each surface takes its share by cosine and by
-    // how open it is towards the sender within the receiving cluster
-    // (cluster/openness.h).
+void Hierarchy::forEachShare(uint32_t c, uint32_t root, F&& f) const {
+    // Each surface takes its share by its cosine towards the sender; links
+    // the hand-over flagged take what it gives (openShares, asked for in
+    // batches, one virtual call per batch), in link order.
+    constexpr size_t kBatch = 64;
     const glm::vec3 n(scene_->patches[root].normal);
-    bool haveInside = false;
-    cluster::SurfaceOpenness::Inside inside;
+    uint64_t link[kBatch];
+    double w[kBatch];
+    bool open[kBatch];
+    glm::vec3 openDir[kBatch];
+    double openW[kBatch];
+    auto flush = [&](size_t count, size_t opened) {
+        if (opened) handOver_->openShares(c, root, {openDir, opened}, {openW, opened});
+        for (size_t b = 0, o = 0; b < count; ++b) {
+            if (open[b] && !((w[b] = openW[o++]) > 0)) continue;
+            f(link[b], w[b]);
+        }
+    };
+    size_t count = 0, opened = 0;
     for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i) {
         const glm::vec3& dir = clusterLinkDir_[i - clusterLinkBase_];
-        double cosine = glm::dot(n, dir);
+        const double cosine = glm::dot(n, dir);
         if (!(cosine > 0)) continue;
-        if (openness_ && (links_[i].flags & Link::kOpenHandOver)) {
-            if (!lv.made) {
-                lv.view = openness_->view(root);
-                lv.made = true;
-            }
-            if (!haveInside) {
-                const cluster::ClusterNode& node = tree_->node(clusterIndex(c));
-                inside = openness_->inside(lv.view, node.centroid, node.radius);
-                haveInside = true;
-            }
-            cosine *= openness_->openness(lv.view, inside, Vec3(dir), cosine);
-            if (!(cosine > 0)) continue;
+        link[count] = i;
+        w[count] = cosine;
+        open[count] = (links_[i].flags & Link::kOpenHandOver) != 0;
+        if (open[count]) {
+            openDir[opened] = dir;
+            openW[opened++] = cosine;
         }
-        f(i, cosine);
-    }
-    // Stand-ins handed over by what each surface sees of the sender.
-    if (!seenOffsets_.empty()) {
-        const uint32_t ci = clusterIndex(c);
-        const cluster::ClusterNode& node = tree_->node(ci);
-        for (uint64_t e = seenOffsets_[ci]; e < seenOffsets_[ci + 1]; ++e) {
-            const SeenEntry& s = seen_[e];
-            const uint8_t b = seenWeights_[s.weights + (orderPos_[root] - node.patchBegin)];
-            if (b) f(s.link, double(b) * double(s.scale));
+        if (++count == kBatch) {
+            flush(count, opened);
+            count = opened = 0;
         }
     }
+    flush(count, opened);
+    // Stand-ins the hand-over gives each surface a share of.
+    handOver_->forEachSurfaceShare(c, root, f);
 }
 
 RGB Hierarchy::clusterIrradianceAt(uint32_t root, const std::vector<RGB>& down,
@@ -171,9 +168,8 @@ RGB Hierarchy::clusterIrradianceAt(uint32_t root, const std::vector<RGB>& down,
         // cosine (Smits et al. 1994); what the link sends is K times the
         // sender's radiosity towards the receiving cluster (`sent`, or
         // evaluated here when it is null).
-        LazyView view;
         for (uint32_t c = parent_[root]; c != kNone; c = parent_[c])
-            forEachShare(c, root, view, [&](uint64_t i, double w) {
+            forEachShare(c, root, [&](uint64_t i, double w) {
                 h += w * (sent ? RGB(sent[i - clusterLinkBase_])
                                : linkSent(i, clusterLinkDir_[i - clusterLinkBase_]));
             });
@@ -237,8 +233,7 @@ void Hierarchy::linkLight(std::vector<RGB>& reflected, const std::vector<float>*
                 for (uint32_t q = node.patchBegin; q < node.patchEnd; ++q) {
                     const uint32_t root = tree_->patchAt(q);
                     const scene::Patch& P = scene_->patches[root];
-                    LazyView view;
-                    forEachShare(np + c, root, view, [&](uint64_t i, double w) {
+                    forEachShare(np + c, root, [&](uint64_t i, double w) {
                         reflected[i] += (P.area * w) * (P.rho * sent[i - clusterLinkBase_]);
                     });
                 }
@@ -256,9 +251,8 @@ void Hierarchy::linkLight(std::vector<RGB>& reflected, const std::vector<float>*
             if (parent_[root] == kNone) continue;
             RGB v = isoVar[parent_[root] - np];
             if (oriented) {
-                LazyView view;
                 for (uint32_t c = parent_[root]; c != kNone; c = parent_[c])
-                    forEachShare(c, root, view, [&](uint64_t i, double w) {
+                    forEachShare(c, root, [&](uint64_t i, double w) {
                         const RGB d = sent[i - clusterLinkBase_] * (w * rel(i));
                         v += d * d;
                     });

@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "core/rng.h"
 #include "core/timer.h"
+#include "hr/handover.h"
 #include "transport/formfactor.h"
 #include "transport/visibility.h"
 
@@ -44,7 +45,7 @@ KernelSamples::KernelSamples(const double* v, int m) {
 
 Hierarchy::Hierarchy(const scene::Scene& scene, const cluster::ClusterTree* tree,
                      cluster::ClusterModel model, int basisDegree)
-    : scene_(&scene), tree_(tree), model_(model) {
+    : scene_(&scene), tree_(tree), handOver_(makeHandOver("none", {})), model_(model) {
     HRAD_CHECK(basisDegree >= 0 && basisDegree <= scene::kMaxBasisDegree);
     if (basisDegree > 0) {
         basis_ = std::make_unique<scene::BasisSet>(basisDegree);
@@ -269,6 +270,15 @@ void Hierarchy::setCoupling(std::vector<uint32_t>&& index, std::vector<float>&& 
     couplingData_.shrink_to_fit();
 }
 
+Hierarchy::~Hierarchy() = default;
+Hierarchy::Hierarchy(Hierarchy&&) noexcept = default;
+Hierarchy& Hierarchy::operator=(Hierarchy&&) noexcept = default;
+
+void Hierarchy::setHandOver(std::unique_ptr<HandOver> handOver) {
+    HRAD_CHECK(handOver);
+    handOver_ = std::move(handOver);
+}
+
 uint32_t Hierarchy::numLeaves() const {
     uint32_t n = 0;
     for (uint32_t e = 0; e < numElements(); ++e) n += isLeaf(e) ? 1 : 0;
@@ -341,8 +351,43 @@ void Hierarchy::placeLinks(const std::vector<uint32_t>& receivers, std::vector<L
     couplingIndex_.clear();
     couplingData_.clear();
     prepareOrientedDirections();
-    handOverNewLinks();
-    handOverStandIns();
+    // The hand-over sees the links, their directions and the radiosities.
+    HandOverLinks view;
+    view.numPatches = numPatches();
+    view.numClusters = numClusters_;
+    view.offsets = linkOffsets_;
+    view.links = links_;
+    view.dirs = clusterLinkDir_;
+    view.dirBase = clusterLinkBase_;
+    view.patchOf = patch_;
+    view.B = B_;
+    view.hasStandIns = hasStandIns_;
+    view.seed = seed_;
+    handOver_->newLinks(view);
+    handOver_->standIns(view);
+}
+
+void Hierarchy::prepareOrientedDirections() {
+    clusterLinkDir_.clear();
+    clusterLinkBase_ = 0;
+    if (!transfer_->receivesByCosine() || numClusters_ == 0) return;
+    uint32_t k = numPatches();
+    clusterLinkBase_ = linkOffsets_[k];
+    uint64_t end = linkOffsets_[k + numClusters_];
+    clusterLinkDir_.resize(end - clusterLinkBase_);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(k, k + numClusters_, 64), [&](const auto& r) {
+        for (uint32_t c = r.begin(); c != r.end(); ++c) {
+            Vec3 cc = center(c);
+            for (uint64_t i = linkOffsets_[c]; i < linkOffsets_[c + 1]; ++i) {
+                Vec3 d = center(links_[i].sender) - cc;
+                double len = glm::length(d);
+                // A stand-in by area lights the cluster in gatherRow, not
+                // by cosine: no direction, so the push skips it.
+                clusterLinkDir_[i - clusterLinkBase_] =
+                    len > 0 && !links_[i].byArea() ? glm::vec3(d / len) : glm::vec3(0);
+            }
+        }
+    });
 }
 
 void Hierarchy::compactStandIns() {
@@ -387,21 +432,8 @@ RGB Hierarchy::standInReflected(uint32_t r, uint64_t i) const {
     const Link& l = links_[i];
     const RGB sent = standInSent(l);
     if (!isCluster(r)) return sent * area(r) * scene_->patches[patch_[r]].rho;
-    if (l.bySeen()) {
-        // As the push hands it (clusterIrradianceAt): w_k / W per surface.
-        const uint32_t c = clusterIndex(r);
-        const cluster::ClusterNode& node = tree_->node(c);
-        for (uint64_t e = seenOffsets_[c]; e < seenOffsets_[c + 1]; ++e) {
-            if (seen_[e].link != i) continue;
-            RGB sum(0.0);
-            for (uint32_t q = node.patchBegin; q < node.patchEnd; ++q) {
-                const scene::Patch& P = scene_->patches[tree_->patchAt(q)];
-                const double w = seenWeights_[seen_[e].weights + (q - node.patchBegin)];
-                sum += (P.area * w * double(seen_[e].scale)) * P.rho;
-            }
-            return sent * sum;
-        }
-    }
+    if (l.bySeen())  // as the push hands it (clusterIrradianceAt)
+        if (const std::optional<RGB> sum = handOver_->surfaceReflected(r, i)) return sent * *sum;
     Vec3 d = center(l.sender) - center(r);
     const double len = glm::length(d);
     const bool byCosine = !l.byArea() && transfer_->receivesByCosine() && len > 0;
@@ -468,12 +500,7 @@ void Hierarchy::reportMemory(MemoryCounters& m) const {
                                       standInSamples_.capacity() * sizeof(cluster::StandInSample));
     if (!clusterLinkDir_.empty())
         m.set("cluster_link_directions", clusterLinkDir_.capacity() * sizeof(glm::vec3));
-    if (!seen_.empty())
-        m.set("stand_in_handover", seen_.capacity() * sizeof(SeenEntry) +
-                                       seenOffsets_.capacity() * sizeof(uint64_t) +
-                                       seenWeights_.capacity() + orderPos_.capacity() * 4 +
-                                       seenCache_.size() * (2 * sizeof(uint64_t) + sizeof(void*)) +
-                                       seenCache_.bucket_count() * sizeof(void*));
+    handOver_->reportMemory(m);
     if (tree_)
         m.set("clusters", tree_->memoryBytes() + moments_.capacity() * sizeof(RadiantMoments) +
                               maxB_.capacity() * sizeof(RGB));

@@ -100,7 +100,7 @@ struct Link {
     /// the cluster's radiosities, in the first judging pass after it carries light.
     static constexpr uint8_t kDeferred = 16;
     /// A link into an oriented cluster whose hand-over has been decided
-    /// (cluster.handover = visible; Hierarchy::handOverNewLinks), once, when
+    /// (cluster.handover = visible; hr/openness_handover.h), once, when
     /// the link is first set: by cosine and openness (kOpenHandOver, its K
     /// divided by the cluster's openness towards the sender) or, where no
     /// surface is open, by cosine alone. On a stand-in without kHandedOver,
@@ -119,7 +119,7 @@ struct Link {
     static constexpr uint8_t kStandIn = 128;
     /// A stand-in whose receiving cluster does not take its light by cosine
     /// (no direction): by area, or, with kOpenHandOver, by what each surface
-    /// sees of the sender (Hierarchy::handOverStandIns).
+    /// sees of the sender (hr/openness_handover.h).
     bool byArea() const { return (flags & kStandIn) && !(flags & kHandedOver); }
     /// A by-area stand-in handed over by what each surface sees of the sender.
     bool bySeen() const { return byArea() && (flags & kOpenHandOver); }
@@ -173,12 +173,17 @@ class KernelSamples {
 };
 static_assert(sizeof(KernelSamples) == 24, "kernel samples must stay 24 bytes");
 
+class HandOver;
+
 class Hierarchy {
   public:
     /// Without a cluster tree (or with model None) there are no cluster nodes.
     explicit Hierarchy(const scene::Scene& scene, const cluster::ClusterTree* tree = nullptr,
                        cluster::ClusterModel model = cluster::ClusterModel::None,
                        int basisDegree = 0);
+    ~Hierarchy();
+    Hierarchy(Hierarchy&&) noexcept;
+    Hierarchy& operator=(Hierarchy&&) noexcept;
 
     // ---- polynomial basis -------------------------------------------------------
     int basisDegree() const { return basis_ ? basis_->degree() : 0; }
@@ -220,29 +225,12 @@ class Hierarchy {
     /// The transfer model of clusterModel() (cluster/transfer_model.h).
     const cluster::TransferModel& transferModel() const { return *transfer_; }
     const cluster::ClusterTree* clusterTree() const { return tree_; }
-    /// Oriented model: hand each link's light to the surfaces below its
-    /// receiving cluster by cosine and openness (cluster/openness.h) instead
-    /// of by cosine alone (null, the default). Set before the links: each
-    /// link into a cluster gets its hand-over once, when setLinks() first
-    /// sees it (handOverNewLinks()).
-    void setOpenness(const cluster::SurfaceOpenness* openness) { openness_ = openness; }
-    /// Links into clusters handed over by cosine and openness, and by cosine
-    /// alone (no surface below the cluster open towards the sender), counted
-    /// when first set (some are refined away later).
-    uint64_t handOverByOpenness() const { return handOverByOpenness_; }
-    uint64_t handOverByCosine() const { return handOverByCosine_; }
-    /// Of those by openness, the links whose K / W was held to Fupper
-    /// (handOverNewLinks).
-    uint64_t handOverCapped() const { return handOverCapped_; }
-    /// cluster.stand_in_handover = seen (with the openness table, whose
-    /// points it uses; `visibility` casts its shadow rays, null: off):
-    /// stand-ins that no direction hands over (Link::byArea) give each
-    /// surface of their receiving cluster a share by what it sees of the
-    /// sender (handOverStandIns) instead of by area.
-    void setSeenHandOver(const transport::Visibility* visibility) { seenVis_ = visibility; }
-    /// Stand-ins handed over by what their receivers' surfaces see, at the
-    /// last setLinks().
-    uint64_t handOverSeen() const { return seen_.size(); }
+    /// How links into clusters hand their light to the surfaces below
+    /// (hr/handover.h; "none" until set). The solver sets the one its
+    /// transfer model names, before the links: each link gets its hand-over
+    /// once, when setLinks() first sees it.
+    void setHandOver(std::unique_ptr<HandOver> handOver);
+    const HandOver& handOver() const { return *handOver_; }
     bool isCluster(uint32_t e) const {
         return e >= numPatches() && e < numPatches() + numClusters_;
     }
@@ -506,16 +494,14 @@ class Hierarchy {
     std::vector<RGB> clusterIrradianceToRoots() const;
     /// Per cluster, the isotropic irradiance it and its ancestors gathered.
     std::vector<RGB> clusterDown() const;
-    /// A root patch's openness view, made when first needed (hierarchy.cpp).
-    struct LazyView;
     /// Oriented model: calls f(i, w) for every link i in cluster element c's
     /// row that the push hands root patch `root` (below c), w the share of
     /// what the link sends per unit area that the patch takes before its
-    /// reflectance: its cosine towards the sender, times its openness for
-    /// links handed over by openness; w_k / W for stand-ins handed over by
-    /// what each surface sees. Links by area (gathered_) are not visited.
+    /// reflectance: its cosine towards the sender, times what the hand-over
+    /// gives links it flagged (openShares), then the hand-over's stand-in
+    /// shares (forEachSurfaceShare). Links by area (gathered_) are not visited.
     template <class F>
-    void forEachShare(uint32_t c, uint32_t root, LazyView& view, F&& f) const;
+    void forEachShare(uint32_t c, uint32_t root, F&& f) const;
     /// What link i of receiver r's row sends per unit area, before r's
     /// reflectance (gatherRow): a stand-in's standInSent, K times the
     /// sender's B, or, from an oriented cluster, K times its radiosity
@@ -531,56 +517,6 @@ class Hierarchy {
     /// (plus `fromAbove`), inner elements the area average of their children.
     void pushPullRoot(uint32_t root, const RGB& fromAbove, std::vector<PushFrame>& stack);
     void prepareOrientedDirections();
-    /// With the openness table: every link into a cluster not yet flagged
-    /// Link::kHandedOver gets its hand-over. Its K is divided by the
-    /// cluster's openness towards the sender, W = sum_k A_k cos_k w_k /
-    /// sum_k A_k cos_k over every surface below the cluster (the same sums
-    /// the push makes, so the link delivers exactly the power it did by
-    /// cosine), and it is flagged kOpenHandOver; where W = 0 it stays handed
-    /// by cosine. Done once per link, cluster by cluster.
-    /// No surface takes more than the sender's unoccluded irradiance: K / W
-    /// is held to the link's upper bound Fupper (when one is set: all cosines 1 at the
-    /// nearest points of the two spheres, ClusterLinker::link), since a
-    /// surface of the cluster gets K / W cos_k w_k with cos_k w_k <= 1. W
-    /// and the visibility in K are separate estimates (16 direction bins and
-    /// 4 points per surface; 8 rays): where the rays find the sender but
-    /// the only open surface facing it is a sliver, W is tiny and K / W would
-    /// put the whole link's power on the sliver
-    /// (papers/notes/2026-12-01-cluster-transfer.md, "A sliver's K / W").
-    /// The power past the bound is not delivered.
-    void handOverNewLinks();
-    /// With the openness table and setSeenHandOver: every stand-in into a
-    /// cluster that no direction hands over (Link::byArea), other than a
-    /// self-link, gives each surface k below the cluster the share w_k / W
-    /// of its irradiance, so the power it delivers is unchanged and only
-    /// where it lands moves (flagged kOpenHandOver, Link::bySeen):
-    ///     w_k = sum over the sender's surfaces j of c_j sum over k's four
-    ///           openness points x of F(x -> j) v(x, j),
-    ///     W = sum_k A_k w_k / sum_k A_k,
-    /// F the exact unoccluded point-to-polygon form factor (0 behind a
-    /// one-sided j), v whether a shadow ray from x to a point of j
-    /// (stratified over j, shifted per pair) is unblocked, c_j j's largest
-    /// radiosity channel (1 for a surface-element sender). A sender with
-    /// more than kSeenMaxSources lit surfaces contributes kSeenMaxSources of
-    /// them drawn by A_j c_j, each weighted so that the sum's expectation is
-    /// the sum over all of them. The outer shell of a double-shelled lamp
-    /// housing (it faces away from the lamp, or lies 2 mm behind the inner
-    /// shell) gets nothing where by area it got as much as the inner shell
-    /// (papers/README.md, "Where the classroom's stand-in error lives").
-    /// Decided once per (receiver, sender) pair, when its sender carries
-    /// light, and kept across setLinks(); stays by area where the sender
-    /// is dark, no surface sees it, or the pair has more than kSeenMaxPairs
-    /// surface pairs to weigh.
-    void handOverStandIns();
-    /// handOverStandIns and handOverNewLinks phase by phase (hr/handover.cpp).
-    struct SeenDecision;
-    struct SeenScratch;
-    void seenCandidates(uint32_t c, std::vector<SeenDecision>& out, SeenScratch& s);
-    double seenSources(uint32_t r, uint32_t sender, SeenScratch& s) const;
-    void scaleSeenWeights(uint32_t c, const SeenScratch& s, std::vector<SeenDecision>& out) const;
-    void storeSeen(std::vector<std::vector<SeenDecision>>& made);
-    uint64_t divideByOpenness(const std::vector<uint64_t>& fresh, const std::vector<double>& num,
-                              const std::vector<double>& den, std::atomic<uint64_t>& capped);
     /// Push-pull of the polynomial coefficients (basis degree > 0).
     void pushPullPolynomial(const std::vector<RGB>& fromAbove);
     /// Pull of the coefficients of e from its four children (degree > 0).
@@ -592,8 +528,7 @@ class Hierarchy {
     void pullCluster(uint32_t c);
     const scene::Scene* scene_;
     const cluster::ClusterTree* tree_ = nullptr;
-    const cluster::SurfaceOpenness* openness_ = nullptr;
-    uint64_t handOverByOpenness_ = 0, handOverByCosine_ = 0, handOverCapped_ = 0;
+    std::unique_ptr<HandOver> handOver_;  ///< setHandOver
     cluster::ClusterModel model_ = cluster::ClusterModel::None;
     const cluster::TransferModel* transfer_ = nullptr;
     uint32_t numClusters_ = 0;
@@ -607,31 +542,6 @@ class Hierarchy {
     /// Drops the stand-in sample blocks no link refers to (setLinks).
     void compactStandIns();
     uint64_t clusterLinkBase_ = 0;
-    /// handOverStandIns(): per cluster (tree index, +1), the range of its
-    /// entries in seen_; each entry a stand-in (link index), the offset of
-    /// its weights (one byte per surface below the cluster, in tree order,
-    /// w_k scaled to 255) and the scale 255 W that turns a byte into w_k / W.
-    struct SeenEntry {
-        uint64_t link = 0;
-        uint64_t weights = 0;
-        float scale = 0.f;
-    };
-    const transport::Visibility* seenVis_ = nullptr;  ///< setSeenHandOver
-    /// Senders with more lit surfaces than this are represented by this
-    /// many drawn by light (the weights cost a point-to-polygon form factor
-    /// and a shadow ray per surface pair and point).
-    static constexpr uint32_t kSeenMaxSources = 64;
-    /// Links whose receiver surfaces times sender surfaces weighed exceed
-    /// this stay by area (each pair costs kPoints form factors and rays).
-    static constexpr uint64_t kSeenMaxPairs = 8192;
-    std::vector<uint64_t> seenOffsets_;
-    std::vector<SeenEntry> seen_;
-    std::vector<uint8_t> seenWeights_;
-    /// Every stand-in handOverStandIns() decided, by receiver << 32 |
-    /// sender: its entry in seen_, or UINT64_MAX for by area.
-    std::unordered_map<uint64_t, uint64_t> seenCache_;
-    /// Position of each patch in the tree's order (made when first needed).
-    std::vector<uint32_t> orderPos_;
     /// Models that send by direction: per cluster, the radiant moments of
     /// the surfaces below (cluster/transfer_model.h).
     using RadiantMoments = cluster::RadiantMoments;

@@ -16,6 +16,7 @@
 #include "core/rng.h"
 #include "core/timer.h"
 #include "hr/eps_power.h"
+#include "hr/handover.h"
 #include "hr/iteration_tail.h"
 #include "hr/receiver_error.h"
 #include "hr/light_links.h"
@@ -377,16 +378,14 @@ void HrSolver::buildHierarchy(HrResult& res) {
     linker_ = std::make_unique<cluster::ClusterLinker>(*scene_, res.clusterTree.get(),
                                                        clusterModel_, vis_, s_.clusterLink);
     links_.setLinker(linker_.get());
-    if (res.clusterTree && h.transferModel().handsOverByOpenness() &&
-        s_.clusterLink.visibleHandover) {
-        PhaseProgress phase("hand-over openness", progress_);
-        res.openness =
-            std::make_unique<cluster::SurfaceOpenness>(*scene_, *res.clusterTree, *vis_, s_.seed);
-        phase.done();
+    // The hand-over the transfer model names (hr/handover.h).
+    if (res.clusterTree)
+        h.setHandOver(makeHandOver(h.transferModel().handOver(s_.clusterLink),
+                                   {scene_, res.clusterTree.get(), vis_, &s_.clusterLink, s_.seed,
+                                    progress_}));
+    if ((res.openness = h.handOver().opennessTable())) {
         res.opennessRays = res.openness->rays();
         res.opennessSeconds = res.openness->seconds();
-        h.setOpenness(res.openness.get());
-        h.setSeenHandOver(s_.clusterLink.standInSeen ? vis_ : nullptr);
         spdlog::info("hand-over openness: {} rays, {:.2f} s, {}", res.opennessRays,
                      res.opennessSeconds, formatBytes(res.openness->memoryBytes()));
     }
@@ -650,11 +649,11 @@ void HrSolver::estimateErrors(const Hierarchy& h, HrResult& res) const {
 }
 
 void HrSolver::summarize(const Hierarchy& h, HrResult& res) const {
-    h.reportMemory(res.memory);
-    if (res.openness) res.memory.set("handover_openness", res.openness->memoryBytes());
-    res.handOverByOpenness = h.handOverByOpenness();
-    res.handOverByCosine = h.handOverByCosine();
-    res.handOverCapped = h.handOverCapped();
+    h.reportMemory(res.memory);  // with the hand-over's (handover_openness, stand_in_handover)
+    const HandOver::Counts handOver = h.handOver().counts();
+    res.handOverByOpenness = handOver.byOpenness;
+    res.handOverByCosine = handOver.byCosine;
+    res.handOverCapped = handOver.capped;
     RGB standIn(0.0);  // the light the stand-ins carry: what their receivers reflect of it
     for (uint32_t r = 0; r < h.numElements(); ++r) {
         const bool rc = h.isCluster(r);

@@ -139,8 +139,8 @@ struct HrResult {
     double reachSeconds = 0.0;
     std::unique_ptr<cluster::ClusterTree> clusterTree;
     /// The oriented hand-over's openness table (cluster.handover = visible;
-    /// cluster/openness.h), its rays and seconds.
-    std::unique_ptr<cluster::SurfaceOpenness> openness;
+    /// cluster/openness.h; owned by the hierarchy's hand-over), its rays and seconds.
+    const cluster::SurfaceOpenness* openness = nullptr;
     uint64_t opennessRays = 0;
     double opennessSeconds = 0.0;
     /// Links into oriented clusters whose hand-over was decided (when first
@@ -148,7 +148,7 @@ struct HrResult {
     /// cosine alone (no surface of the receiving cluster found open).
     uint64_t handOverByOpenness = 0, handOverByCosine = 0;
     /// Of those by openness, the ones held to their unoccluded bound
-    /// (Hierarchy::handOverNewLinks).
+    /// (hr/openness_handover.h).
     uint64_t handOverCapped = 0;
     std::string clusterModel;  ///< the model used (auto resolved)
     double clusterBuildSeconds = 0.0;

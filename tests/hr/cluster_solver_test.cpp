@@ -11,6 +11,7 @@
 
 #include "cluster/openness.h"
 #include "core/rng.h"
+#include "hr/openness_handover.h"
 #include "hr/receiver_error.h"
 #include "hr/solver.h"
 #include "scene/loader.h"
@@ -241,7 +242,7 @@ TEST(ClusterTransfer, HandOverLightsOnlyTheSurfacesThatSeeOut) {
     const double K = 0.01;
     auto run = [&](bool visible) {
         Hierarchy hh(s, &tree, cluster::ClusterModel::Oriented);
-        if (visible) hh.setOpenness(&openness);
+        if (visible) hh.setHandOver(std::make_unique<OpennessHandOver>(s, tree, openness, nullptr));
         Link l;
         l.sender = emitter;
         l.K = float(K);
@@ -252,7 +253,7 @@ TEST(ClusterTransfer, HandOverLightsOnlyTheSurfacesThatSeeOut) {
         EXPECT_TRUE(set.flags & Link::kHandedOver || !visible);
         EXPECT_EQ(bool(set.flags & Link::kOpenHandOver), visible);
         EXPECT_NEAR(set.K, visible ? K / W : K, 1e-6 * K / W);
-        EXPECT_EQ(hh.handOverByOpenness(), visible ? 1u : 0u);
+        EXPECT_EQ(hh.handOver().counts().byOpenness, visible ? 1u : 0u);
         hh.gather();
         hh.pushPull();
         std::array<double, 4> reflected{};
@@ -272,11 +273,11 @@ TEST(ClusterTransfer, HandOverLightsOnlyTheSurfacesThatSeeOut) {
     EXPECT_NEAR(power(byCosine), 0.5 * double(float(K)) * sumCos, 1e-9);
     // No surface takes more than the link's unoccluded bound: with Fupper
     // between K and K / W, K / W is held to Fupper and the power past it is
-    // not delivered (Hierarchy::handOverNewLinks).
+    // not delivered (hr/openness_handover.h).
     ASSERT_LT(W, 0.9);
     const double bound = 0.5 * (K + K / W);
     Hierarchy hb(s, &tree, cluster::ClusterModel::Oriented);
-    hb.setOpenness(&openness);
+    hb.setHandOver(std::make_unique<OpennessHandOver>(s, tree, openness, nullptr));
     Link l;
     l.sender = emitter;
     l.K = float(K);
@@ -285,8 +286,8 @@ TEST(ClusterTransfer, HandOverLightsOnlyTheSurfacesThatSeeOut) {
     hb.setLinks({ce}, {l});
     EXPECT_TRUE(hb.link(0).flags & Link::kOpenHandOver);
     EXPECT_NEAR(hb.link(0).K, bound, 1e-6 * bound);
-    EXPECT_EQ(hb.handOverCapped(), 1u);
-    EXPECT_EQ(hb.handOverByOpenness(), 1u);
+    EXPECT_EQ(hb.handOver().counts().capped, 1u);
+    EXPECT_EQ(hb.handOver().counts().byOpenness, 1u);
 }
 
 // An emitter below a group of small quads that all face up, away from it.

@@ -1,4 +1,4 @@
-// cluster.stand_in_handover (Hierarchy::handOverStandIns): a stand-in that
+// cluster.stand_in_handover (hr/openness_handover.h): a stand-in that
 // no direction hands over (overlapping bounding spheres) lights each surface
 // of its receiving cluster by what that surface sees of the sender, instead
 // of all of them alike by area.
@@ -19,6 +19,7 @@
 
 #include <iostream>
 
+#include "hr/handover.h"
 #include "hr/solver.h"
 #include "tests/hr/settings.h"
 #include "tests/scenes.h"
@@ -90,7 +91,7 @@ Solved solve(const Housing& h, const std::string& model, const std::string& hand
     hr::HrResult res = hr::HrSolver(h.scene, vis, hs).solve();
     Solved out;
     for (uint32_t k = 0; k < h.scene.patches.size(); ++k) out.B.push_back(res.hierarchy->B(k).g);
-    out.seen = res.hierarchy->handOverSeen();
+    out.seen = res.hierarchy->handOver().counts().seen;
     out.standIns = res.standInLinksFinal;
     return out;
 }
