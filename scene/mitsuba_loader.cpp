@@ -1110,135 +1110,227 @@ class Loader {
     }
 
     /// The shape's polygons in its object space; `uvs` gets their texture
-    /// coordinates (v up) where the shape has them: OBJ meshes' vt, the
-    /// rectangle's (Mitsuba's uv with v flipped, as its OBJ reader flips vt).
+    /// coordinates in hrad's sense (v up, scene/texture.h) where the shape has
+    /// them. Mitsuba's uv has v pointing down the image (its bitmap's row 0 is
+    /// uv.y = 0), so hrad's UV is (u, 1 - v) of Mitsuba's: meshes' stored
+    /// coordinates after Mitsuba's flip_tex_coords (default true for obj, false
+    /// for ply; serialized has none), the analytic shapes' parametrisations of
+    /// Mitsuba 3 (src/shapes/{rectangle,cube,disk,sphere}.cpp, 2026-08).
     std::vector<std::vector<Vec3>> geometry(const Node& s, const std::string& type,
                                             std::vector<std::vector<Vec2>>& uvs) {
         std::vector<std::vector<Vec3>> polys;
-        const int n = opt_.resolution;
         if (type == "obj" || type == "ply" || type == "serialized") {
-            Node fp = prop(s, "filename");
-            if (!fp) fail(s, "{} shape needs a 'filename'", type);
-            std::string file = filePath(fp, attr(fp, "value"));
-            std::error_code ec;
-            if (fs::exists(file, ec) && !fs::is_regular_file(file, ec))
-                fail(fp, "mesh file '{}' is not a regular file", file);
-            if (!fs::exists(file, ec)) {  // scene.missing: the shape adds nothing
-                scene_.stats.missingFiles.add(loc(fp), "mesh file", file);
-                return polys;
-            }
-            if (type == "serialized") {
-                // Checked as a number before it becomes an index: a value no
-                // integer type holds must not be cast (fuzz finding).
-                const double shapeIndex = floatProp(s, "shape_index", 0);
-                if (!(shapeIndex >= 0) || shapeIndex > 4294967295.0 ||
-                    shapeIndex != std::floor(shapeIndex))
-                    fail(s, "shape_index must be a whole number in [0, 2^32), not {}", shapeIndex);
-                const uint64_t index = uint64_t(shapeIndex);
-                SerializedMesh mesh = readSerialized(
-                    file, index, opt_.maxFaces - std::min(faces_, opt_.maxFaces), "shape at " + where(s),
-                    opt_.maxInflatedBytes - std::min(inflated_, opt_.maxInflatedBytes));
-                inflated_ += mesh.inflatedBytes;
-                polys.reserve(mesh.triangles.size());
-                for (const auto& t : mesh.triangles)
-                    polys.push_back({mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]});
-                return polys;
-            }
-            Scene sub;
-            if (type == "obj") {
-                ObjOptions o;
-                o.clampRho = 0.99;  // the .mtl is not used: never fail on it (nor warn: not kept)
-                o.keepUVs = true;   // the XML's bitmap needs them; the .mtl's maps are not read
-                o.readTextures = false;
-                sub = loadObj(file, o);
-            } else {
-                sub = loadPly(file, PlyOptions{});
-            }
-            for (const std::string& w : sub.stats.warnings)
-                if (w.find("no material") == std::string::npos && w.find("default") == std::string::npos)
-                    scene_.stats.warnings.push_back(w);
-            scene_.stats.droppedDegenerate += sub.stats.droppedDegenerate;
-            scene_.stats.overflowFaces += sub.stats.overflowFaces;
-            scene_.stats.triangulatedFaces += sub.stats.triangulatedFaces;  // e.g. a non-planar quad
-            polys.reserve(sub.patches.size());
-            for (const Patch& p : sub.patches) {
-                polys.emplace_back(p.v.begin(), p.v.begin() + p.numVertices());
-                if (sub.cornerUVs.empty()) continue;
-                uvs.resize(polys.size());
-                if (const auto* row = patchUVs(sub, p))
-                    uvs.back().assign(row->begin(), row->begin() + p.numVertices());
-            }
+            meshGeometry(s, type, polys, uvs);
             return polys;
         }
+        const int n = opt_.resolution;
         checkAnalyticBudget(s, type, n);
         if (type == "rectangle") {
+            // Mitsuba: uv = ((x + 1) / 2, (y + 1) / 2).
             polys.push_back({{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}});
             uvs.push_back({{0, 1}, {1, 1}, {1, 0}, {0, 0}});
         } else if (type == "cube") {
-            for (int axis = 0; axis < 3; ++axis)
-                for (int sign = -1; sign <= 1; sign += 2) {
-                    int a = (axis + 1) % 3, b = (axis + 2) % 3;
-                    std::vector<Vec3> q(4, Vec3(0.0));
-                    double uv[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
-                    for (int k = 0; k < 4; ++k) {
-                        q[k][axis] = sign;
-                        q[k][a] = uv[k][0];
-                        q[k][b] = uv[k][1];
-                    }
-                    // (a, b, axis) is right-handed: this order faces +axis.
-                    if (sign < 0) std::reverse(q.begin(), q.end());
-                    polys.push_back(q);
-                }
+            cubeGeometry(polys, uvs);
         } else if (type == "disk") {
-            // Radius scaled so that the n-gon's area equals pi.
-            double r = std::sqrt(2 * kPi / (n * std::sin(2 * kPi / n)));
-            for (int k = 0; k < n; ++k) {
-                double a0 = 2 * kPi * k / n, a1 = 2 * kPi * (k + 1) / n;
-                polys.push_back({{0, 0, 0}, {r * std::cos(a0), r * std::sin(a0), 0}, {r * std::cos(a1), r * std::sin(a1), 0}});
-            }
+            diskGeometry(n, polys, uvs);
         } else if (type == "cylinder") {
-            Vec3 p0 = pointProp(s, "p0", Vec3(0, 0, 0)), p1 = pointProp(s, "p1", Vec3(0, 0, 1));
-            double radius = floatProp(s, "radius", 1.0);
-            if (!(radius > 0) || !(glm::length(p1 - p0) > 0)) fail(s, "cylinder needs radius > 0 and p0 != p1");
-            Vec3 w = glm::normalize(p1 - p0);
-            Vec3 u = glm::normalize(std::abs(w.x) < 0.9 ? glm::cross(w, Vec3(1, 0, 0)) : glm::cross(w, Vec3(0, 1, 0)));
-            Vec3 v = glm::cross(w, u);
-            // Radius scaled so that the prism's lateral area equals 2 pi r h.
-            double r = radius * kPi / (n * std::sin(kPi / n));
-            auto at = [&](int k, const Vec3& base) {
-                double a = 2 * kPi * k / n;
-                return base + r * (std::cos(a) * u + std::sin(a) * v);
-            };
-            for (int k = 0; k < n; ++k)
-                polys.push_back({at(k, p0), at(k + 1, p0), at(k + 1, p1), at(k, p1)});
+            cylinderGeometry(s, n, polys);
         } else if (type == "sphere") {
-            Vec3 c = pointProp(s, "center", Vec3(0.0));
-            double radius = floatProp(s, "radius", 1.0);
-            if (!(radius > 0)) fail(s, "sphere needs radius > 0");
-            int rings = std::max(2, n / 2);
-            auto at = [&](int i, int j) {
-                double th = kPi * i / rings, ph = 2 * kPi * j / n;
-                return Vec3(std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), std::cos(th));
-            };
-            double area = 0;
-            for (int i = 0; i < rings; ++i)
-                for (int j = 0; j < n; ++j) {
-                    std::vector<Vec3> q;
-                    // a, d, c, b: theta then phi increasing -> outward normal.
-                    Vec3 pts[4] = {at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)};
-                    for (const Vec3& p : pts)
-                        if (q.empty() || glm::length(p - q.back()) > 1e-12) q.push_back(p);
-                    if (glm::length(q.front() - q.back()) < 1e-12) q.pop_back();
-                    for (size_t k = 1; k + 1 < q.size(); ++k)
-                        area += 0.5 * glm::length(glm::cross(q[k] - q[0], q[k + 1] - q[0]));
-                    polys.push_back(q);
-                }
-            // Scaled so that the polyhedron's area equals 4 pi r^2.
-            double scale = radius * std::sqrt(4 * kPi / area);
-            for (auto& q : polys)
-                for (Vec3& p : q) p = c + scale * p;
+            sphereGeometry(s, n, polys, uvs);
         }
         return polys;
+    }
+
+    /// obj, ply and serialized shapes: the file's faces and, when it has them,
+    /// its texture coordinates (see geometry()).
+    void meshGeometry(const Node& s, const std::string& type, std::vector<std::vector<Vec3>>& polys,
+                      std::vector<std::vector<Vec2>>& uvs) {
+        Node fp = prop(s, "filename");
+        if (!fp) fail(s, "{} shape needs a 'filename'", type);
+        std::string file = filePath(fp, attr(fp, "value"));
+        std::error_code ec;
+        if (fs::exists(file, ec) && !fs::is_regular_file(file, ec))
+            fail(fp, "mesh file '{}' is not a regular file", file);
+        if (!fs::exists(file, ec)) {  // scene.missing: the shape adds nothing
+            scene_.stats.missingFiles.add(loc(fp), "mesh file", file);
+            return;
+        }
+        if (type == "serialized") {
+            serializedGeometry(s, file, polys, uvs);
+            return;
+        }
+        // Mitsuba flips the stored v of OBJ files by default, not of PLY files.
+        const bool flipTex = boolProp(s, "flip_tex_coords", type == "obj");
+        Scene sub;
+        if (type == "obj") {
+            ObjOptions o;
+            o.clampRho = 0.99;  // the .mtl is not used: never fail on it (nor warn: not kept)
+            o.keepUVs = true;   // the XML's bitmap needs them; the .mtl's maps are not read
+            o.readTextures = false;
+            sub = loadObj(file, o);
+        } else {
+            PlyOptions o;
+            o.keepUVs = true;
+            sub = loadPly(file, o);
+        }
+        for (const std::string& w : sub.stats.warnings)
+            if (w.find("no material") == std::string::npos && w.find("default") == std::string::npos)
+                scene_.stats.warnings.push_back(w);
+        scene_.stats.droppedDegenerate += sub.stats.droppedDegenerate;
+        scene_.stats.overflowFaces += sub.stats.overflowFaces;
+        scene_.stats.triangulatedFaces += sub.stats.triangulatedFaces;  // e.g. a non-planar quad
+        polys.reserve(sub.patches.size());
+        // Both loaders keep the stored v. With flip_tex_coords Mitsuba's v is
+        // 1 - stored, so hrad's (1 - Mitsuba's) is the stored one; without,
+        // hrad's v is 1 - stored.
+        const bool invert = !flipTex;
+        for (const Patch& p : sub.patches) {
+            polys.emplace_back(p.v.begin(), p.v.begin() + p.numVertices());
+            if (sub.cornerUVs.empty()) continue;
+            uvs.resize(polys.size());
+            if (const auto* row = patchUVs(sub, p)) {
+                uvs.back().assign(row->begin(), row->begin() + p.numVertices());
+                if (invert)
+                    for (Vec2& t : uvs.back()) t.y = 1 - t.y;
+            }
+        }
+    }
+
+    /// A serialized shape's triangles and texture coordinates (Mitsuba's uv
+    /// as stored: hrad's v = 1 - stored).
+    void serializedGeometry(const Node& s, const std::string& file, std::vector<std::vector<Vec3>>& polys,
+                            std::vector<std::vector<Vec2>>& uvs) {
+        // Checked as a number before it becomes an index: a value no
+        // integer type holds must not be cast (fuzz finding).
+        const double shapeIndex = floatProp(s, "shape_index", 0);
+        if (!(shapeIndex >= 0) || shapeIndex > 4294967295.0 || shapeIndex != std::floor(shapeIndex))
+            fail(s, "shape_index must be a whole number in [0, 2^32), not {}", shapeIndex);
+        const uint64_t index = uint64_t(shapeIndex);
+        SerializedMesh mesh = readSerialized(
+            file, index, opt_.maxFaces - std::min(faces_, opt_.maxFaces), "shape at " + where(s),
+            opt_.maxInflatedBytes - std::min(inflated_, opt_.maxInflatedBytes));
+        inflated_ += mesh.inflatedBytes;
+        polys.reserve(mesh.triangles.size());
+        const bool withUV = mesh.texcoords.size() == mesh.positions.size();
+        if (withUV) uvs.reserve(mesh.triangles.size());
+        for (const auto& t : mesh.triangles) {
+            polys.push_back({mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]});
+            if (!withUV) continue;
+            uvs.emplace_back();
+            for (uint32_t k : t) uvs.back().push_back(Vec2(mesh.texcoords[k].x, 1 - mesh.texcoords[k].y));
+        }
+    }
+
+    /// The cube [-1, 1]^3, one quad per face. Mitsuba maps every face onto
+    /// [0, 1]^2 (its cube.cpp vertex and texcoord tables); per face, from
+    /// those tables, Mitsuba's (u, v) at a corner (x, y, z):
+    ///   -x: ((y+1)/2, (z+1)/2)   +x: ((y+1)/2, (1-z)/2)
+    ///   -y: ((z+1)/2, (x+1)/2)   +y: ((1-x)/2, (1-z)/2)
+    ///   -z: ((1-y)/2, (x+1)/2)   +z: ((y+1)/2, (x+1)/2)
+    void cubeGeometry(std::vector<std::vector<Vec3>>& polys, std::vector<std::vector<Vec2>>& uvs) const {
+        auto mitsubaUV = [](int axis, int sign, const Vec3& p) {
+            const double x = p.x, y = p.y, z = p.z;
+            if (axis == 0) return sign < 0 ? Vec2((y + 1) / 2, (z + 1) / 2) : Vec2((y + 1) / 2, (1 - z) / 2);
+            if (axis == 1) return sign < 0 ? Vec2((z + 1) / 2, (x + 1) / 2) : Vec2((1 - x) / 2, (1 - z) / 2);
+            return sign < 0 ? Vec2((1 - y) / 2, (x + 1) / 2) : Vec2((y + 1) / 2, (x + 1) / 2);
+        };
+        for (int axis = 0; axis < 3; ++axis)
+            for (int sign = -1; sign <= 1; sign += 2) {
+                int a = (axis + 1) % 3, b = (axis + 2) % 3;
+                std::vector<Vec3> q(4, Vec3(0.0));
+                double uv[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+                for (int k = 0; k < 4; ++k) {
+                    q[k][axis] = sign;
+                    q[k][a] = uv[k][0];
+                    q[k][b] = uv[k][1];
+                }
+                // (a, b, axis) is right-handed: this order faces +axis.
+                if (sign < 0) std::reverse(q.begin(), q.end());
+                std::vector<Vec2> t;
+                for (const Vec3& p : q) {
+                    const Vec2 m = mitsubaUV(axis, sign, p);
+                    t.push_back(Vec2(m.x, 1 - m.y));
+                }
+                polys.push_back(q);
+                uvs.push_back(t);
+            }
+    }
+
+    /// The unit disk as n triangles around its centre. Mitsuba's uv is
+    /// (r, phi / 2 pi), phi in [0, 2 pi) (disk.cpp); hrad's v = 1 - phi / 2 pi,
+    /// the rim's corners at u = 1 (the n-gon is scaled to the disk's area,
+    /// its rim stands for the disk's), the centre at the wedge's mid-angle.
+    void diskGeometry(int n, std::vector<std::vector<Vec3>>& polys,
+                      std::vector<std::vector<Vec2>>& uvs) const {
+        // Radius scaled so that the n-gon's area equals pi.
+        double r = std::sqrt(2 * kPi / (n * std::sin(2 * kPi / n)));
+        for (int k = 0; k < n; ++k) {
+            double a0 = 2 * kPi * k / n, a1 = 2 * kPi * (k + 1) / n;
+            polys.push_back({{0, 0, 0}, {r * std::cos(a0), r * std::sin(a0), 0}, {r * std::cos(a1), r * std::sin(a1), 0}});
+            uvs.push_back({Vec2(0, 1 - (k + 0.5) / n), Vec2(1, 1 - double(k) / n), Vec2(1, 1 - double(k + 1) / n)});
+        }
+    }
+
+    void cylinderGeometry(const Node& s, int n, std::vector<std::vector<Vec3>>& polys) const {
+        Vec3 p0 = pointProp(s, "p0", Vec3(0, 0, 0)), p1 = pointProp(s, "p1", Vec3(0, 0, 1));
+        double radius = floatProp(s, "radius", 1.0);
+        if (!(radius > 0) || !(glm::length(p1 - p0) > 0)) fail(s, "cylinder needs radius > 0 and p0 != p1");
+        Vec3 w = glm::normalize(p1 - p0);
+        Vec3 u = glm::normalize(std::abs(w.x) < 0.9 ? glm::cross(w, Vec3(1, 0, 0)) : glm::cross(w, Vec3(0, 1, 0)));
+        Vec3 v = glm::cross(w, u);
+        // Radius scaled so that the prism's lateral area equals 2 pi r h.
+        double r = radius * kPi / (n * std::sin(kPi / n));
+        auto at = [&](int k, const Vec3& base) {
+            double a = 2 * kPi * k / n;
+            return base + r * (std::cos(a) * u + std::sin(a) * v);
+        };
+        for (int k = 0; k < n; ++k)
+            polys.push_back({at(k, p0), at(k + 1, p0), at(k + 1, p1), at(k, p1)});
+    }
+
+    /// A UV sphere of n segments and n / 2 rings. Mitsuba's uv is
+    /// (phi / 2 pi, theta / pi), theta from +z, phi = atan2(y, x) in
+    /// [0, 2 pi) (sphere.cpp); hrad's v = 1 - theta / pi, the seam's corners
+    /// at u = 1, a pole's corner at its triangle's mid-angle.
+    void sphereGeometry(const Node& s, int n, std::vector<std::vector<Vec3>>& polys,
+                        std::vector<std::vector<Vec2>>& uvs) const {
+        Vec3 c = pointProp(s, "center", Vec3(0.0));
+        double radius = floatProp(s, "radius", 1.0);
+        if (!(radius > 0)) fail(s, "sphere needs radius > 0");
+        int rings = std::max(2, n / 2);
+        auto at = [&](int i, int j) {
+            double th = kPi * i / rings, ph = 2 * kPi * j / n;
+            return Vec3(std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), std::cos(th));
+        };
+        double area = 0;
+        for (int i = 0; i < rings; ++i)
+            for (int j = 0; j < n; ++j) {
+                std::vector<Vec3> q;
+                std::vector<Vec2> t;
+                // a, d, c, b: theta then phi increasing -> outward normal.
+                const int ij[4][2] = {{i, j}, {i + 1, j}, {i + 1, j + 1}, {i, j + 1}};
+                for (const auto& [ii, jj] : ij) {
+                    const Vec3 p = at(ii, jj);
+                    const bool pole = ii == 0 || ii == rings;
+                    const Vec2 uv((pole ? j + 0.5 : double(jj)) / n, 1 - double(ii) / rings);
+                    if (q.empty() || glm::length(p - q.back()) > 1e-12) {
+                        q.push_back(p);
+                        t.push_back(uv);
+                    }
+                }
+                if (glm::length(q.front() - q.back()) < 1e-12) {
+                    q.pop_back();
+                    t.pop_back();
+                }
+                for (size_t k = 1; k + 1 < q.size(); ++k)
+                    area += 0.5 * glm::length(glm::cross(q[k] - q[0], q[k + 1] - q[0]));
+                polys.push_back(q);
+                uvs.push_back(t);
+            }
+        // Scaled so that the polyhedron's area equals 4 pi r^2.
+        double scale = radius * std::sqrt(4 * kPi / area);
+        for (auto& q : polys)
+            for (Vec3& p : q) p = c + scale * p;
     }
 };
 

@@ -55,7 +55,9 @@
 //              plastic diffuse_reflectance, principled base_color, also under
 //              twosided/mask/bumpmap) is kept as the material's texture
 //              (scene/texture.h: sRGB-decoded unless `raw`, wrap_mode; UVs of
-//              obj shapes and rectangles; each patch gets its own mean); any
+//              obj, ply (flip_tex_coords) and serialized meshes, rectangles,
+//              cubes, disks and spheres in Mitsuba 3's parametrisations;
+//              cylinders have none; each patch gets its own mean); any
 //              other bitmap is replaced by its mean over all texels, with a
 //              warning; checkerboard the mean of its two colours. A bitmap
 //              that is missing or unreadable gets mitsuba.texture_rho grey

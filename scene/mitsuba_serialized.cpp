@@ -107,6 +107,33 @@ class Inflater {
     z_stream zs_;
 };
 
+/// A real (float or double, as the flags say) from the stream.
+double getReal(Inflater& z, uint64_t real, const char* what) {
+    if (real == 8) {
+        const uint64_t bits = z.get<uint64_t>(what);
+        double v;
+        std::memcpy(&v, &bits, 8);
+        return v;
+    }
+    const uint32_t bits = z.get<uint32_t>(what);
+    float v;
+    std::memcpy(&v, &bits, 4);
+    return v;
+}
+
+/// nv texture coordinates (u, v), finite, as stored.
+void readTexcoords(Inflater& z, const Reader& r, uint64_t real, uint64_t nv, std::vector<Vec2>& out) {
+    out.resize(size_t(nv));
+    for (uint64_t i = 0; i < nv; ++i) {
+        Vec2 t;
+        t.x = getReal(z, real, "texture coordinates");
+        t.y = getReal(z, real, "texture coordinates");
+        if (!std::isfinite(t.x) || !std::isfinite(t.y))
+            r.fail(z.compressedOffset(), fmt::format("vertex {} has a non-finite texture coordinate", i));
+        out[size_t(i)] = t;
+    }
+}
+
 }  // namespace
 
 SerializedMesh readSerialized(const std::string& path, uint64_t shapeIndex, uint64_t maxFaces,
@@ -196,25 +223,13 @@ SerializedMesh readSerialized(const std::string& path, uint64_t shapeIndex, uint
     mesh.positions.resize(size_t(nv));
     for (uint64_t i = 0; i < nv; ++i) {
         Vec3 p;
-        for (int k = 0; k < 3; ++k) {
-            if (real == 8) {
-                uint64_t bits = z.get<uint64_t>("vertex positions");
-                double v;
-                std::memcpy(&v, &bits, 8);
-                p[k] = v;
-            } else {
-                uint32_t bits = z.get<uint32_t>("vertex positions");
-                float v;
-                std::memcpy(&v, &bits, 4);
-                p[k] = v;
-            }
-        }
+        for (int k = 0; k < 3; ++k) p[k] = getReal(z, real, "vertex positions");
         if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
             r.fail(z.compressedOffset(), fmt::format("vertex {} has a non-finite coordinate", i));
         mesh.positions[size_t(i)] = p;
     }
     if (flags & kHasNormals) z.skip(nv * 3 * real, "vertex normals");
-    if (flags & kHasTexcoords) z.skip(nv * 2 * real, "texture coordinates");
+    if (flags & kHasTexcoords) readTexcoords(z, r, real, nv, mesh.texcoords);
     if (flags & kHasColors) z.skip(nv * 3 * real, "vertex colours");
 
     mesh.triangles.resize(size_t(nt));

@@ -15,8 +15,9 @@
 // The file ends with a table of the meshes' start offsets (uint64 in version 4,
 // uint32 in version 3) and a uint32 mesh count, used to find `shape_index`.
 //
-// hrad keeps positions and triangles only (radiosity needs no normals or
-// texture coordinates). Every count is checked against a face budget and the
+// hrad keeps positions, triangles and texture coordinates (flag 0x0002, as
+// stored: Mitsuba's uv, whose v points down the image; the Mitsuba loader
+// turns them into hrad's v-up UVs). Normals and colours are skipped. Every count is checked against a face budget and the
 // bytes actually present before anything is allocated; truncated, corrupt or
 // inconsistent data is an InputError naming the file and the byte offset.
 #pragma once
@@ -34,6 +35,7 @@ struct SerializedMesh {
     std::string name;
     std::vector<Vec3> positions;
     std::vector<std::array<uint32_t, 3>> triangles;
+    std::vector<Vec2> texcoords;  ///< one per position when the file has them, else empty
     uint64_t inflatedBytes = 0;  ///< bytes the mesh's data inflate to (normals etc. included)
 };
 

@@ -2,6 +2,7 @@
 #include "scene/ply_loader.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -57,6 +58,16 @@ struct Element {
         for (size_t i = 0; i < props.size(); ++i)
             if (props[i].name == n) return int(i);
         return -1;
+    }
+    /// Indices of the first texture-coordinate pair present (ply_loader.h), or {-1, -1}.
+    std::array<int, 2> findUV() const {
+        static const char* const kPairs[4][2] = {
+            {"u", "v"}, {"s", "t"}, {"texture_u", "texture_v"}, {"texture_s", "texture_t"}};
+        for (const auto& pair : kPairs) {
+            const int a = find(pair[0]), b = find(pair[1]);
+            if (a >= 0 && b >= 0 && !props[size_t(a)].list && !props[size_t(b)].list) return {a, b};
+        }
+        return {-1, -1};
     }
 };
 
@@ -270,6 +281,7 @@ Scene loadPly(const std::string& path, const PlyOptions& options) {
 
     std::vector<Vec3> pos;
     std::vector<RGB> vcol;
+    std::vector<Vec2> vuv;  // per vertex when kept (PlyOptions::keepUVs) and present
     bool vertexColours = false;
     std::map<std::array<long, 3>, uint32_t> byColour;
     uint32_t defaultMat = UINT32_MAX;
@@ -305,6 +317,7 @@ Scene loadPly(const std::string& path, const PlyOptions& options) {
             int ir = e.find("red"), ig = e.find("green"), ib = e.find("blue");
             vertexColours = ir >= 0 && ig >= 0 && ib >= 0;
             double scale = vertexColours && !isFloat(e.props[size_t(ir)].type) ? 1.0 / 255.0 : 1.0;
+            const std::array<int, 2> iuv = options.keepUVs ? e.findUV() : std::array<int, 2>{-1, -1};
             pos.reserve(e.count);
             for (size_t k = 0; k < e.count; ++k) {
                 reader.read(e, vals, lists);
@@ -313,6 +326,7 @@ Scene loadPly(const std::string& path, const PlyOptions& options) {
                     reader.fail(fmt::format("non-finite coordinate in vertex {}", k));
                 pos.push_back(p);
                 if (vertexColours) vcol.push_back(RGB(vals[size_t(ir)], vals[size_t(ig)], vals[size_t(ib)]) * scale);
+                if (iuv[0] >= 0) vuv.push_back(Vec2(vals[size_t(iuv[0])], vals[size_t(iuv[1])]));
             }
             haveVertices = true;
         } else if (e.name == "face") {
@@ -324,17 +338,21 @@ Scene loadPly(const std::string& path, const PlyOptions& options) {
             bool faceColours = ir >= 0 && ig >= 0 && ib >= 0;
             double scale = faceColours && !isFloat(e.props[size_t(ir)].type) ? 1.0 / 255.0 : 1.0;
             std::vector<Vec3> poly;
+            std::vector<Vec2> polyUV;
+            const bool withUV = !vuv.empty() && vuv.size() == pos.size();
             for (size_t k = 0; k < e.count; ++k) {
                 reader.read(e, vals, lists);
                 const auto& idx = lists[size_t(il)];
                 if (idx.size() < 3) reader.fail(fmt::format("face {} has fewer than 3 vertices", k));
                 poly.clear();
+                polyUV.clear();
                 RGB mean(0.0);
                 for (double d : idx) {
                     if (!(d >= 0 && d < double(pos.size())))
                         reader.fail(fmt::format("face {} refers to vertex {} but there are {} vertices", k, d, pos.size()));
                     poly.push_back(pos[size_t(d)]);
                     if (vertexColours) mean += vcol[size_t(d)];
+                    if (withUV) polyUV.push_back(vuv[size_t(d)]);
                 }
                 uint32_t mat;
                 if (faceColours) {
@@ -347,7 +365,7 @@ Scene loadPly(const std::string& path, const PlyOptions& options) {
                     mat = defaultMat;
                     ++scene.stats.defaultMaterialFaces;
                 }
-                addPolygon(scene, poly, mat);
+                addPolygon(scene, poly, mat, withUV ? &polyUV : nullptr);
             }
         } else {
             for (size_t k = 0; k < e.count; ++k) reader.read(e, vals, lists);

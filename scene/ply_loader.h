@@ -2,7 +2,10 @@
 // binary_big_endian.
 //
 // Reads element `vertex` (x, y, z as any numeric type; optional red, green,
-// blue: integer types are divided by 255, float types taken as is) and element
+// blue: integer types are divided by 255, float types taken as is; optional
+// texture coordinates, the first pair present of (u, v), (s, t), (texture_u,
+// texture_v), (texture_s, texture_t), the names Mitsuba 3's PLY reader takes,
+// src/shapes/ply.cpp, plus texture_s/t) and element
 // `face` (list property `vertex_indices` or `vertex_index`, any count/index
 // types; optional face red, green, blue). Other elements and properties are
 // skipped. Faces go through addPolygon.
@@ -28,6 +31,10 @@ struct PlyOptions {
     double emission = 1.0;    ///< E of pure white faces
     double defaultRho = 0.5;  ///< rho of faces without colour
     double clampRho = 0.99;   ///< colour channels >= 1 become this (scene.clamp_rho; 0: an error)
+    /// Keep the vertices' texture coordinates as corner UVs (Scene::cornerUVs),
+    /// as stored in the file. A PLY names no texture, so only a loader that
+    /// gives the mesh one (Mitsuba's bitmap) asks for them.
+    bool keepUVs = false;
 };
 
 Scene loadPly(const std::string& path, const PlyOptions& options = {});
