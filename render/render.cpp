@@ -153,6 +153,10 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
         {key("seed"), "render: seed of final-gather and path-traced rays"}, 0, 0, INT64_MAX));
     s.textures = params.getEnum({key("textures"), kTexturesDoc}, "on", {"on", "off"}) == "on";
     s.gather.textures = s.textures;
+    s.textureFilter = params.getEnum({key("texture_filter"), kTextureFilterDoc}, "mip",
+                                     {"bilinear", "mip"}) == "mip"
+                          ? TextureFilter::Mip
+                          : TextureFilter::Bilinear;
     s.backFacesBlack =
         params.getEnum({key("back_faces"), "render: back faces black, or shaded as front faces"},
                        "black", {"black", "front"}) == "black";
@@ -199,9 +203,11 @@ std::string RenderSettings::describe() const {
                           ? fmt::format(" reconstruction=lightmap lightmap_size={} lightmap_density={}",
                                         lightmap.size, lightmap.density)
                           : std::string();
-    return fmt::format("width={} height={} spp={} interpolate={} crease_angle={} back_faces={} textures={} camera={}{}",
+    return fmt::format("width={} height={} spp={} interpolate={} crease_angle={} back_faces={} textures={} "
+                       "texture_filter={} camera={}{}",
                        width, height, spp, interpolate, smooth.creaseDegrees,
-                       backFacesBlack ? "black" : "front", textures ? "on" : "off", cam, rec);
+                       backFacesBlack ? "black" : "front", textures ? "on" : "off",
+                       textureFilter == TextureFilter::Mip ? "mip" : "bilinear", cam, rec);
 }
 
 scene::Camera chooseCamera(const scene::Scene& scene, const transport::Visibility& visibility,
@@ -290,13 +296,17 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
         }
     }
     std::optional<TextureShading> shading;
-    if (settings.textures && !scene.textures.empty()) shading.emplace(scene);
+    if (settings.textures && !scene.textures.empty()) shading.emplace(scene, settings.textureFilter);
     const TextureShading* tex = shading && shading->any() ? &*shading : nullptr;
+    const bool mip = tex && tex->filter() == TextureFilter::Mip;
     CameraFrame frame(camera, settings.width, settings.height);
     std::vector<Image> img(nf, Image(settings.width, settings.height));
     const int spp = settings.spp;
     const int strata = int(std::lround(std::sqrt(double(spp))));
     const bool stratified = strata * strata == spp;
+    // The ray differential's step: the spacing of the samples in a pixel
+    // (PBR 3rd ed. section 10.1.1 scales differentials by 1 / sqrt(spp)).
+    const double step = 1.0 / std::sqrt(double(spp));
 
     // Progress with an estimate of the time left (core/log.h), per image row;
     // silent under --log quiet and for renders under a second.
@@ -325,6 +335,10 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
                         const scene::Patch& p = scene.patches[hit.patch];
                         if (settings.backFacesBlack && glm::dot(dir, p.normal) > 0) continue;
                         Vec2 uv = scene::clampToPatchDomain(p.kind, scene::patchInverse(p, hit.point));
+                        ParamFootprint fp;
+                        if (mip)
+                            fp = footprintOnPatch(p, frame.eye, frame.direction(x + jx + step, y + jy),
+                                                  frame.direction(x + jx, y + jy + step), uv);
                         for (size_t f = 0; f < nf; ++f) {
                             if (fromLightmap) {  // texture already in the texels
                                 sum[f] += lightmaps[f].sample(lightmaps[f].uv(hit.patch, uv.x, uv.y));
@@ -332,7 +346,7 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
                             }
                             const RGB B = interp[f] ? interp[f]->at(hit.patch, uv.x, uv.y)
                                                     : fields[f]->at(hit.patch, uv.x, uv.y);
-                            sum[f] += tex ? tex->shade(hit.patch, uv.x, uv.y, B) : B;
+                            sum[f] += tex ? tex->shade(hit.patch, uv.x, uv.y, B, mip ? &fp : nullptr) : B;
                         }
                     }
                     for (size_t f = 0; f < nf; ++f) img[f].at(x, y) = sum[f] / double(spp);

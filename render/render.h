@@ -52,6 +52,11 @@
 //                                rho(x) the bilinear texel (render/texturing.h);
 //                                the path tracer and final gather use rho(x)
 //                                at every hit. "off": the solved B
+//   texture_filter string "mip"  "mip": rho(x) mip-mapped over the sample's
+//                                footprint (ray differentials, trilinear;
+//                                render/texturing.h), "bilinear": rho(x) at
+//                                the hit alone. Flat, interpolated and
+//                                lightmap-less pictures only
 // Rays that hit nothing are black.
 #pragma once
 
@@ -68,6 +73,7 @@
 #include "render/final_gather.h"
 #include "render/smooth.h"
 #include "render/lightmap.h"
+#include "render/texturing.h"
 
 namespace hrad::render {
 
@@ -87,6 +93,8 @@ struct RenderSettings {
     bool backFacesBlack = true;
     /// render.textures: textured patches show E + rho(x) H (render/texturing.h).
     bool textures = true;
+    /// render.texture_filter (render/texturing.h).
+    TextureFilter textureFilter = TextureFilter::Mip;
     std::optional<scene::Camera> camera;  ///< render.eye/target/up/fov when set
     bool widthSet = false, heightSet = false;  ///< render.width / render.height given
     SourceLocation budgetWhere;                ///< where spp or max_samples was set, for errors
