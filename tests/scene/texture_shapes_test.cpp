@@ -18,7 +18,9 @@
 #include <gtest/gtest.h>
 
 #include "scene/element.h"
+#include "core/error.h"
 #include "scene/loader.h"
+#include "scene/mitsuba_serialized.h"
 #include "scene/ply_loader.h"
 #include "scene/texture.h"
 #include "tests/test_util.h"
@@ -190,6 +192,21 @@ TEST(ShapeUVs, SerializedTexcoordsAreMitsubasUV) {
         const Vec2 st = uvAt(*p, *patchUVs(s, *p), at.x, at.y);
         EXPECT_NEAR(st.x, 0.75, 1e-6);
         EXPECT_NEAR(st.y, 1 - (1 / 16.0 + 6 / 16.0 * 0.1), 1e-6);
+    }
+}
+
+TEST(ShapeUVs, NonFiniteSerializedTexcoordIsAnInputErrorAtItsOffset) {
+    auto dir = test::tempDir("uv_serialized_nan");
+    const std::vector<float> pos = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    const std::vector<float> uv = {0, 0, 1, 0, 0, std::nanf("")};
+    const auto f = test::writeFile(dir / "bad.serialized", serializedWithUVs(pos, uv, {0, 1, 2}));
+    try {
+        readSerialized(f.string(), 0, 100);
+        FAIL() << "a NaN texture coordinate must be refused";
+    } catch (const InputError& e) {
+        const std::string m = e.what();
+        EXPECT_NE(m.find("vertex 2 has a non-finite texture coordinate"), std::string::npos) << m;
+        EXPECT_NE(m.find("byte offset"), std::string::npos) << m;
     }
 }
 
