@@ -25,7 +25,10 @@
 // (cos theta and phi linear in the remapped u). So pdf(w) = lum(L(w)) / F,
 // constant per cell with no 1 / sin theta at the poles, and sample()'s
 // value = L(w) / pdf(w) = L(w) F / lum(L(w)): a constant map gives 4 pi L on
-// every sample, the `constant` light's value.
+// every sample, the `constant` light's value. A map that varies is
+// importanceSampled(): the solvers' environment estimates add these
+// directions to their cosine ones (transport/light_irradiance.h); a uniform
+// map is estimated as the `constant` light is, by cosine directions alone.
 //
 // power(R): as `constant`'s with the map's solid-angle mean radiance.
 // Memory: the decoded texels count against texture.max_mb (scene/texture.h);
@@ -76,6 +79,7 @@ class EnvmapLight final : public Light {
         cellOf(w, i, j);
         return luminance(texel(i, j)) / total_;
     }
+    bool importanceSampled() const override { return varies_; }
     double power(double R) const override { return 4 * kPi * kPi * R * R * maxComponent(mean_); }
     std::string describe() const override {
         return fmt::format("envmap '{}' {} x {}, scale {}, mean L = ({:.4g}, {:.4g}, {:.4g}) W/m^2/sr",
@@ -91,6 +95,7 @@ class EnvmapLight final : public Light {
     std::vector<double> colCdf_;  ///< per row W + 1 entries, 0 .. 1 (conditional on the row)
     double total_ = 0;            ///< F = sum lum(L_ij) Omega_ij
     RGB mean_{0.0};               ///< solid-angle mean radiance
+    bool varies_ = false;         ///< some texel differs from another (else cosine directions are exact)
 
     double cosTheta(int j) const { return std::cos(kPi * j / map_.height); }
     double cellSolidAngle(int j) const {
@@ -142,6 +147,7 @@ void EnvmapLight::buildDistribution() {
             row += luminance(L) * omega;
             cdf[i + 1] = row;
             sum += omega * L;
+            varies_ = varies_ || L != texel(0, 0);
         }
         for (int i = 1; i <= W && row > 0; ++i) cdf[i] /= row;
         if (row > 0) cdf[W] = 1.0;

@@ -16,6 +16,10 @@
 //   pdf(w)         the solid-angle density sample() draws w with (0 for
 //                  delta lights): value = radiance(w) / pdf(w) for the
 //                  environments, so a caller can weigh strategies (MIS).
+//   importanceSampled()  whether an environment's sample() follows a
+//                  radiance that varies, so that estimates draw it beside
+//                  cosine directions (transport/light_irradiance.h); false
+//                  where cosine directions are exact (a uniform sky).
 //   power(R)       total power (max channel) into a sphere of radius R
 //                  enclosing the scene: the oracles' power scale.
 // Units follow Mitsuba 3's plugins: point/spot intensity I (W/sr), sun
@@ -72,6 +76,7 @@ class Light {
     virtual LightSample sample(const Vec3& x, double u1, double u2) const = 0;
     virtual RGB radiance(const Vec3& /*dir*/) const { return RGB(0.0); }
     virtual double pdf(const Vec3& /*dir*/) const { return 0.0; }
+    virtual bool importanceSampled() const { return false; }
     virtual double power(double sceneRadius) const = 0;
     /// One line for logs: kind and parameters.
     virtual std::string describe() const = 0;

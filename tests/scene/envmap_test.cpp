@@ -1,7 +1,9 @@
 // The `envmap` light (scene/lights/envmap.cpp): a constant map is the
 // `constant` light in every solver; the sampling density integrates to 1
 // and its estimator matches the closed-form sum over texels; a map bright
-// only below the horizon leaves an upward plane dark; the Mitsuba loader
+// only below the horizon leaves an upward plane dark; the solvers' estimate
+// (cosine and the light's directions, balance heuristic) is unbiased and
+// beats cosine directions alone on a map with a sun; the Mitsuba loader
 // reads filename, scale and to_world, and names a bad file at its line.
 // Small OpenEXR and Radiance HDR maps are written into a temporary folder.
 #include <gtest/gtest.h>
@@ -17,6 +19,7 @@
 
 #include "core/error.h"
 #include "core/rng.h"
+#include "core/sampling.h"
 #include "hr/solver.h"
 #include "reference/fullmatrix.h"
 #include "reference/montecarlo.h"
@@ -256,11 +259,67 @@ TEST(Envmap, MonteCarloMatchesTheSumOverTexels) {
         }
 }
 
+// The solvers' environment estimate (transport/light_irradiance.h, k = 8:
+// 64 cosine and 64 light directions) at one point of the upward plane, over
+// 400 seeds: its mean within 4 standard errors of the closed form, and its
+// spread under half that of cosine directions alone (measured 0.68 against
+// 1.73 of 19.17: the block holds 93 % of the plane's irradiance in 3.4 % of
+// the sphere; a sun of a real map is far smaller, the gain larger: the
+// note's envmap section). Then the hierarchical
+// solve at uniform level 2: every point of an element draws the same
+// directions and the plane is unoccluded, so each leaf carries one such
+// estimate and lies within 4.5 spreads of rho times the closed form (16
+// leaves, two-sided 7e-6 each).
+TEST(Envmap, SolverEstimateIsUnbiasedAndBeatsCosineDirections) {
+    auto dir = test::tempDir("envmap_mis");
+    auto light = scene::makeLight(envmapSpec(writeExr(dir / "b.exr", blockMap)));
+    ASSERT_TRUE(light->importanceSampled());
+    const Vec3 n(0, 1, 0);
+    const double exact = closedFormUp(blockMap).r;
+    const int runs = 400, k = 8;
+    double s1 = 0, s2 = 0, c1 = 0, c2 = 0;
+    for (int r = 0; r < runs; ++r) {
+        const double e = transport::lightIrradianceUnoccluded(*light, Vec3(0.0), n, k, 1000 + r).r;
+        s1 += e;
+        s2 += e * e;
+        Pcg32 rng(5000 + r);
+        double cos = 0;  // cosine directions alone: pi L each
+        for (int i = 0; i < k; ++i)
+            for (int j = 0; j < k; ++j) {
+                const double u1 = (i + rng.nextDouble()) / k, u2 = (j + rng.nextDouble()) / k;
+                cos += kPi * light->radiance(cosineDirection(n, u1, u2)).r / (k * k);
+            }
+        c1 += cos;
+        c2 += cos * cos;
+    }
+    const double mean = s1 / runs, sd = std::sqrt((s2 / runs - mean * mean) * runs / (runs - 1));
+    const double cmean = c1 / runs, csd = std::sqrt((c2 / runs - cmean * cmean) * runs / (runs - 1));
+    EXPECT_NEAR(mean, exact, 4 * sd / std::sqrt(double(runs)));
+    EXPECT_NEAR(cmean, exact, 4 * csd / std::sqrt(double(runs)));
+    EXPECT_LT(sd, csd / 2) << "mis " << sd << " cosine " << csd;
+    scene::Scene s = upwardFloor();
+    s.lights.push_back(light);
+    transport::Visibility vis(s);
+    Params p;
+    p.set("hr.oracle", std::string("uniform"));
+    p.set("oracle.level", int64_t(2));
+    p.set("cluster.model", std::string("none"));
+    hr::HrSolver solver(s, vis, hr::HrSettings::fromParams(p));
+    hr::HrResult r = solver.solve(false);
+    int leaves = 0;
+    for (uint32_t e = 0; e < r.hierarchy->numElements(); ++e)
+        if (r.hierarchy->isLeaf(e)) {
+            ++leaves;
+            EXPECT_NEAR(r.hierarchy->B(e).r, kRho * exact, 4.5 * kRho * sd);
+        }
+    EXPECT_EQ(leaves, 16);
+}
+
 // ---- light from below the horizon only ------------------------------------------
 
 // Rows j >= H / 2 (theta >= pi / 2) bright, the rest black: the upward
-// floor sees none of it in any solver (exactly 0), a downward-facing point
-// receives the closed form of the mirrored map.
+// floor sees none of it in any solver (exactly 0: cosine directions see
+// black, the light's own directions are all below the plane).
 TEST(Envmap, LowerHemisphereLeavesAnUpwardPlaneDark) {
     auto dir = test::tempDir("envmap_lower");
     const MapFn below = [](int, int j) { return j >= kH / 2 ? RGB(2.0) : RGB(0.0); };
@@ -279,9 +338,6 @@ TEST(Envmap, LowerHemisphereLeavesAnUpwardPlaneDark) {
         const scene::LightSample ls = s.lights[0]->sample(Vec3(0.0), u.nextDouble(), u.nextDouble());
         EXPECT_LE(ls.dir.y, 1e-12);
     }
-    // Facing down: the whole bright hemisphere, pi * 2 by cosine directions (exact).
-    const RGB down = transport::lightIrradianceUnoccluded(*s.lights[0], Vec3(0.0), Vec3(0, -1, 0), 8, 1);
-    EXPECT_NEAR(down.r, 2.0 * kPi, 1e-12);
 }
 
 // ---- Mitsuba ---------------------------------------------------------------------
@@ -295,15 +351,17 @@ std::string sceneXml(const std::string& body) {
 RGB upperWhite(int, int j) { return j < kH / 2 ? RGB(1.0) : RGB(0.0); }
 
 // Mitsuba's rectangle faces +z. to_world turns the map's +y: a rotation by
-// +90 degrees about x takes it to +z (the plane sees the whole white
-// hemisphere: E = pi scale), -90 degrees to -z (E = 0), none leaves it
-// along +y (half the plane's hemisphere white: E = pi / 2 scale, here by
-// 32 x 32 stratified cosine directions whose error at the one radiance edge
-// is below 1 %). Cosine directions score pi L each: the first two are exact.
+// +90 degrees about x takes it to +z, -90 degrees to -z, none leaves it
+// along +y; scale multiplies. Radiance along the axes says so exactly. The
+// plane's irradiance: 0 under -90 (exact: every direction either sees black
+// or lies below the plane); pi scale under +90 and pi / 2 scale with none
+// by the solvers' 32 x 32-strata estimate (stratified, relative error
+// ~ 1 / k^2 = 1e-3 away from radiance edges, a few 1e-3 at the one edge
+// that crosses the plane's hemisphere with no rotation; tolerance 1 %).
 TEST(EnvmapMitsuba, RotatedMapLightsThePlaneAsTheRotationSays) {
     auto dir = test::tempDir("envmap_mts");
     writeHdr(dir / "sky.hdr", upperWhite);
-    auto irradiance = [&](const std::string& transform) {
+    auto load = [&](const std::string& transform) {
         auto path = test::writeFile(dir / "scene.xml", sceneXml(R"(  <emitter type="envmap">
     <string name="filename" value="sky.hdr"/><float name="scale" value="2"/>
     )" + transform + R"(
@@ -311,18 +369,28 @@ TEST(EnvmapMitsuba, RotatedMapLightsThePlaneAsTheRotationSays) {
 )"));
         scene::Scene s = scene::loadScene(path.string(), {});
         EXPECT_EQ(s.lights.size(), 1u);
-        if (s.lights.empty()) return -1.0;
         EXPECT_STREQ(s.lights[0]->name(), "envmap");
-        return transport::lightIrradianceUnoccluded(*s.lights[0], Vec3(0.0), Vec3(0, 0, 1), 32, 7).r;
+        return s.lights[0];
     };
-    EXPECT_NEAR(irradiance(R"(<transform name="to_world"><rotate x="1" angle="90"/></transform>)"),
-                2 * kPi, 1e-12);
-    EXPECT_EQ(irradiance(R"(<transform name="to_world"><rotate x="1" angle="-90"/></transform>)"), 0.0);
-    EXPECT_NEAR(irradiance(""), kPi, 0.01 * kPi);
+    auto irradiance = [](const scene::Light& l) {
+        return transport::lightIrradianceUnoccluded(l, Vec3(0.0), Vec3(0, 0, 1), 32, 7).r;
+    };
+    auto up = load(R"(<transform name="to_world"><rotate x="1" angle="90"/></transform>)");
+    EXPECT_EQ(up->radiance(Vec3(0, 0, 1)).r, 2.0);
+    EXPECT_EQ(up->radiance(Vec3(0, 0, -1)).r, 0.0);
+    EXPECT_NEAR(irradiance(*up), 2 * kPi, 0.01 * 2 * kPi);
+    auto down = load(R"(<transform name="to_world"><rotate x="1" angle="-90"/></transform>)");
+    EXPECT_EQ(down->radiance(Vec3(0, 0, 1)).r, 0.0);
+    EXPECT_EQ(down->radiance(Vec3(0, 0, -1)).r, 2.0);
+    EXPECT_EQ(irradiance(*down), 0.0);
+    auto none = load("");
+    EXPECT_EQ(none->radiance(Vec3(0, 1, 0)).r, 2.0);
+    EXPECT_EQ(none->radiance(Vec3(0, -1, 0)).r, 0.0);
+    EXPECT_NEAR(irradiance(*none), kPi, 0.01 * kPi);
     // A uniform scale does not turn directions; a shear is refused.
-    EXPECT_NEAR(irradiance(R"(<transform name="to_world"><rotate x="1" angle="90"/><scale value="3"/></transform>)"),
-                2 * kPi, 1e-12);
-    EXPECT_THROW(irradiance(R"(<transform name="to_world"><scale x="1" y="2" z="1"/></transform>)"), InputError);
+    auto scaled = load(R"(<transform name="to_world"><rotate x="1" angle="90"/><scale value="3"/></transform>)");
+    EXPECT_EQ(scaled->radiance(Vec3(0, 0, 1)).r, 2.0);
+    EXPECT_THROW(load(R"(<transform name="to_world"><scale x="1" y="2" z="1"/></transform>)"), InputError);
 }
 
 void expectErrorAt(const std::filesystem::path& xml, const std::string& where, const std::string& what,
