@@ -155,7 +155,11 @@ LightLinks::Judged LightLinks::judge(const Hierarchy& h, const LightLink& l,
     est.receiverCanSubdivide = h.canSubdivide(e);
     est.senderCanSubdivide = false;
     const oracles::Decision d = oracle.decide(est);
-    const bool refines = d == oracles::Decision::RefineReceiver || d == oracles::Decision::RefineBoth;
+    // A cluster hands its mean to its surfaces alike: kept only where every
+    // surface faces the light and no shadow crosses it (the header).
+    const bool mixed = cluster && (pt.shadowed > 0 || pt.reached < pt.n);
+    const bool refines =
+        mixed || d == oracles::Decision::RefineReceiver || d == oracles::Decision::RefineBoth;
     j.decision = refines && est.receiverCanSubdivide ? oracles::Decision::RefineReceiver
                                                      : oracles::Decision::Accept;
     return j;

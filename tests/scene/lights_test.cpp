@@ -352,12 +352,11 @@ TEST(LightsDirectional, ErrorOracleFindsTheLitPower) {
 // columns (its edge on patch edges). Oriented clusters: coplanar patches
 // exchange nothing, the roof is black, so B = rho E on every patch and the
 // light links alone make the solution; unclustered, every patch is exact
-// (fully lit or dark). Clustered light links start at the root cluster and
-// the error oracle (eps 1e-3) accepts a cluster whose patches are not lit
-// alike while A rho E_max <= eps P: such a cluster hands its rho-weighted
-// mean to its patches, so the reflected power is the same (to the links'
-// float storage, 1e-6) and each accepted link misplaces at most eps P:
-// per patch A |dB| <= eps P, and sum A |dB| <= (light links) eps P.
+// (fully lit or dark). Clustered light links start at the root cluster; a
+// cluster some shadow ray of which is blocked is opened, the fully lit ones
+// are kept (no variation: the error oracle accepts them), so every patch
+// gets the unclustered B (to the links' float storage, 1e-6) from a
+// fraction of the links.
 scene::Scene sunOverPatches() {
     scene::Scene s;
     scene::Material m;
@@ -398,20 +397,14 @@ TEST(LightsClusters, SunOnManyPatchesNeedsFewLinksForTheSameLight) {
     };
     hr::HrResult a = solve(true), b = solve(false);
     ASSERT_GT(a.hierarchy->numClusters(), 0u);
-    const double lit = kRho * 2.0, epsP = 1e-3 * a.epsPower;
-    ASSERT_GT(epsP, 0.0);
-    double powerA = 0, powerB = 0, misplaced = 0;
+    const double lit = kRho * 2.0;
     for (uint32_t q = 0; q < 32 * 32; ++q) {
-        const double A = a.hierarchy->area(q), Ba = a.hierarchy->B(q).r, Bb = b.hierarchy->B(q).r;
+        const double Ba = a.hierarchy->B(q).r, Bb = b.hierarchy->B(q).r;
         const bool shaded = q < 4 * 32;  // columns i = 0..3
         EXPECT_NEAR(Bb, shaded ? 0.0 : lit, 1e-6 * lit) << q;
-        EXPECT_LE(A * std::abs(Ba - Bb), epsP) << q;
-        powerA += A * Ba;
-        powerB += A * Bb;
-        misplaced += A * std::abs(Ba - Bb);
+        EXPECT_NEAR(Ba, Bb, 1e-6 * lit) << q;
     }
-    EXPECT_NEAR(powerA, powerB, 1e-6 * powerB);
-    EXPECT_LE(misplaced, double(a.lightLinks) * epsP);
+    EXPECT_EQ(b.lightLinks, 32u * 32u);
     EXPECT_LT(4 * a.lightLinks, b.lightLinks) << a.lightLinks << " vs " << b.lightLinks;
 }
 
