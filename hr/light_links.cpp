@@ -27,8 +27,9 @@ LightLinkSettings LightLinkSettings::fromParams(const Params& p) {
                              "point of a light link (hr/light_links.h)"},
                             s.strata, 1, 256));
     s.clusters = p.getBool({"hr.light_clusters",
-                            "light links start at the root cluster and may end at clusters, which "
-                            "hand their mean irradiance to their surfaces alike (hr/light_links.h)"},
+                            "light links start at the root cluster and may end at clusters, "
+                            "which hand their mean irradiance to their surfaces alike "
+                            "(hr/light_links.h)"},
                            s.clusters);
     return s;
 }
@@ -104,14 +105,15 @@ LightLinks::Points LightLinks::clusterPoints(const Hierarchy& h, const LightLink
         area += p.area;
         den += p.area * p.rho;
         transport::elementMeanPoints(p, h.domain(q), 1, x, w);  // the centroid
-        const double free =
-            maxComponent(transport::lightIrradianceUnoccluded(light, x[0], p.normal, s_.strata, seed));
+        const double free = maxComponent(
+            transport::lightIrradianceUnoccluded(light, x[0], p.normal, s_.strata, seed));
         if (!(free > 0)) {
             pt.lo = 0.0;
             return;
         }
         ++pt.reached;
-        const RGB E = transport::lightIrradiance(light, *vis_, x[0], p.normal, q, s_.strata, seed, rays);
+        const RGB E =
+            transport::lightIrradiance(light, *vis_, x[0], p.normal, q, s_.strata, seed, rays);
         num += p.area * p.rho * E;
         pt.meanFree += p.area * free;
         pt.lo = std::min(pt.lo, maxComponent(E));
@@ -165,7 +167,8 @@ LightLinks::Judged LightLinks::judge(const Hierarchy& h, const LightLink& l,
     return j;
 }
 
-void LightLinks::linkChildren(Hierarchy& h, const LightLink& l, std::vector<LightLink>& next) const {
+void LightLinks::linkChildren(Hierarchy& h, const LightLink& l,
+                              std::vector<LightLink>& next) const {
     if (!h.isCluster(l.receiver)) {
         h.subdivide(l.receiver);
         const uint32_t fc = h.firstChild(l.receiver);
@@ -225,7 +228,8 @@ void LightLinks::apply(Hierarchy& h) const {
             continue;
         }
         // A cluster's mean to every root patch below it (node q = patch q).
-        forEachPatch(h, l.receiver, [&](uint32_t q) { h.lightGathered[q] += scene_->patches[q].rho * E; });
+        forEachPatch(h, l.receiver,
+                     [&](uint32_t q) { h.lightGathered[q] += scene_->patches[q].rho * E; });
     }
 }
 

@@ -470,7 +470,8 @@ bool HrSolver::runStage(Hierarchy& h, HrResult& res, int stage, double eps, Loop
     res.oracleDescription = oracle->describe();
     if (!scene_->lights.empty()) {
         if (!lightLinks_ || stage == 0)
-            lightLinks_ = std::make_shared<LightLinks>(*scene_, *vis_, LightLinkSettings{s_.lightStrata, s_.lightClusters});
+            lightLinks_ = std::make_shared<LightLinks>(
+                *scene_, *vis_, LightLinkSettings{s_.lightStrata, s_.lightClusters});
         const uint64_t before = lightLinks_->rays();
         lightLinks_->refine(h, *oracle, epsPower_, emittedRadiosity_);
         res.totalRays += lightLinks_->rays() - before;

@@ -33,12 +33,12 @@
 // power(R): as `constant`'s with the map's solid-angle mean radiance.
 // Memory: the decoded texels count against texture.max_mb (scene/texture.h);
 // the sampling tables add 8 bytes per texel (double CDFs) that it does not count.
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <optional>
-
-#include <fmt/format.h>
 
 #include "scene/lights/light.h"
 #include "scene/texture.h"
@@ -50,7 +50,10 @@ namespace {
 class EnvmapLight final : public Light {
   public:
     EnvmapLight(Texture map, double scale, const glm::dmat3& toWorld)
-        : map_(std::move(map)), scale_(scale), toWorld_(toWorld), toLocal_(glm::transpose(toWorld)) {
+        : map_(std::move(map)),
+          scale_(scale),
+          toWorld_(toWorld),
+          toLocal_(glm::transpose(toWorld)) {
         buildDistribution();
     }
     const char* name() const override { return "envmap"; }
@@ -82,9 +85,10 @@ class EnvmapLight final : public Light {
     bool importanceSampled() const override { return varies_; }
     double power(double R) const override { return 4 * kPi * kPi * R * R * maxComponent(mean_); }
     std::string describe() const override {
-        return fmt::format("envmap '{}' {} x {}, scale {}, mean L = ({:.4g}, {:.4g}, {:.4g}) W/m^2/sr",
-                           std::filesystem::path(map_.file).filename().string(), map_.width,
-                           map_.height, scale_, mean_.r, mean_.g, mean_.b);
+        return fmt::format(
+            "envmap '{}' {} x {}, scale {}, mean L = ({:.4g}, {:.4g}, {:.4g}) W/m^2/sr",
+            std::filesystem::path(map_.file).filename().string(), map_.width, map_.height, scale_,
+            mean_.r, mean_.g, mean_.b);
     }
 
   private:
@@ -95,7 +99,7 @@ class EnvmapLight final : public Light {
     std::vector<double> colCdf_;  ///< per row W + 1 entries, 0 .. 1 (conditional on the row)
     double total_ = 0;            ///< F = sum lum(L_ij) Omega_ij
     RGB mean_{0.0};               ///< solid-angle mean radiance
-    bool varies_ = false;         ///< some texel differs from another (else cosine directions are exact)
+    bool varies_ = false;  ///< some texel differs from another (else cosine directions are exact)
 
     double cosTheta(int j) const { return std::cos(kPi * j / map_.height); }
     double cellSolidAngle(int j) const {
@@ -192,7 +196,8 @@ std::shared_ptr<const Light> makeEnvmapLight(const LightSpec& s) {
                                                    s.budget ? *s.budget : own, s.where, why);
     if (!map) throwInputError(s.where, "envmap light: cannot read '{}': {}", s.filename, why);
     if (!(maxComponent(map->mean) > 0))
-        throwInputError(s.where, "envmap light: '{}' is black (a light that sends nothing)", s.filename);
+        throwInputError(s.where, "envmap light: '{}' is black (a light that sends nothing)",
+                        s.filename);
     return std::make_shared<EnvmapLight>(std::move(*map), s.scale, rot);
 }
 

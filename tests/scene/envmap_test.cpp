@@ -6,9 +6,8 @@
 // beats cosine directions alone on a map with a sun; the Mitsuba loader
 // reads filename, scale and to_world, and names a bad file at its line.
 // Small OpenEXR and Radiance HDR maps are written into a temporary folder.
-#include <gtest/gtest.h>
-
 #include <ImfRgbaFile.h>
+#include <gtest/gtest.h>
 #include <stb/stb_image_write.h>  // Debian libstb-dev; implementation in libstb
 
 #include <cmath>
@@ -45,7 +44,8 @@ std::filesystem::path writeExr(const std::filesystem::path& file, const MapFn& f
     for (int j = 0; j < kH; ++j)
         for (int i = 0; i < kW; ++i) {
             const RGB c = f(i, j);
-            px[size_t(j) * kW + size_t(i)] = Imf::Rgba(half(float(c.r)), half(float(c.g)), half(float(c.b)));
+            px[size_t(j) * kW + size_t(i)] =
+                Imf::Rgba(half(float(c.r)), half(float(c.g)), half(float(c.b)));
         }
     Imf::RgbaOutputFile out(file.c_str(), kW, kH, Imf::WRITE_RGB);
     out.setFrameBuffer(px.data(), 1, kW);
@@ -59,7 +59,8 @@ std::filesystem::path writeHdr(const std::filesystem::path& file, const MapFn& f
     std::vector<float> px(size_t(w) * size_t(h) * 3);
     for (int j = 0; j < h; ++j)
         for (int i = 0; i < w; ++i)
-            for (int c = 0; c < 3; ++c) px[(size_t(j) * size_t(w) + size_t(i)) * 3 + size_t(c)] = float(f(i, j)[c]);
+            for (int c = 0; c < 3; ++c)
+                px[(size_t(j) * size_t(w) + size_t(i)) * 3 + size_t(c)] = float(f(i, j)[c]);
     EXPECT_TRUE(stbi_write_hdr(file.c_str(), w, h, 3, px.data()));
     return file;
 }
@@ -118,7 +119,8 @@ TEST(Envmap, ConstantMapIsTheConstantLight) {
     auto dir = test::tempDir("envmap_const");
     const double L = 0.25;
     scene::Scene a = upwardFloor(), b = upwardFloor();
-    a.lights.push_back(scene::makeLight(envmapSpec(writeExr(dir / "c.exr", [&](int, int) { return RGB(L); }))));
+    a.lights.push_back(
+        scene::makeLight(envmapSpec(writeExr(dir / "c.exr", [&](int, int) { return RGB(L); }))));
     scene::LightSpec c;
     c.kind = "constant";
     c.value = RGB(L);
@@ -140,7 +142,8 @@ TEST(Envmap, ConstantMapIsTheConstantLight) {
     // sample() too: value 4 pi L on every draw, pdf 1 / (4 pi), power pi L 4 pi R^2.
     Pcg32 rng(11);
     for (int k = 0; k < 100; ++k) {
-        const scene::LightSample ls = a.lights[0]->sample(Vec3(0.0), rng.nextDouble(), rng.nextDouble());
+        const scene::LightSample ls =
+            a.lights[0]->sample(Vec3(0.0), rng.nextDouble(), rng.nextDouble());
         EXPECT_NEAR(ls.value.r, 4 * kPi * L, 1e-12);
         EXPECT_NEAR(glm::length(ls.dir), 1.0, 1e-12);
         EXPECT_NEAR(a.lights[0]->pdf(ls.dir), b.lights[0]->pdf(ls.dir), 1e-15);
@@ -225,7 +228,8 @@ TEST(Envmap, SampledIrradianceMatchesTheSumOverTexels) {
         const int N = 40000;
         RGB sum(0.0), sum2(0.0);
         for (int k = 0; k < N; ++k) {
-            const scene::LightSample s = light->sample(Vec3(0.0), rng.nextDouble(), rng.nextDouble());
+            const scene::LightSample s =
+                light->sample(Vec3(0.0), rng.nextDouble(), rng.nextDouble());
             const RGB e = s.value * std::max(0.0, glm::dot(n, s.dir));
             sum += e;
             sum2 += e * e;
@@ -293,7 +297,8 @@ TEST(Envmap, SolverEstimateIsUnbiasedAndBeatsCosineDirections) {
         c2 += cos * cos;
     }
     const double mean = s1 / runs, sd = std::sqrt((s2 / runs - mean * mean) * runs / (runs - 1));
-    const double cmean = c1 / runs, csd = std::sqrt((c2 / runs - cmean * cmean) * runs / (runs - 1));
+    const double cmean = c1 / runs,
+                 csd = std::sqrt((c2 / runs - cmean * cmean) * runs / (runs - 1));
     EXPECT_NEAR(mean, exact, 4 * sd / std::sqrt(double(runs)));
     EXPECT_NEAR(cmean, exact, 4 * csd / std::sqrt(double(runs)));
     EXPECT_LT(sd, csd / 2) << "mis " << sd << " cosine " << csd;
@@ -335,7 +340,8 @@ TEST(Envmap, LowerHemisphereLeavesAnUpwardPlaneDark) {
     EXPECT_EQ(g.pathTraced(0, Vec3(0.3, 0, 0.2), rng).r, 0.0);
     Pcg32 u(3);
     for (int k = 0; k < 1000; ++k) {
-        const scene::LightSample ls = s.lights[0]->sample(Vec3(0.0), u.nextDouble(), u.nextDouble());
+        const scene::LightSample ls =
+            s.lights[0]->sample(Vec3(0.0), u.nextDouble(), u.nextDouble());
         EXPECT_LE(ls.dir.y, 1e-12);
     }
 }
@@ -343,8 +349,9 @@ TEST(Envmap, LowerHemisphereLeavesAnUpwardPlaneDark) {
 // ---- Mitsuba ---------------------------------------------------------------------
 
 std::string sceneXml(const std::string& body) {
-    return "<scene version=\"3.0.0\">\n  <shape type=\"rectangle\"><bsdf type=\"diffuse\"/></shape>\n" + body +
-           "</scene>\n";
+    return "<scene version=\"3.0.0\">\n  <shape type=\"rectangle\"><bsdf "
+           "type=\"diffuse\"/></shape>\n" +
+           body + "</scene>\n";
 }
 
 /// The map's upper hemisphere (+y in its frame) white, the lower black.
@@ -388,13 +395,15 @@ TEST(EnvmapMitsuba, RotatedMapLightsThePlaneAsTheRotationSays) {
     EXPECT_EQ(none->radiance(Vec3(0, -1, 0)).r, 0.0);
     EXPECT_NEAR(irradiance(*none), kPi, 0.01 * kPi);
     // A uniform scale does not turn directions; a shear is refused.
-    auto scaled = load(R"(<transform name="to_world"><rotate x="1" angle="90"/><scale value="3"/></transform>)");
+    auto scaled = load(
+        R"(<transform name="to_world"><rotate x="1" angle="90"/><scale value="3"/></transform>)");
     EXPECT_EQ(scaled->radiance(Vec3(0, 0, 1)).r, 2.0);
-    EXPECT_THROW(load(R"(<transform name="to_world"><scale x="1" y="2" z="1"/></transform>)"), InputError);
+    EXPECT_THROW(load(R"(<transform name="to_world"><scale x="1" y="2" z="1"/></transform>)"),
+                 InputError);
 }
 
-void expectErrorAt(const std::filesystem::path& xml, const std::string& where, const std::string& what,
-                   const Params& p = {}) {
+void expectErrorAt(const std::filesystem::path& xml, const std::string& where,
+                   const std::string& what, const Params& p = {}) {
     try {
         scene::loadScene(xml.string(), p);
         FAIL() << "no error";
@@ -420,19 +429,30 @@ TEST(EnvmapMitsuba, BadFilesAreErrorsAtTheirLines) {
     skip.set("scene.missing", std::string("skip"));
     expectErrorAt(missing, "missing.xml:3", "envmap with a missing file", skip);
     test::writeFile(dir / "junk.exr", "not an image");
-    expectErrorAt(test::writeFile(dir / "junk.xml", sceneXml(R"(  <emitter type="envmap"><string name="filename" value="junk.exr"/></emitter>
+    expectErrorAt(
+        test::writeFile(
+            dir / "junk.xml",
+            sceneXml(
+                R"(  <emitter type="envmap"><string name="filename" value="junk.exr"/></emitter>
 )")),
-                  "junk.xml:3", "envmap");
+        "junk.xml:3", "envmap");
     writeHdr(dir / "big.hdr", upperWhite, 512, 256);  // 1.5 MiB decoded
     Params small;
     small.set("texture.max_mb", int64_t(1));
-    expectErrorAt(test::writeFile(dir / "big.xml", sceneXml(R"(  <emitter type="envmap"><string name="filename" value="big.hdr"/></emitter>
+    expectErrorAt(
+        test::writeFile(
+            dir / "big.xml",
+            sceneXml(R"(  <emitter type="envmap"><string name="filename" value="big.hdr"/></emitter>
 )")),
-                  "big.xml:3", "texture.max_mb", small);
+        "big.xml:3", "texture.max_mb", small);
     writeHdr(dir / "black.hdr", [](int, int) { return RGB(0.0); });
-    expectErrorAt(test::writeFile(dir / "black.xml", sceneXml(R"(  <emitter type="envmap"><string name="filename" value="black.hdr"/></emitter>
+    expectErrorAt(
+        test::writeFile(
+            dir / "black.xml",
+            sceneXml(
+                R"(  <emitter type="envmap"><string name="filename" value="black.hdr"/></emitter>
 )")),
-                  "black.xml:3", "black", {});
+        "black.xml:3", "black", {});
 }
 
 }  // namespace
