@@ -279,7 +279,9 @@ HrSettings HrSettings::fromParams(const Params& p) {
     readChecks(p, s);
     readIteration(p, s);
     readBasis(p, s);
-    s.lightStrata = LightLinkSettings::fromParams(p).strata;
+    const LightLinkSettings lls = LightLinkSettings::fromParams(p);
+    s.lightStrata = lls.strata;
+    s.lightClusters = lls.clusters;
     // Validate the oracle settings now (unknown keys included), so a bad
     // setting fails before any work is done.
     // The probe is a subset of p, so the oracle's reads are p's records.

@@ -20,6 +20,7 @@ namespace hrad::hr {
 
 struct HrSettings {
     int lightStrata = 8;  ///< hr.light_strata (hr/light_links.h)
+    bool lightClusters = false;  ///< hr.light_clusters (hr/light_links.h)
     std::string oracle = "bfa";
     Params oracleParams;  ///< the "oracle.*" keys, prefix stripped
     std::vector<double> epsSchedule;

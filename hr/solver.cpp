@@ -470,10 +470,12 @@ bool HrSolver::runStage(Hierarchy& h, HrResult& res, int stage, double eps, Loop
     res.oracleDescription = oracle->describe();
     if (!scene_->lights.empty()) {
         if (!lightLinks_ || stage == 0)
-            lightLinks_ = std::make_shared<LightLinks>(*scene_, *vis_, LightLinkSettings{s_.lightStrata});
+            lightLinks_ = std::make_shared<LightLinks>(
+                *scene_, *vis_, LightLinkSettings{s_.lightStrata, s_.lightClusters});
         const uint64_t before = lightLinks_->rays();
         lightLinks_->refine(h, *oracle, epsPower_, emittedRadiosity_);
         res.totalRays += lightLinks_->rays() - before;
+        res.lightLinks = lightLinks_->numLinks();
     }
     // The radiosities of the last judging pass (lazy refinement); a new
     // stage (a new eps) always judges. A check that must see every iteration

@@ -155,6 +155,7 @@ struct HrResult {
     /// Links by kind after the solve: surface-surface, surface receiving from a
     /// cluster, cluster receiving from a surface, cluster-cluster.
     uint64_t linksSS = 0, linksSC = 0, linksCS = 0, linksCC = 0;
+    uint64_t lightLinks = 0;  ///< links from non-area lights (hr/light_links.h)
     /// Link evaluations (form factors or cluster transfers, kept or refined
     /// away), their visibility rays and their CPU seconds (summed over
     /// threads), by kind in the order above: where refinement spends

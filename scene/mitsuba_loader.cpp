@@ -738,6 +738,29 @@ class Loader {
         return s;
     }
 
+    /// Mitsuba 3's envmap: filename (a missing file is recorded for
+    /// scene.missing, which drops the emitter or names it in the error),
+    /// scale, to_world's linear part (scene/lights/envmap.cpp); the decode
+    /// books the scene's texture budget.
+    void envmap(const Node& n) {
+        Node fp = prop(n, "filename");
+        if (!fp) fail(n, "envmap emitter needs a 'filename'");
+        LightSpec s;
+        s.kind = "envmap";
+        s.where = loc(n);
+        s.filename = filePath(fp, attr(fp, "value"));
+        s.scale = floatProp(n, "scale", 1.0);
+        s.toWorld = glm::dmat3(toWorld(n));
+        s.budget = &budget_;
+        std::error_code ec;
+        if (!fs::exists(s.filename, ec)) {
+            scene_.stats.missingFiles.add(loc(fp), "environment map", s.filename);
+            scene_.stats.dropEmitter("envmap with a missing file", where(n));
+            return;
+        }
+        scene_.lights.push_back(makeLight(s));
+    }
+
     // --- top level -----------------------------------------------------------
 
     void topLevel(const Node& n) {
@@ -750,13 +773,17 @@ class Loader {
             if (!contains(kEmitterTypes, type))
                 fail(n, "unknown emitter plugin '{}' (expected one of {})", type, joinNames(kEmitterTypes));
             if (type == "area") return;
+            if (type == "envmap") {
+                envmap(n);
+                return;
+            }
             if (const LightKind* kind = lightKindByMitsuba(type)) {
                 scene_.lights.push_back(makeLight(lightSpec(n, kind->name)));
                 return;
             }
             scene_.stats.dropEmitter(type, where(n));
-            warn(n, fmt::format("'{}' emitter not supported by radiosity (area, point, spot, directional "
-                                "and constant are): ignored", type));
+            warn(n, fmt::format("'{}' emitter not supported by radiosity (area, point, spot, directional, "
+                                "constant and envmap are): ignored", type));
         } else if (tag == "sensor") {
             sensor(n);
         } else if (tag == "medium" || tag == "volume" || tag == "phase") {

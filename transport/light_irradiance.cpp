@@ -19,24 +19,43 @@ bool blocked(const Visibility& vis, const Vec3& x, const Vec3& dir, double dista
     return vis.intersect(x, dir, 0.0, 1e300, patch).hit;
 }
 
-/// pi L V by k x k stratified cosine directions; `vis` null: V = 1.
+/// One direction's score over pi: f / (pi p) with f = L(w) cos t and p the
+/// strategies' density, V tested when `vis` is given.
+RGB environmentScore(const scene::Light& l, const Visibility* vis, const Vec3& x, const Vec3& n,
+                     uint32_t patch, const Vec3& w, bool mis, uint64_t& rays) {
+    // Cosine directions alone: p = cos t / pi, f / (pi p) = L. With the
+    // light's directions beside them, the balance heuristic (Veach 1997
+    // eq. 9.4, equal counts): p = cos t / pi + pdf_light(w) for either kind.
+    const double c = mis ? glm::dot(n, w) : 1.0;
+    if (!(c > 0)) return RGB(0.0);
+    const RGB L = l.radiance(w);
+    if (!(maxComponent(L) > 0)) return RGB(0.0);
+    if (vis) {
+        ++rays;
+        if (blocked(*vis, x, w, std::numeric_limits<double>::infinity(), patch)) return RGB(0.0);
+    }
+    return mis ? L * (c / (c + kPi * l.pdf(w))) : L;
+}
+
+/// k x k stratified cosine directions, plus k x k stratified draws of the
+/// light's sample() when it is importanceSampled() (light_irradiance.h);
+/// `vis` null: V = 1.
 RGB environmentIrradiance(const scene::Light& l, const Visibility* vis, const Vec3& x,
                           const Vec3& n, uint32_t patch, int k, uint64_t seed, uint64_t& rays) {
     Pcg32 rng(seed);
+    const bool mis = l.importanceSampled();
     RGB sum(0.0);
     for (int i = 0; i < k; ++i)
         for (int j = 0; j < k; ++j) {
             const double u1 = (i + rng.nextDouble()) / k, u2 = (j + rng.nextDouble()) / k;
-            const Vec3 w = cosineDirection(n, u1, u2);
-            const RGB L = l.radiance(w);
-            if (!(maxComponent(L) > 0)) continue;
-            if (!vis) {
-                sum += L;
-                continue;
-            }
-            ++rays;
-            if (!blocked(*vis, x, w, std::numeric_limits<double>::infinity(), patch)) sum += L;
+            sum += environmentScore(l, vis, x, n, patch, cosineDirection(n, u1, u2), mis, rays);
         }
+    if (mis)
+        for (int i = 0; i < k; ++i)
+            for (int j = 0; j < k; ++j) {
+                const double u1 = (i + rng.nextDouble()) / k, u2 = (j + rng.nextDouble()) / k;
+                sum += environmentScore(l, vis, x, n, patch, l.sample(x, u1, u2).dir, mis, rays);
+            }
     return (kPi / double(k * k)) * sum;
 }
 }  // namespace

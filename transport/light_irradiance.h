@@ -11,7 +11,11 @@
 //       stratified cosine-distributed directions (pdf cos t / pi, so each
 //       scores pi L(w) V): exact for an unoccluded receiver under a constant
 //       sky, otherwise a stratified estimate of standard error ~ pi L / k^2
-//       at a shadow boundary (stratification, Veach 1997 sec. 2.7).
+//       at a shadow boundary (stratification, Veach 1997 sec. 2.7). A light
+//       that is importanceSampled() (an envmap that varies: a sun in the
+//       map is a small bright solid angle cosine directions rarely hit)
+//       adds k x k stratified draws of its sample(), both sets weighted by
+//       the balance heuristic (Veach 1997 sec. 9.2): twice the rays.
 // Directions and jitter are drawn from Pcg32(seed): deterministic per caller.
 #pragma once
 

@@ -29,6 +29,7 @@ class ConstantLight final : public Light {
                            std::numeric_limits<double>::infinity(), 4 * kPi * L_};
     }
     RGB radiance(const Vec3&) const override { return L_; }
+    double pdf(const Vec3&) const override { return 1 / (4 * kPi); }
     double power(double R) const override { return 4 * kPi * kPi * R * R * maxComponent(L_); }
     std::string describe() const override {
         return fmt::format("constant environment L = ({}, {}, {}) W/m^2/sr", L_.r, L_.g, L_.b);

@@ -13,6 +13,13 @@
 //                  environment; 0 for delta lights): a ray that leaves the
 //                  scene picks it up, the light that escapes is lost as in
 //                  an open scene.
+//   pdf(w)         the solid-angle density sample() draws w with (0 for
+//                  delta lights): value = radiance(w) / pdf(w) for the
+//                  environments, so a caller can weigh strategies (MIS).
+//   importanceSampled()  whether an environment's sample() follows a
+//                  radiance that varies, so that estimates draw it beside
+//                  cosine directions (transport/light_irradiance.h); false
+//                  where cosine directions are exact (a uniform sky).
 //   power(R)       total power (max channel) into a sphere of radius R
 //                  enclosing the scene: the oracles' power scale.
 // Units follow Mitsuba 3's plugins: point/spot intensity I (W/sr), sun
@@ -23,6 +30,8 @@
 // and glTF spellings, factory).
 #pragma once
 
+#include <glm/mat3x3.hpp>
+
 #include <limits>
 #include <memory>
 #include <string>
@@ -32,6 +41,8 @@
 #include "core/types.h"
 
 namespace hrad::scene {
+
+struct TextureBudget;  // scene/texture.h
 
 struct LightSample {
     Vec3 dir{0.0};                                          ///< unit, from x towards the light
@@ -47,6 +58,10 @@ struct LightSpec {
     RGB value{0.0};       ///< I (point, spot), E_perp (directional), L (constant)
     double cutoffDegrees = 20.0;  ///< spot: Mitsuba's cutoff_angle
     double beamDegrees = -1.0;    ///< spot: Mitsuba's beam_width (< 0: 3/4 of the cutoff)
+    std::string filename;         ///< envmap: lat-long image (OpenEXR, Radiance HDR, stb formats)
+    double scale = 1.0;           ///< envmap: factor on the image's radiance (Mitsuba's scale)
+    glm::dmat3 toWorld{1.0};      ///< envmap: rotation from the map's frame (+y up) to the world
+    TextureBudget* budget = nullptr;  ///< envmap: the scene's texture.max_mb (null: its default)
     SourceLocation where;
 };
 
@@ -60,6 +75,8 @@ class Light {
     virtual bool atInfinity() const = 0;
     virtual LightSample sample(const Vec3& x, double u1, double u2) const = 0;
     virtual RGB radiance(const Vec3& /*dir*/) const { return RGB(0.0); }
+    virtual double pdf(const Vec3& /*dir*/) const { return 0.0; }
+    virtual bool importanceSampled() const { return false; }
     virtual double power(double sceneRadius) const = 0;
     /// One line for logs: kind and parameters.
     virtual std::string describe() const = 0;
@@ -86,6 +103,7 @@ std::shared_ptr<const Light> makePointLight(const LightSpec& s);
 std::shared_ptr<const Light> makeSpotLight(const LightSpec& s);
 std::shared_ptr<const Light> makeDirectionalLight(const LightSpec& s);
 std::shared_ptr<const Light> makeConstantLight(const LightSpec& s);
+std::shared_ptr<const Light> makeEnvmapLight(const LightSpec& s);
 
 /// Range checks shared by the kinds: every channel finite and >= 0, not all 0.
 void checkLightValue(const LightSpec& s, const char* what);

@@ -13,6 +13,7 @@ const std::vector<LightKind>& lightKinds() {
         {"spot", "spot", "spot", &makeSpotLight},
         {"directional", "directional", "directional", &makeDirectionalLight},
         {"constant", "constant", "", &makeConstantLight},
+        {"envmap", "envmap", "", &makeEnvmapLight},
     };
     return kinds;
 }

@@ -142,15 +142,15 @@ TEST(ForgivingLoading, NoEmitterNamesWhatWasDropped) {
         dir / "outdoor.xml",
         "<scene version=\"3.0.0\">\n"
         "  <shape type=\"rectangle\"/>\n"
-        "  <emitter type=\"envmap\"><string name=\"filename\" value=\"sky.exr\"/></emitter>\n"
-        "  <emitter type=\"envmap\"><string name=\"filename\" value=\"dusk.exr\"/></emitter>\n"
+        "  <emitter type=\"sunsky\"/>\n"
+        "  <emitter type=\"projector\"/>\n"
         "  <emitter type=\"area\" id=\"lamp\"><rgb name=\"radiance\" value=\"1\"/></emitter>\n"
         "</scene>\n");
     const std::string e = errorOf(xml.string());
     EXPECT_NE(e.find("no emitter"), std::string::npos) << e;
-    EXPECT_NE(e.find("3 emitters of unsupported types were dropped: envmap ("), std::string::npos) << e;
+    EXPECT_NE(e.find("3 emitters of unsupported types were dropped: sunsky ("), std::string::npos) << e;
     EXPECT_NE(e.find("outdoor.xml:3)"), std::string::npos) << e;
-    // point, spot, directional and constant emitters are lights now (scene/lights/).
+    // point, spot, directional, constant and envmap emitters are lights now (scene/lights/).
     EXPECT_NE(e.find("outdoor.xml:4)"), std::string::npos) << e;
     EXPECT_NE(e.find("area emitter on no shape ("), std::string::npos) << e;
 }

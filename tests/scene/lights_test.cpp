@@ -345,6 +345,69 @@ TEST(LightsDirectional, ErrorOracleFindsTheLitPower) {
     EXPECT_NEAR(power, exact, 0.02 * exact);
 }
 
+// ---- light links into clusters (hr.light_clusters) ------------------------------------
+
+// A floor of 32 x 32 patches (0.125 m, rho 0.5) under a sun shining straight
+// down, a black roof strip over x in [-2, -1.5] shading the first four
+// columns (its edge on patch edges). Oriented clusters: coplanar patches
+// exchange nothing, the roof is black, so B = rho E on every patch and the
+// light links alone make the solution; unclustered, every patch is exact
+// (fully lit or dark). Clustered light links start at the root cluster; a
+// cluster some shadow ray of which is blocked is opened, the fully lit ones
+// are kept (no variation: the error oracle accepts them), so every patch
+// gets the unclustered B (to the links' float storage, 1e-6) from a
+// fraction of the links.
+scene::Scene sunOverPatches() {
+    scene::Scene s;
+    scene::Material m;
+    m.name = "floor";
+    m.rho = RGB(kRho);
+    const uint32_t f = s.addMaterial(m);
+    const int n = 32;
+    const double h = 4.0 / n;
+    for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j) {
+            const double x = -2 + i * h, y = -2 + j * h;
+            s.addQuad(Vec3(x, y, 0), Vec3(x + h, y, 0), Vec3(x + h, y + h, 0), Vec3(x, y + h, 0), f);
+        }
+    scene::Material black;
+    black.name = "roof";
+    const uint32_t r = s.addMaterial(black);
+    s.addQuad(Vec3(-2.5, -2.5, 1), Vec3(-2.5, 2.5, 1), Vec3(-1.5, 2.5, 1), Vec3(-1.5, -2.5, 1), r);
+    scene::LightSpec l;
+    l.kind = "directional";
+    l.direction = Vec3(0, 0, -1);
+    l.value = RGB(2.0);
+    addLight(s, l);
+    return s;
+}
+
+TEST(LightsClusters, SunOnManyPatchesNeedsFewLinksForTheSameLight) {
+    scene::Scene s = sunOverPatches();
+    transport::Visibility vis(s);
+    auto solve = [&](bool clusters) {
+        Params p;
+        p.set("hr.oracle", std::string("error"));
+        p.set("oracle.eps", 1e-3);
+        p.set("hr.tolerance", 1e-7);
+        p.set("cluster.model", std::string("oriented"));
+        p.set("hr.light_clusters", clusters);
+        hr::HrSolver solver(s, vis, hr::HrSettings::fromParams(p));
+        return solver.solve(false);
+    };
+    hr::HrResult a = solve(true), b = solve(false);
+    ASSERT_GT(a.hierarchy->numClusters(), 0u);
+    const double lit = kRho * 2.0;
+    for (uint32_t q = 0; q < 32 * 32; ++q) {
+        const double Ba = a.hierarchy->B(q).r, Bb = b.hierarchy->B(q).r;
+        const bool shaded = q < 4 * 32;  // columns i = 0..3
+        EXPECT_NEAR(Bb, shaded ? 0.0 : lit, 1e-6 * lit) << q;
+        EXPECT_NEAR(Ba, Bb, 1e-6 * lit) << q;
+    }
+    EXPECT_EQ(b.lightLinks, 32u * 32u);
+    EXPECT_LT(4 * a.lightLinks, b.lightLinks) << a.lightLinks << " vs " << b.lightLinks;
+}
+
 // ---- Mitsuba ------------------------------------------------------------------------
 
 std::string sceneXml(const std::string& body) {

@@ -435,17 +435,17 @@ TEST(MitsubaLoader, JpegTextureMeanIsSrgbDecodedUnlessRaw) {
     EXPECT_NE(err.find("scene.xml:7"), std::string::npos) << err;
 }
 
-// A point emitter is a light (scene/lights/); envmap is not supported yet.
+// A point emitter is a light (scene/lights/, envmap: envmap_test.cpp); sunsky is not supported.
 TEST(MitsubaLoader, UnsupportedEmittersWarnWithFileAndLine) {
     auto dir = test::tempDir("mts_point");
     Scene s = load(dir, std::string(kLight) + R"(  <emitter type="point"><point name="position" value="0,0,1"/></emitter>
-  <emitter type="envmap"><string name="filename" value="sky.exr"/></emitter>
+  <emitter type="sunsky"/>
   <integrator type="path"/>
 )");
     ASSERT_EQ(s.lights.size(), 1u);
     EXPECT_STREQ(s.lights[0]->name(), "point");
     EXPECT_FALSE(hasWarning(s, "'point' emitter not supported")) << s.stats.warnings.size();
-    EXPECT_TRUE(hasWarning(s, "scene.xml:7: warning: 'envmap' emitter not supported"));
+    EXPECT_TRUE(hasWarning(s, "scene.xml:7: warning: 'sunsky' emitter not supported"));
 }
 
 // Bad input: FILE:LINE: error: ... for every kind of mistake.
