@@ -50,11 +50,17 @@ ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
         s.faceSeparation, 1.0, 100.0);
     s.faceDisc = p.getEnum({"cluster.face_kernel", "face-cluster transfer kernel: point or disc"},
                            "point", {"point", "disc"}) == "disc";
-    s.sampledKernel =
+    const std::string kernel =
         p.getEnum({"cluster.kernel",
-                   "point links' geometric kernel: point (the centres' 1/r^2) or sampled (times "
-                   "the mean kernel ratio over the visibility rays' point pairs)"},
-                  "point", {"point", "sampled"}) == "sampled";
+                   "point links' geometric kernel: point (the centres' 1/r^2), sampled (times "
+                   "r^2 mean 1/d^2 over the visibility rays' point pairs) or pairs (times the "
+                   "mean cos cos/d^2 over area-uniform point pairs, relative to the model's)"},
+                  "point", {"point", "sampled", "pairs"});
+    s.sampledKernel = kernel == "sampled";
+    s.pairKernel = kernel == "pairs";
+    s.kernelPairs = int(p.getInt(
+        {"cluster.kernel_pairs", "with cluster.kernel = pairs: area-uniform point pairs per link"},
+        s.kernelPairs, 1, 4096));
     s.visibleHandover = p.getEnum({"cluster.handover",
                                    "how an oriented receiving cluster hands light to its surfaces: "
                                    "visible (cosine and openness) or cosine"},
@@ -80,12 +86,12 @@ std::string ClusterLinkSettings::describe() const {
         "cluster_face_separation={}, cluster_face_kernel={}, cluster_defer_dark={}, "
         "cluster_ambient={}, cluster_handover={}, cluster_stand_in={}, "
         "cluster_stand_in_rays={}, cluster_stand_in_handover={}, cluster_stand_in_pairs={}, "
-        "cluster_kernel={}",
+        "cluster_kernel={}, cluster_kernel_pairs={}",
         visRays, separation, surfaceSeparation,
         sampleNear ? "sample" : (standInNear ? "stand_in" : "open"), nearOverlapping, nearOpenPairs,
         nearRays, faceSeparation, faceDisc ? "disc" : "point", deferDark, ambient,
         visibleHandover ? "visible" : "cosine", standIn, standInRays, standInSeen ? "seen" : "area",
-        standInPairs, sampledKernel ? "sampled" : "point");
+        standInPairs, sampledKernel ? "sampled" : (pairKernel ? "pairs" : "point"), kernelPairs);
 }
 
 ClusterLinker::ClusterLinker(const scene::Scene& scene, const ClusterTree* tree, ClusterModel model,
@@ -230,6 +236,16 @@ class ClusterLinker::LinkRays {
     /// pairs relative to the centres' 1 / r^2, which underestimates it where
     /// the ends are large against their distance (E[1 / d^2] > 1 / E[d]^2).
     int estimate(double& fraction, double* kernel = nullptr);
+    /// cluster.kernel = pairs: the ratio of the unoccluded transfer between
+    /// the two ends, A_r A_s mean(cos_a+ cos_b+ / d^2) / pi over m
+    /// area-uniform point pairs (no rays: the kernel only), to what the point
+    /// model delivers, A_r g_r A_s g_s / (pi r^2) (g the model's projected
+    /// fractions towards the other centre; an oriented receiver's g_r is the
+    /// cosine sum its push applies). Area sampling bounds every term by
+    /// 1 / gap^2, where the projected-area sampling of the rays, divided by
+    /// its cosines, is unbounded (papers/notes/2026-12-02-modern-hall-light.md,
+    /// sections 3 and 5). `K` is the link's point kernel (0: factor 1).
+    double pairKernel(int m, double K);
 
   private:
     static constexpr uint32_t kFacingMax = 32;
@@ -308,6 +324,7 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
         double factor = 1.0;  // independent: its blocked count sets no flag
         rays.estimate(carried, s_.sampledKernel ? &factor : nullptr);
         carried *= factor;
+        if (s_.pairKernel) carried *= rays.pairKernel(s_.kernelPairs, K);
         out.rays = uint32_t(2 * n);
         out.partial = blockedJudged > 0 && blockedJudged < n;
         out.uncertain = blockedJudged == n;
@@ -464,6 +481,35 @@ int ClusterLinker::LinkRays::estimate(double& fraction, double* kernel) {
     fraction = wsum > 0 ? wvis / wsum : double(n - blocked) / n;
     if (kernel) *kernel = wsum > 0 ? glm::dot(cr - cs, cr - cs) * invd2 / n : 1.0;
     return blocked;
+}
+
+double ClusterLinker::LinkRays::pairKernel(int m, double K) {
+    const Vec3 d = receiver_.center - sender_.center;
+    const double r2 = glm::dot(d, d);
+    if (!(K > 0) || !(r2 > 0)) return 1.0;
+    const Vec3 u = d / std::sqrt(r2);
+    const double gr = L_.projectedFraction(receiver_, -u), gs = L_.projectedFraction(sender_, u);
+    if (!(gr > 0) || !(gs > 0)) return 1.0;
+    auto areaPoint = [&](const LinkEnd& e, uint32_t& patch) {
+        const double a = rng_.nextDouble(), b = rng_.nextDouble(), c = rng_.nextDouble();
+        if (!e.isCluster) {
+            patch = e.patch;
+            return scene::elementSamplePoint(L_.scene_->patches[patch], e.domain, a, b);
+        }
+        patch = L_.tree_->samplePatch(e.cluster, a);
+        return L_.tree_->pointOnPatch(patch, b, c);
+    };
+    double sum = 0.0;
+    for (int i = 0; i < m; ++i) {
+        uint32_t pr = 0, ps = 0;
+        const Vec3 xr = areaPoint(receiver_, pr), xs = areaPoint(sender_, ps);
+        const Vec3 dd = xs - xr;
+        const double d2 = glm::dot(dd, dd);
+        const double ca = glm::dot(L_.scene_->patches[pr].normal, dd);
+        const double cb = -glm::dot(L_.scene_->patches[ps].normal, dd);
+        if (ca > 0 && cb > 0 && d2 > 0) sum += ca * cb / (d2 * d2);
+    }
+    return r2 * (sum / m) / (gr * gs);
 }
 
 void ClusterLinker::prepareSenders(std::span<const RGB> rootB) {

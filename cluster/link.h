@@ -93,6 +93,12 @@ struct ClusterLinkSettings {
     /// r^2 times the mean of its rays' kernel ratios (ClusterLinker::LinkRays),
     /// not times the 1 / r^2 of the centres alone.
     bool sampledKernel = false;
+    /// cluster.kernel = pairs: K is the point kernel times the ratio of the
+    /// mean unoccluded kernel cos_a cos_b / d^2 over kernelPairs area-uniform
+    /// point pairs of the two ends to the point model's g_r g_s / r^2
+    /// (ClusterLinker::LinkRays::pairKernel): distances and cosines alike.
+    bool pairKernel = false;
+    int kernelPairs = 32;
     /// cluster.handover: an oriented receiving cluster hands each link's light
     /// to its surfaces by cosine and openness (true) or by cosine alone.
     bool visibleHandover = true;
