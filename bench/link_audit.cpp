@@ -12,6 +12,8 @@
 // are counted too. The ratio model / Monte Carlo below 1 is light the kind
 // loses. Green channel, as the audits in tests/ (papers/README.md
 // "Clustering accuracy").
+#include "tests/link_audit.h"
+
 #include <fmt/format.h>
 
 #include <cmath>
@@ -22,7 +24,6 @@
 #include "core/params.h"
 #include "hr/solver.h"
 #include "scene/loader.h"
-#include "tests/link_audit.h"
 #include "transport/visibility.h"
 
 using namespace hrad;
@@ -30,16 +31,24 @@ using namespace hrad;
 namespace {
 
 enum Kind {
-    kFromEmitter, kSurfaceFull, kSurfacePartial, kSurfaceBlocked,
-    kClusterToSurface, kSurfaceToCluster, kClusterToCluster, kSampledNothing, kStandIn, kKinds
+    kFromEmitter,
+    kSurfaceFull,
+    kSurfacePartial,
+    kSurfaceBlocked,
+    kClusterToSurface,
+    kSurfaceToCluster,
+    kClusterToCluster,
+    kSampledNothing,
+    kStandIn,
+    kKinds
 };
 const char* kKindNames[kKinds] = {
-    "surface, from an emitter", "surface, visible", "surface, partly visible",
-    "surface, judged blocked", "cluster -> surface", "surface -> cluster",
-    "cluster -> cluster", "sampled, found nothing", "stand-in"};
+    "surface, from an emitter", "surface, visible",       "surface, partly visible",
+    "surface, judged blocked",  "cluster -> surface",     "surface -> cluster",
+    "cluster -> cluster",       "sampled, found nothing", "stand-in"};
 
 struct Total {
-    double model = 0, modelAudited = 0, mc = 0, var = 0;
+    double model = 0, modelAudited = 0, mc = 0, var = 0, mcOpen = 0;
     uint64_t links = 0, audited = 0;
 };
 
@@ -71,12 +80,15 @@ Params parseArgs(int argc, char** argv) {
 
 int main(int argc, char** argv) try {
     if (argc < 2) {
-        std::fprintf(stderr, "usage: hrad_link_audit SCENE [KEY=VALUE ...] (audit.pairs, audit.links)\n");
+        std::fprintf(stderr,
+                     "usage: hrad_link_audit SCENE [KEY=VALUE ...] (audit.pairs, audit.links)\n");
         return 2;
     }
     Params p = parseArgs(argc, argv);
-    const int pairs = int(p.getInt({"audit.pairs", "point pairs per audited link"}, 64, 2, 1 << 20));
-    const double want = p.getDouble({"audit.links", "links audited (expected count)"}, 20000, 1, 1e9);
+    const int pairs =
+        int(p.getInt({"audit.pairs", "point pairs per audited link"}, 64, 2, 1 << 20));
+    const double want =
+        p.getDouble({"audit.links", "links audited (expected count)"}, 20000, 1, 1e9);
     scene::Scene s = scene::loadScene(argv[1], p);
     transport::Visibility vis(s);
     hr::HrSolver solver(s, vis, hr::HrSettings::fromParams(p));
@@ -105,18 +117,20 @@ int main(int argc, char** argv) try {
         test::LinkPower a = test::auditLink(s, vis, res, recv, i, pairs);
         g.modelAudited += a.model / pi;
         g.mc += a.mc / pi;
+        g.mcOpen += a.mcOpen / pi;
         g.var += a.mcVar / (pi * pi) + (pi < 1 ? (1 - pi) * a.mc * a.mc / (pi * pi) : 0.0);
         ++g.audited;
     }
     fmt::print("{}: {} links, model power {:.6g} (green)\n", argv[1], h.numLinks(), total);
-    fmt::print("{:<26} {:>10} {:>8} {:>12} {:>12} {:>12} {:>8} {:>8}\n", "kind", "links", "audited",
-               "model", "model (HT)", "MC (HT)", "ratio", "+-");
+    fmt::print("{:<26} {:>10} {:>8} {:>12} {:>12} {:>12} {:>8} {:>8} {:>12}\n", "kind", "links",
+               "audited", "model", "model (HT)", "MC (HT)", "ratio", "+-", "MC, V = 1");
     for (int k = 0; k < kKinds; ++k) {
         const Total& g = t[k];
         const double ratio = g.mc > 0 ? g.model / g.mc : 1.0;
         const double se = g.mc > 0 ? ratio * std::sqrt(g.var) / g.mc : 0.0;
-        fmt::print("{:<26} {:>10} {:>8} {:>12.5g} {:>12.5g} {:>12.5g} {:>8.4f} {:>8.4f}\n",
-                   kKindNames[k], g.links, g.audited, g.model, g.modelAudited, g.mc, ratio, se);
+        fmt::print(
+            "{:<26} {:>10} {:>8} {:>12.5g} {:>12.5g} {:>12.5g} {:>8.4f} {:>8.4f} {:>12.5g}\n",
+            kKindNames[k], g.links, g.audited, g.model, g.modelAudited, g.mc, ratio, se, g.mcOpen);
     }
     return 0;
 } catch (const InputError& e) {

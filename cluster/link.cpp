@@ -328,6 +328,10 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
         out.rays = uint32_t(2 * n);
         out.partial = blockedJudged > 0 && blockedJudged < n;
         out.uncertain = blockedJudged == n;
+    } else if (s_.pairKernel) {
+        // No visibility rays (cluster.vis_rays = 0): the unoccluded kernel.
+        LinkRays rays(*this, r, s, rootB);
+        carried = rays.pairKernel(s_.kernelPairs, K);
     }
     out.K = K * carried;
     out.judged = judged;

@@ -18,9 +18,10 @@
 namespace hrad::test {
 
 struct LinkPower {
-    double model = 0.0;  ///< what the solver's link moves (green)
-    double mc = 0.0;     ///< the Monte Carlo integral of the same transfer
-    double mcVar = 0.0;  ///< the variance of `mc` (its standard error squared)
+    double model = 0.0;   ///< what the solver's link moves (green)
+    double mc = 0.0;      ///< the Monte Carlo integral of the same transfer
+    double mcVar = 0.0;   ///< the variance of `mc` (its standard error squared)
+    double mcOpen = 0.0;  ///< the same integral without visibility (V = 1), same pairs
 };
 
 /// Link i of res's hierarchy (receiver recv[i]) audited with `pairs` point
@@ -90,11 +91,14 @@ inline LinkPower auditLink(const scene::Scene& s, const transport::Visibility& v
     }
     std::vector<uint8_t> occ(static_cast<size_t>(pairs));
     vis.occluded(seg.data(), size_t(pairs), occ.data());
-    double sum = 0, sum2 = 0;
-    for (int j = 0; j < pairs; ++j)
+    double sum = 0, sum2 = 0, open = 0;
+    for (int j = 0; j < pairs; ++j) {
+        open += w[j];
         if (!occ[j]) sum += w[j], sum2 += w[j] * w[j];
-    const double scale = h.area(r) * h.area(sd), mean = sum / pairs;
+    }
+    const double scale = h.area(r) * h.area(sd), mean = pairs > 0 ? sum / pairs : 0.0;
     out.mc = scale * mean;
+    out.mcOpen = pairs > 0 ? scale * open / pairs : 0.0;
     out.mcVar =
         pairs > 1 ? scale * scale * std::max(0.0, sum2 / pairs - mean * mean) / (pairs - 1) : 0.0;
     return out;
