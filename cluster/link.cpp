@@ -241,10 +241,10 @@ class ClusterLinker::LinkRays {
     /// area-uniform point pairs (no rays: the kernel only), to what the point
     /// model delivers, A_r g_r A_s g_s / (pi r^2) (g the model's projected
     /// fractions towards the other centre; an oriented receiver's g_r is the
-    /// cosine sum its push applies). Area sampling bounds every term by
-    /// 1 / gap^2, where the projected-area sampling of the rays, divided by
-    /// its cosines, is unbounded (papers/notes/2026-12-02-modern-hall-light.md,
-    /// sections 3 and 5). `K` is the link's point kernel (0: factor 1).
+    /// cosine sum its push applies, exact up to kFacingMax surfaces). Area sampling bounds every
+    /// term by 1 / gap^2, where the projected-area sampling of the rays, divided by its cosines, is
+    /// unbounded (papers/notes/2026-12-02-modern-hall-light.md, sections 3 and 5). `K` is the
+    /// link's point kernel (0: factor 1).
     double pairKernel(int m, double K);
 
   private:
@@ -503,6 +503,24 @@ double ClusterLinker::LinkRays::pairKernel(int m, double K) {
         patch = L_.tree_->samplePatch(e.cluster, a);
         return L_.tree_->pointOnPatch(patch, b, c);
     };
+    // A receiver that takes its light by cosine (ByCosine) gets
+    // sum_k A_k cos_k from the push, exactly, where the model's g_r is the
+    // upper bound of ClusterTree::projectedArea: a cluster of at most
+    // kFacingMax surfaces divides by the exact sum (a larger one by the
+    // bound). Estimating the sum from the pairs' own receiver points made K
+    // unbounded where few of them face the sender (the classroom ran away).
+    double pushed = gr;
+    if (receiver_.isCluster && L_.transfer_->receivesByCosine()) {
+        const ClusterNode& nd = L_.tree_->node(receiver_.cluster);
+        if (nd.patchEnd - nd.patchBegin <= kFacingMax && receiver_.area > 0) {
+            double exact = 0.0;
+            for (uint32_t i = nd.patchBegin; i < nd.patchEnd; ++i) {
+                const scene::Patch& P = L_.scene_->patches[L_.tree_->patchAt(i)];
+                exact += P.area * std::max(0.0, -glm::dot(P.normal, u));
+            }
+            if (exact > 0) pushed = exact / receiver_.area;
+        }
+    }
     double sum = 0.0;
     for (int i = 0; i < m; ++i) {
         uint32_t pr = 0, ps = 0;
@@ -513,7 +531,7 @@ double ClusterLinker::LinkRays::pairKernel(int m, double K) {
         const double cb = -glm::dot(L_.scene_->patches[ps].normal, dd);
         if (ca > 0 && cb > 0 && d2 > 0) sum += ca * cb / (d2 * d2);
     }
-    return r2 * (sum / m) / (gr * gs);
+    return r2 * (sum / m) / (pushed * gs);
 }
 
 void ClusterLinker::prepareSenders(std::span<const RGB> rootB) {
