@@ -56,8 +56,9 @@ ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
                    "r^2 mean 1/d^2 over the visibility rays' point pairs) or pairs (times the "
                    "mean cos cos/d^2 over area-uniform point pairs, relative to the model's)"},
                   "point", {"point", "sampled", "pairs"});
-    s.sampledKernel = kernel == "sampled";
-    s.pairKernel = kernel == "pairs";
+    s.kernel = kernel == "sampled" ? Kernel::Sampled
+               : kernel == "pairs" ? Kernel::Pairs
+                                   : Kernel::Point;
     s.kernelPairs = int(p.getInt(
         {"cluster.kernel_pairs", "with cluster.kernel = pairs: area-uniform point pairs per link"},
         s.kernelPairs, 1, 4096));
@@ -91,7 +92,9 @@ std::string ClusterLinkSettings::describe() const {
         sampleNear ? "sample" : (standInNear ? "stand_in" : "open"), nearOverlapping, nearOpenPairs,
         nearRays, faceSeparation, faceDisc ? "disc" : "point", deferDark, ambient,
         visibleHandover ? "visible" : "cosine", standIn, standInRays, standInSeen ? "seen" : "area",
-        standInPairs, sampledKernel ? "sampled" : (pairKernel ? "pairs" : "point"), kernelPairs);
+        standInPairs,
+        kernel == Kernel::Sampled ? "sampled" : (kernel == Kernel::Pairs ? "pairs" : "point"),
+        kernelPairs);
 }
 
 ClusterLinker::ClusterLinker(const scene::Scene& scene, const ClusterTree* tree, ClusterModel model,
@@ -322,13 +325,15 @@ ClusterLink ClusterLinker::link(const LinkEnd& r, const LinkEnd& s,
         LinkRays rays(*this, r, s, rootB);
         int blockedJudged = rays.estimate(judged);
         double factor = 1.0;  // independent: its blocked count sets no flag
-        rays.estimate(carried, s_.sampledKernel ? &factor : nullptr);
+        rays.estimate(carried,
+                      s_.kernel == ClusterLinkSettings::Kernel::Sampled ? &factor : nullptr);
         carried *= factor;
-        if (s_.pairKernel) carried *= rays.pairKernel(s_.kernelPairs, K);
+        if (s_.kernel == ClusterLinkSettings::Kernel::Pairs)
+            carried *= rays.pairKernel(s_.kernelPairs, K);
         out.rays = uint32_t(2 * n);
         out.partial = blockedJudged > 0 && blockedJudged < n;
         out.uncertain = blockedJudged == n;
-    } else if (s_.pairKernel) {
+    } else if (s_.kernel == ClusterLinkSettings::Kernel::Pairs) {
         // No visibility rays (cluster.vis_rays = 0): the unoccluded kernel.
         LinkRays rays(*this, r, s, rootB);
         carried = rays.pairKernel(s_.kernelPairs, K);
@@ -500,8 +505,7 @@ double ClusterLinker::LinkRays::pairKernel(int m, double K) {
             patch = e.patch;
             return scene::elementSamplePoint(L_.scene_->patches[patch], e.domain, a, b);
         }
-        patch = L_.tree_->samplePatch(e.cluster, a);
-        return L_.tree_->pointOnPatch(patch, b, c);
+        return L_.tree_->samplePoint(e.cluster, a, b, c, patch);
     };
     // A receiver that takes its light by cosine (ByCosine) gets
     // sum_k A_k cos_k from the push, exactly, where the model's g_r is the

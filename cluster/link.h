@@ -89,15 +89,13 @@ struct ClusterLinkSettings {
     bool ambient = true;
     double faceSeparation = 1.5;
     bool faceDisc = false;
-    /// cluster.kernel = sampled: a point link's K is the point kernel times
-    /// r^2 times the mean of its rays' kernel ratios (ClusterLinker::LinkRays),
-    /// not times the 1 / r^2 of the centres alone.
-    bool sampledKernel = false;
-    /// cluster.kernel = pairs: K is the point kernel times the ratio of the
-    /// mean unoccluded kernel cos_a cos_b / d^2 over kernelPairs area-uniform
-    /// point pairs of the two ends to the point model's g_r g_s / r^2
-    /// (ClusterLinker::LinkRays::pairKernel): distances and cosines alike.
-    bool pairKernel = false;
+    /// cluster.kernel, a point link's geometric kernel: Point, the centres'
+    /// 1 / r^2; Sampled, times r^2 times the mean of its rays' 1 / d^2
+    /// (ClusterLinker::LinkRays::estimate); Pairs, times the ratio of the
+    /// mean unoccluded cos_a cos_b / d^2 over kernelPairs area-uniform point
+    /// pairs to the point model's g_r g_s / r^2 (LinkRays::pairKernel).
+    enum class Kernel { Point, Sampled, Pairs };
+    Kernel kernel = Kernel::Point;
     int kernelPairs = 32;
     /// cluster.handover: an oriented receiving cluster hands each link's light
     /// to its surfaces by cosine and openness (true) or by cosine alone.

@@ -133,7 +133,7 @@ TEST(ClusterLink, PairKernelGivesTheClosedFormOfOpposedSquares) {
     const std::vector<RGB> rootB(f.s.patches.size(), RGB(1.0));
     ClusterLinkSettings ls;
     ls.separation = 1.0;
-    ls.pairKernel = true;
+    ls.kernel = ClusterLinkSettings::Kernel::Pairs;
     ls.kernelPairs = 4096;
     ClusterLinker one(f.s, &f.tree, ClusterModel::Oriented, &f.vis, ls);
     const ClusterLink l = one.link(r, snd, rootB);

@@ -1,33 +1,27 @@
 // Mitsuba .serialized meshes (scene/mitsuba_serialized.h), files written by
 // the test with zlib in the documented layout.
+#include "scene/mitsuba_serialized.h"
+
+#include <gtest/gtest.h>
 #include <zlib.h>
 
 #include <cstring>
 
-#include <gtest/gtest.h>
-
 #include "core/error.h"
 #include "scene/loader.h"
-#include "scene/mitsuba_serialized.h"
+#include "tests/scene/little_endian.h"
 #include "tests/test_util.h"
 
 namespace hrad::scene {
 namespace {
 
-template <typename T>
-void put(std::string& s, T v) {
-    for (size_t i = 0; i < sizeof(T); ++i) s += char((uint64_t(v) >> (8 * i)) & 0xFF);
-}
-void putFloat(std::string& s, float f) {
-    uint32_t b;
-    std::memcpy(&b, &f, 4);
-    put(s, b);
-}
+using test::put;
+using test::putFloat;
 
 /// One mesh record (version 4): header + zlib stream. `normals` adds a
 /// normals block that the reader must skip.
-std::string meshRecord(const std::vector<float>& pos, const std::vector<uint32_t>& idx, bool normals,
-                       uint64_t declaredVertices = UINT64_MAX) {
+std::string meshRecord(const std::vector<float>& pos, const std::vector<uint32_t>& idx,
+                       bool normals, uint64_t declaredVertices = UINT64_MAX) {
     std::string raw;
     put(raw, uint32_t(0x1000 | (normals ? 0x0001 : 0)));
     raw += "mesh";
@@ -40,8 +34,8 @@ std::string meshRecord(const std::vector<float>& pos, const std::vector<uint32_t
     for (uint32_t i : idx) put(raw, i);
     uLongf n = compressBound(uLong(raw.size()));
     std::string z(n, '\0');
-    EXPECT_EQ(compress2(reinterpret_cast<Bytef*>(z.data()), &n, reinterpret_cast<const Bytef*>(raw.data()),
-                        uLong(raw.size()), 9),
+    EXPECT_EQ(compress2(reinterpret_cast<Bytef*>(z.data()), &n,
+                        reinterpret_cast<const Bytef*>(raw.data()), uLong(raw.size()), 9),
               Z_OK);
     z.resize(n);
     std::string rec;
@@ -70,8 +64,9 @@ const std::vector<uint32_t> kTriIdx = {0, 1, 2};
 
 TEST(MitsubaSerialized, ReadsTheIndexedMeshAndSkipsNormals) {
     auto dir = test::tempDir("mts_ser");
-    auto path = test::writeFile(dir / "m.serialized",
-                                serializedFile({meshRecord(kQuadPos, kQuadIdx, false), meshRecord(kTriPos, kTriIdx, true)}));
+    auto path =
+        test::writeFile(dir / "m.serialized", serializedFile({meshRecord(kQuadPos, kQuadIdx, false),
+                                                              meshRecord(kTriPos, kTriIdx, true)}));
     SerializedMesh a = readSerialized(path.string(), 0, 1000);
     EXPECT_EQ(a.name, "mesh");
     EXPECT_EQ(a.positions.size(), 4u);
@@ -86,21 +81,23 @@ TEST(MitsubaSerialized, ReadsTheIndexedMeshAndSkipsNormals) {
 // (mitsuba.max_inflated_mb), checked from the declared counts first.
 TEST(MitsubaSerialized, InflatedBytesAreBudgeted) {
     auto dir = test::tempDir("mts_ser_inflate");
-    auto path = test::writeFile(dir / "m.serialized", serializedFile({meshRecord(kTriPos, kTriIdx, true)}));
+    auto path =
+        test::writeFile(dir / "m.serialized", serializedFile({meshRecord(kTriPos, kTriIdx, true)}));
     SerializedMesh m = readSerialized(path.string(), 0, 1000);
     EXPECT_EQ(m.inflatedBytes, 3u * 3 * 4 + 3 * 4 + 3u * 3 * 4);  // positions, indices, normals
     try {
         readSerialized(path.string(), 0, 1000, "shape at s.xml:3", m.inflatedBytes - 1);
         ADD_FAILURE() << "no error";
     } catch (const InputError& e) {
-        EXPECT_NE(std::string(e.what()).find("setting mitsuba.max_inflated_mb"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("setting mitsuba.max_inflated_mb"), std::string::npos)
+            << e.what();
     }
 }
 
 TEST(MitsubaSerialized, LoadsThroughTheXmlShape) {
     auto dir = test::tempDir("mts_ser_xml");
-    test::writeFile(dir / "m.serialized",
-                    serializedFile({meshRecord(kQuadPos, kQuadIdx, false), meshRecord(kTriPos, kTriIdx, true)}));
+    test::writeFile(dir / "m.serialized", serializedFile({meshRecord(kQuadPos, kQuadIdx, false),
+                                                          meshRecord(kTriPos, kTriIdx, true)}));
     auto xml = test::writeFile(dir / "s.xml", R"(<scene version="3.0.0">
   <shape type="serialized"><string name="filename" value="m.serialized"/><integer name="shape_index" value="1"/>
     <transform name="to_world"><translate z="1"/></transform>
@@ -123,10 +120,11 @@ TEST(MitsubaSerialized, ShapeIndexOutsideTheWholeNumbersIsAnInputError) {
     auto dir = test::tempDir("mts_ser_index");
     test::writeFile(dir / "m.serialized", serializedFile({meshRecord(kQuadPos, kQuadIdx, false)}));
     for (const std::string v : {"7.77778e+91", "-1", "1.5", "4294967296"}) {
-        auto xml = test::writeFile(dir / "s.xml", "<scene version=\"3.0.0\">\n"
-                                                  "  <shape type=\"serialized\"><string name=\"filename\" "
-                                                  "value=\"m.serialized\"/><float name=\"shape_index\" value=\"" +
-                                                      v + "\"/></shape>\n</scene>\n");
+        auto xml = test::writeFile(dir / "s.xml",
+                                   "<scene version=\"3.0.0\">\n"
+                                   "  <shape type=\"serialized\"><string name=\"filename\" "
+                                   "value=\"m.serialized\"/><float name=\"shape_index\" value=\"" +
+                                       v + "\"/></shape>\n</scene>\n");
         try {
             loadScene(xml.string());
             ADD_FAILURE() << "no error for shape_index " << v;
@@ -164,7 +162,8 @@ TEST(MitsubaSerialized, TruncatedOrCorruptFilesNameTheByteOffset) {
         EXPECT_THROW(readSerialized(path.string(), 0, 1000), InputError) << n;
     }
     // A vertex count no compressed size can hold is refused before allocating.
-    expectError(serializedFile({meshRecord(kQuadPos, kQuadIdx, false, uint64_t(1) << 31)}), "vertices");
+    expectError(serializedFile({meshRecord(kQuadPos, kQuadIdx, false, uint64_t(1) << 31)}),
+                "vertices");
     // Wrong magic.
     std::string wrong = good;
     wrong[0] = 'X';
@@ -179,8 +178,10 @@ TEST(MitsubaSerialized, TruncatedOrCorruptFilesNameTheByteOffset) {
 
     // Through the XML loader, the error still names the .serialized file.
     test::writeFile(dir / "t.serialized", serializedFile({rec.substr(0, rec.size() / 2)}));
-    auto xml = test::writeFile(dir / "s.xml", "<scene version=\"3.0.0\">\n  <shape type=\"serialized\">\n"
-                                              "    <string name=\"filename\" value=\"t.serialized\"/>\n  </shape>\n</scene>\n");
+    auto xml = test::writeFile(
+        dir / "s.xml",
+        "<scene version=\"3.0.0\">\n  <shape type=\"serialized\">\n"
+        "    <string name=\"filename\" value=\"t.serialized\"/>\n  </shape>\n</scene>\n");
     try {
         loadScene(xml.string());
         ADD_FAILURE() << "no error";

@@ -7,6 +7,7 @@
 // bottom-right d (grey), each at 200/255. Mitsuba's uv (s, t) looks up image
 // column s * 8 and row t * 8 from the top (its bitmap texture); hrad's UV is
 // (s, 1 - t) (scene/texture.h).
+#include <gtest/gtest.h>
 #include <stb/stb_image_write.h>  // Debian libstb-dev; implementation in libstb
 #include <zlib.h>
 
@@ -15,14 +16,13 @@
 #include <string>
 #include <vector>
 
-#include <gtest/gtest.h>
-
-#include "scene/element.h"
 #include "core/error.h"
+#include "scene/element.h"
 #include "scene/loader.h"
 #include "scene/mitsuba_serialized.h"
 #include "scene/ply_loader.h"
 #include "scene/texture.h"
+#include "tests/scene/little_endian.h"
 #include "tests/test_util.h"
 
 namespace hrad::scene {
@@ -53,10 +53,13 @@ std::string bitmapShape(const std::string& shape, const std::string& inner = "")
 
 /// A scene of the given shapes and a lamp far above (only its presence matters).
 Scene loadShapes(const std::filesystem::path& dir, const std::string& shapes) {
-    auto xml = test::writeFile(dir / "scene.xml", "<scene version=\"3.0.0\">\n"
+    auto xml = test::writeFile(
+        dir / "scene.xml",
+        "<scene version=\"3.0.0\">\n"
         "  <shape type=\"rectangle\"><transform name=\"to_world\"><translate value=\"0, 0, 50\"/>"
-        "</transform><emitter type=\"area\"><rgb name=\"radiance\" value=\"1, 1, 1\"/></emitter></shape>\n" +
-        shapes + "</scene>\n");
+        "</transform><emitter type=\"area\"><rgb name=\"radiance\" value=\"1, 1, "
+        "1\"/></emitter></shape>\n" +
+            shapes + "</scene>\n");
     return loadScene(xml.string());
 }
 
@@ -84,13 +87,19 @@ TEST(ShapeUVs, PlyUVsFollowMitsubaAndItsFlipTexCoords) {
     auto dir = test::tempDir("uv_ply");
     writeQuadrants(dir / "quad.png");
     // Mitsuba's uv [0, 1/2]^2 = the top-left quadrant, stored as (u, v).
-    test::writeFile(dir / "quad.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n"
+    test::writeFile(dir / "quad.ply",
+                    "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n"
                     "property float y\nproperty float z\nproperty float u\nproperty float v\n"
                     "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
                     "0 0 0 0 0\n1 0 0 0.5 0\n1 1 0 0.5 0.5\n0 1 0 0 0.5\n4 0 1 2 3\n");
-    Scene s = loadShapes(dir, bitmapShape("ply", "<string name=\"filename\" value=\"quad.ply\"/>") +
-        bitmapShape("ply", "<string name=\"filename\" value=\"quad.ply\"/><boolean name=\"flip_tex_coords\" "
-                           "value=\"true\"/><transform name=\"to_world\"><translate value=\"0, 0, 2\"/></transform>"));
+    Scene s = loadShapes(
+        dir,
+        bitmapShape("ply", "<string name=\"filename\" value=\"quad.ply\"/>") +
+            bitmapShape(
+                "ply",
+                "<string name=\"filename\" value=\"quad.ply\"/><boolean name=\"flip_tex_coords\" "
+                "value=\"true\"/><transform name=\"to_world\"><translate value=\"0, 0, "
+                "2\"/></transform>"));
     const auto ps = textured(s);
     ASSERT_EQ(ps.size(), 2u);
     for (const Patch* p : ps) {
@@ -109,13 +118,17 @@ TEST(ShapeUVs, PlyUVsFollowMitsubaAndItsFlipTexCoords) {
 
 TEST(ShapeUVs, PlyLoaderKeepsEveryUVPropertyPairWhenAsked) {
     auto dir = test::tempDir("uv_ply_names");
-    const char* pairs[4][2] = {{"u", "v"}, {"s", "t"}, {"texture_u", "texture_v"}, {"texture_s", "texture_t"}};
+    const char* pairs[4][2] = {
+        {"u", "v"}, {"s", "t"}, {"texture_u", "texture_v"}, {"texture_s", "texture_t"}};
     for (const auto& pr : pairs) {
         const std::string name = std::string(pr[0]) + ".ply";
-        auto f = test::writeFile(dir / name, std::string("ply\nformat ascii 1.0\nelement vertex 3\n"
-            "property float x\nproperty float y\nproperty float z\nproperty float ") + pr[0] +
-            "\nproperty float " + pr[1] + "\nelement face 1\nproperty list uchar int vertex_indices\n"
-            "end_header\n0 0 0 0.1 0.2\n1 0 0 0.3 0.4\n0 1 0 0.5 0.6\n3 0 1 2\n");
+        auto f = test::writeFile(
+            dir / name,
+            std::string("ply\nformat ascii 1.0\nelement vertex 3\n"
+                        "property float x\nproperty float y\nproperty float z\nproperty float ") +
+                pr[0] + "\nproperty float " + pr[1] +
+                "\nelement face 1\nproperty list uchar int vertex_indices\n"
+                "end_header\n0 0 0 0.1 0.2\n1 0 0 0.3 0.4\n0 1 0 0.5 0.6\n3 0 1 2\n");
         PlyOptions o;
         Scene plain = loadPly(f.string(), o);
         EXPECT_TRUE(plain.cornerUVs.empty()) << name << ": not kept unless asked";
@@ -135,15 +148,8 @@ TEST(ShapeUVs, PlyLoaderKeepsEveryUVPropertyPairWhenAsked) {
     }
 }
 
-template <typename T>
-void put(std::string& s, T v) {
-    for (size_t i = 0; i < sizeof(T); ++i) s += char((uint64_t(v) >> (8 * i)) & 0xFF);
-}
-void putFloat(std::string& s, float f) {
-    uint32_t b;
-    std::memcpy(&b, &f, 4);
-    put(s, b);
-}
+using test::put;
+using test::putFloat;
 
 /// A one-mesh .serialized file (version 4, single precision) with texture
 /// coordinates (flag 0x0002) after the positions, as the format documents.
@@ -160,8 +166,9 @@ std::string serializedWithUVs(const std::vector<float>& pos, const std::vector<f
     for (uint32_t i : idx) put(raw, i);
     uLongf n = compressBound(uLong(raw.size()));
     std::string z(n, '\0');
-    EXPECT_EQ(compress2(reinterpret_cast<Bytef*>(z.data()), &n, reinterpret_cast<const Bytef*>(raw.data()),
-                        uLong(raw.size()), 9), Z_OK);
+    EXPECT_EQ(compress2(reinterpret_cast<Bytef*>(z.data()), &n,
+                        reinterpret_cast<const Bytef*>(raw.data()), uLong(raw.size()), 9),
+              Z_OK);
     z.resize(n);
     std::string f;
     put(f, uint16_t(0x041C));
@@ -179,9 +186,11 @@ TEST(ShapeUVs, SerializedTexcoordsAreMitsubasUV) {
     // interior (texels 4.5 .. 7.5 across, 0.5 .. 3.5 down), where the bilinear
     // texture is the constant b: each triangle's mean is b exactly.
     const std::vector<float> pos = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
-    const std::vector<float> uv = {9 / 16.f, 1 / 16.f, 15 / 16.f, 1 / 16.f, 15 / 16.f, 7 / 16.f, 9 / 16.f, 7 / 16.f};
+    const std::vector<float> uv = {9 / 16.f,  1 / 16.f, 15 / 16.f, 1 / 16.f,
+                                   15 / 16.f, 7 / 16.f, 9 / 16.f,  7 / 16.f};
     test::writeFile(dir / "quad.serialized", serializedWithUVs(pos, uv, {0, 1, 2, 0, 2, 3}));
-    Scene s = loadShapes(dir, bitmapShape("serialized", "<string name=\"filename\" value=\"quad.serialized\"/>"));
+    Scene s = loadShapes(
+        dir, bitmapShape("serialized", "<string name=\"filename\" value=\"quad.serialized\"/>"));
     const auto ps = textured(s);
     ASSERT_EQ(ps.size(), 2u);
     for (const Patch* p : ps) {
@@ -215,10 +224,12 @@ TEST(ShapeUVs, NonFiniteSerializedTexcoordIsAnInputErrorAtItsOffset) {
 struct CubeFace {
     Vec3 normal, o, u, v;
 };
-const CubeFace kCubeFaces[6] = {
-    {{0, -1, 0}, {-1, -1, -1}, {-1, -1, 1}, {1, -1, -1}}, {{0, 1, 0}, {1, 1, 1}, {-1, 1, 1}, {1, 1, -1}},
-    {{1, 0, 0}, {1, -1, 1}, {1, 1, 1}, {1, -1, -1}},      {{0, 0, 1}, {-1, -1, 1}, {-1, 1, 1}, {1, -1, 1}},
-    {{-1, 0, 0}, {-1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}}, {{0, 0, -1}, {-1, 1, -1}, {-1, -1, -1}, {1, 1, -1}}};
+const CubeFace kCubeFaces[6] = {{{0, -1, 0}, {-1, -1, -1}, {-1, -1, 1}, {1, -1, -1}},
+                                {{0, 1, 0}, {1, 1, 1}, {-1, 1, 1}, {1, 1, -1}},
+                                {{1, 0, 0}, {1, -1, 1}, {1, 1, 1}, {1, -1, -1}},
+                                {{0, 0, 1}, {-1, -1, 1}, {-1, 1, 1}, {1, -1, 1}},
+                                {{-1, 0, 0}, {-1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}},
+                                {{0, 0, -1}, {-1, 1, -1}, {-1, -1, -1}, {1, 1, -1}}};
 
 TEST(ShapeUVs, CubeFacesCarryMitsubasParametrisation) {
     auto dir = test::tempDir("uv_cube");
@@ -258,8 +269,9 @@ Vec2 sphereUV(const Vec3& x) {
 TEST(ShapeUVs, DiskAndSphereFollowMitsubasParametrisation) {
     auto dir = test::tempDir("uv_round");
     writeQuadrants(dir / "quad.png");
-    Scene s = loadShapes(dir, bitmapShape("disk") +
-                                  bitmapShape("sphere", "<point name=\"center\" x=\"0\" y=\"0\" z=\"10\"/>"));
+    Scene s = loadShapes(
+        dir, bitmapShape("disk") +
+                 bitmapShape("sphere", "<point name=\"center\" x=\"0\" y=\"0\" z=\"10\"/>"));
     const auto ps = textured(s);
     const int n = 24;  // mitsuba.resolution's default: n disk wedges, n x n/2 sphere faces
     ASSERT_EQ(ps.size(), size_t(n + n * n / 2));
@@ -280,7 +292,9 @@ TEST(ShapeUVs, DiskAndSphereFollowMitsubasParametrisation) {
         // A face whose corners all lie inside one quadrant's interior (half a
         // texel from its borders) shows that quadrant's texel everywhere.
         const auto& uv = *patchUVs(s, *p);
-        auto inside = [](double c) { return std::fabs(c - 0.5) > 1 / 16.0 && c > 1 / 16.0 && c < 15 / 16.0; };
+        auto inside = [](double c) {
+            return std::fabs(c - 0.5) > 1 / 16.0 && c > 1 / 16.0 && c < 15 / 16.0;
+        };
         bool interior = true;
         for (int k = 0; k < p->numVertices(); ++k)
             interior = interior && inside(uv[size_t(k)].x) && inside(uv[size_t(k)].y);
