@@ -11,18 +11,27 @@
 // really carry light (visibility judged 0, sampled links that found nothing)
 // are counted too. The ratio model / Monte Carlo below 1 is light the kind
 // loses. Green channel, as the audits in tests/ (papers/README.md
-// "Clustering accuracy").
+// "Clustering accuracy"). Also printed: what the receivers hold,
+// sum A (B - E) / rho, against the links' total (light lost between a link
+// and a radiosity), and with audit.coverage=N the share of N gathered rays'
+// radiosity that no link carries (coverage() below). Findings:
+// papers/notes/2026-12-02-modern-hall-light.md, section 10.
 #include "tests/link_audit.h"
 
 #include <fmt/format.h>
 
 #include <cmath>
 #include <cstdio>
+#include <unordered_set>
+#include <vector>
 #include <string>
 
 #include "core/error.h"
 #include "core/params.h"
+#include "core/rng.h"
+#include "core/sampling.h"
 #include "hr/solver.h"
+#include "scene/element.h"
 #include "scene/loader.h"
 #include "transport/visibility.h"
 
@@ -78,6 +87,68 @@ Params parseArgs(int argc, char** argv) {
 
 }  // namespace
 
+/// Light that no link carries: `samples` receiver points drawn by area
+/// over the patches that reflect, one cosine-distributed ray each; the hit's
+/// radiosity is light the receiver should gather, and it is covered when
+/// some link joins an ancestor-or-self of the receiver's leaf with an
+/// ancestor-or-self of the hit's leaf (elements, then clusters). Prints the
+/// uncovered share of the gathered radiosity (green) and its standard error.
+/// A pair whose link was estimated to carry nothing (all its rays blocked)
+/// is uncovered too: that is an estimate of 0, not necessarily lost light.
+void coverage(const scene::Scene& s, const transport::Visibility& vis, const hr::Hierarchy& h,
+              const std::vector<uint32_t>& recv, uint64_t samples) {
+    std::unordered_set<uint64_t> linked;
+    linked.reserve(size_t(h.numLinks()) * 2);
+    for (uint64_t i = 0; i < h.numLinks(); ++i)
+        linked.insert(uint64_t(recv[i]) << 32 | h.link(i).sender);
+    std::vector<double> cdf;
+    double area = 0.0;
+    for (const auto& P : s.patches) cdf.push_back(area += P.rho.g > 0 ? P.area : 0.0);
+    auto leafAt = [&](uint32_t p, Vec2 uv) {
+        uint32_t e = p;
+        while (h.firstChild(e) != hr::kNone)
+            e = h.child(e, uint32_t(scene::childContaining(s.patches[p].kind, h.domain(e), uv.x, uv.y)));
+        return e;
+    };
+    auto chain = [&](uint32_t e, std::vector<uint32_t>& out) {
+        out.clear();
+        for (; e != hr::kNone; e = h.parent(e)) out.push_back(e);
+    };
+    Pcg32 rng(777);
+    std::vector<uint32_t> cx, cy;
+    double all = 0.0, lost = 0.0, lost2 = 0.0;
+    uint64_t lostRays = 0;
+    double inPlane = 0.0;
+    for (uint64_t n = 0; n < samples; ++n) {
+        const double u = rng.nextDouble() * area;
+        const uint32_t p = uint32_t(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin());
+        const scene::Patch& P = s.patches[std::min<size_t>(p, s.patches.size() - 1)];
+        const Vec3 x = scene::elementSamplePoint(P, scene::Domain{}, rng.nextDouble(), rng.nextDouble());
+        const Vec3 dir = cosineDirection(P.normal, rng.nextDouble(), rng.nextDouble());
+        const transport::RayHit hit = vis.intersect(x, dir, 0.0, 1e300, p);
+        if (!hit.hit || glm::dot(s.patches[hit.patch].normal, dir) >= 0) continue;
+        const scene::Patch& Q = s.patches[hit.patch];
+        const uint32_t ly = leafAt(hit.patch, scene::clampToPatchDomain(Q.kind, scene::patchInverse(Q, hit.point)));
+        const double b = h.B(ly).g;
+        all += b;
+        chain(leafAt(p, scene::clampToPatchDomain(P.kind, scene::patchInverse(P, x))), cx);
+        chain(ly, cy);
+        bool covered = false;
+        for (uint32_t r : cx)
+            for (uint32_t q : cy) covered = covered || linked.count(uint64_t(r) << 32 | q);
+        if (!covered) lost += b, lost2 += b * b, ++lostRays;
+        // A hit on a face in the receiver's own plane (at t ~ 0: a face
+        // stacked back to back with it) is light no physical path carries.
+        if (std::abs(glm::dot(Q.normal, x - Q.v[0])) < 1e-6 && std::abs(glm::dot(P.normal, Q.normal)) > 0.999)
+            inPlane += b;
+    }
+    const double share = all > 0 ? lost / all : 0.0;
+    const double se = all > 0 ? std::sqrt(std::max(0.0, lost2 - lost * lost / double(samples))) / all : 0.0;
+    fmt::print("light no link carries: {:.4f} +- {:.4f} of the gathered radiosity ({} of {} rays); "
+               "hits in the receiver's own plane: {:.4f}\n",
+               share, se, lostRays, samples, all > 0 ? inPlane / all : 0.0);
+}
+
 int main(int argc, char** argv) try {
     if (argc < 2) {
         std::fprintf(stderr,
@@ -89,6 +160,8 @@ int main(int argc, char** argv) try {
         int(p.getInt({"audit.pairs", "point pairs per audited link"}, 64, 2, 1 << 20));
     const double want =
         p.getDouble({"audit.links", "links audited (expected count)"}, 20000, 1, 1e9);
+    const uint64_t coverageRays = uint64_t(
+        p.getInt({"audit.coverage", "rays of the check for light no link carries (0: none)"}, 0, 0, 1 << 30));
     scene::Scene s = scene::loadScene(argv[1], p);
     transport::Visibility vis(s);
     hr::HrSolver solver(s, vis, hr::HrSettings::fromParams(p));
@@ -121,7 +194,19 @@ int main(int argc, char** argv) try {
         g.var += a.mcVar / (pi * pi) + (pi < 1 ? (1 - pi) * a.mc * a.mc / (pi * pi) : 0.0);
         ++g.audited;
     }
-    fmt::print("{}: {} links, model power {:.6g} (green)\n", argv[1], h.numLinks(), total);
+    // What the receivers hold: sum over root patches of A (B - E) / rho
+    // (green), the irradiance power the solution's radiosities imply; below
+    // the links' model power, light is lost between a link and the
+    // receiver's radiosity (push-pull, hand-over).
+    double held = 0.0, dark = 0.0;
+    for (uint32_t q = 0; q < h.numPatches(); ++q) {
+        const scene::Patch& P = s.patches[q];
+        if (P.rho.g > 0) held += P.area * (h.B(q).g - P.emission.g) / P.rho.g;
+        else ++dark;
+    }
+    fmt::print("{}: {} links, model power {:.6g}, held by the receivers {:.6g} (green; {} "
+               "patches of rho 0 left out)\n",
+               argv[1], h.numLinks(), total, held, dark);
     fmt::print("{:<26} {:>10} {:>8} {:>12} {:>12} {:>12} {:>8} {:>8} {:>12}\n", "kind", "links",
                "audited", "model", "model (HT)", "MC (HT)", "ratio", "+-", "MC, V = 1");
     for (int k = 0; k < kKinds; ++k) {
@@ -132,6 +217,7 @@ int main(int argc, char** argv) try {
             "{:<26} {:>10} {:>8} {:>12.5g} {:>12.5g} {:>12.5g} {:>8.4f} {:>8.4f} {:>12.5g}\n",
             kKindNames[k], g.links, g.audited, g.model, g.modelAudited, g.mc, ratio, se, g.mcOpen);
     }
+    if (coverageRays) coverage(s, vis, h, recv, coverageRays);
     return 0;
 } catch (const InputError& e) {
     std::fprintf(stderr, "%s\n", e.what());

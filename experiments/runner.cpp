@@ -642,6 +642,20 @@ json runPoint(const PointSpec& p, const RunContext& ctx) {
         Timer tRef;
         ref = earlyRef ? std::move(earlyRef) : computeReference(sc, vis, r, ctx);
         timings["reference"] = earlyRef ? earlyRefSeconds : tRef.seconds();
+        if (ref->interrupted) {
+            // Stopped by a signal while the reference ran: its unestimated
+            // regions are NaN, and an error against the rest would read as
+            // a (false) small error. None is reported, nor an error map.
+            summary["error"] = nullptr;
+            summary["error_skipped"] = fmt::format(
+                "interrupted while computing the reference ({} of {} regions estimated): "
+                "no error against a partial reference",
+                ref->stats.value("estimated_regions", uint64_t(0)), ref->stats.value("regions", uint64_t(0)));
+            spdlog::warn("{}", summary["error_skipped"].get<std::string>());
+            ref.reset();
+        }
+    }
+    if (ref) {
         Timer tErr;
         reference::ErrorMetrics err = reference::computeError(*field, *ref->field);
         json e = errorMetricsJson(err);

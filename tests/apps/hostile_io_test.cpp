@@ -177,4 +177,28 @@ TEST(HostileIo, EverySolverStopsOnASignalAndMarksItsResult) {
     }
 }
 
+// A signal while `solve --reference` computes its reference (sent once the
+// solve and its error estimate are done, the log says so): the summary says the error was skipped and why, and holds no
+// error block; an error against the estimated regions alone read 0 with a
+// mean ratio of 1.0000 (NaN regions skipped), a silent zero.
+TEST(HostileIo, AReferenceInterruptedInASolveReportsNoError) {
+    auto dir = hrad::test::tempDir("hostile_solve_ref");
+    const fs::path out = dir / "o";
+    Result r = shell(std::string(HRAD_BINARY) + " --log info solve cornell --no-progress --no-images --no-ply " +
+                     "--reference montecarlo --set mc.level=0 --set mc.samples=999999 --cache " +
+                     (dir / "cache").string() + " -o " + out.string() + " >" + out.string() +
+                     ".log 2>&1 & pid=$!; for i in $(seq 240); do grep -q 'error estimate (residual)' " + out.string() +
+                     ".log && break; sleep 0.5; done; sleep 1; kill -INT $pid; wait $pid; echo rc=$?; cat " +
+                     out.string() + ".log");
+    EXPECT_EQ(codes(r.output).empty() ? -1 : codes(r.output).front(), 130) << r.output;
+    EXPECT_NE(r.output.find("interrupted while computing the reference"), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("mean ratio 1.0000"), std::string::npos) << r.output;
+    std::ifstream in(out / "summary.json");
+    nlohmann::json s = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+    ASSERT_TRUE(s.is_object()) << r.output;
+    EXPECT_EQ(s.value("interrupted", false), true);
+    EXPECT_TRUE(s.contains("error") && s["error"].is_null());
+    EXPECT_NE(s.value("error_skipped", std::string()).find("regions estimated"), std::string::npos);
+}
+
 }  // namespace
