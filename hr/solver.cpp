@@ -373,6 +373,7 @@ void HrSolver::buildHierarchy(HrResult& res) {
                                                 s_.basisDegree);
     Hierarchy& h = *res.hierarchy;
     h.setSubdivisionLimits(minArea_, s_.maxLevel);
+    h.setElementRho(s_.elementRho);
     h.setJudgedSurfaceVisibility(s_.judgeVisibility);
     h.setSeed(s_.seed);
     linker_ = std::make_unique<cluster::ClusterLinker>(*scene_, res.clusterTree.get(),

@@ -34,6 +34,7 @@
 
 #include "core/error.h"
 #include "core/types.h"
+#include "scene/element.h"
 #include "scene/scene.h"
 
 namespace hrad::scene {
@@ -89,6 +90,14 @@ const TextureBinding* patchTexture(const Scene& scene, const Patch& p);
 RGB textureRho(const Scene& scene, const Patch& p, double u, double v);
 /// Area mean of scale * texel over the patch (not clamped).
 RGB patchTextureMean(const Scene& scene, const Patch& p);
+/// Area mean of scale * texel over the element of domain d (scene/element.h),
+/// by the same quadrature as the patch mean (which is the root domain's);
+/// not clamped. Requires patchTexture.
+RGB elementTextureMean(const Scene& scene, const Patch& p, const Domain& d);
+/// elementTextureMean clamped as the loader clamps patch means: a channel
+/// >= 1 becomes the binding's clampRho (the patch's rho where that is 0).
+/// The reflectance hr.texture_rho = element gives a sub-element.
+RGB elementRho(const Scene& scene, const Patch& p, const Domain& d);
 /// Sets every textured patch's rho to its clamped patchTextureMean; returns
 /// the number of textured patches. Throws InputError for a mean >= 1 whose
 /// binding clamps with 0.
