@@ -154,6 +154,20 @@ TEST(ElementRho, TexturedFurnaceStaysExact) {
         ++leaves;
     }
     EXPECT_EQ(leaves, 6 * 16);
+    // A linear basis (pushPullPolynomial) likewise, to the same rounding.
+    for (bool element : {true, false}) {
+        HrSettings st = uniformAt(2, element);
+        st.basisDegree = 1;
+        HrResult r = HrSolver(s, vis, st).solve();
+        ASSERT_TRUE(r.converged);
+        (element ? el : pa) = std::move(r);
+    }
+    for (uint32_t e = 0; e < el.hierarchy->numElements(); ++e)
+        if (el.hierarchy->isLeaf(e)) {
+            EXPECT_NEAR(el.hierarchy->B(e).r, pa.hierarchy->B(e).r, 1e-12) << e;
+            for (int a = 0; a < el.hierarchy->basisSize() - 1; ++a)
+                EXPECT_NEAR(el.hierarchy->hi(e)[a].r, pa.hierarchy->hi(e)[a].r, 1e-12) << e;
+        }
 }
 
 /// One gather and push-pull: the leaves' A (B - E) summed against the
