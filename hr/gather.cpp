@@ -178,7 +178,7 @@ RGB Hierarchy::clusterIrradianceAt(uint32_t root, const std::vector<RGB>& down,
     return gatherReflectance(root) * h;
 }
 
-std::vector<RGB> Hierarchy::textureReflectingExcess() const {
+std::vector<RGB> Hierarchy::textureReflectingExcess(const std::vector<RGB>& rootReflecting) const {
     std::vector<RGB> excess;
     if (!elementRho_ || !tree_) return excess;
     excess.assign(numClusters_, RGB(0.0));
@@ -187,7 +187,7 @@ std::vector<RGB> Hierarchy::textureReflectingExcess() const {
         for (uint32_t q = node.patchBegin; q < node.patchEnd; ++q) {
             const uint32_t root = tree_->patchAt(q);
             if (pushesIrradiance(root))
-                excess[c] += reflectingArea(root) - area_[root] * scene_->patches[root].rho;
+                excess[c] += rootReflecting[root] - area_[root] * scene_->patches[root].rho;
         }
     }
     return excess;
@@ -228,7 +228,14 @@ void Hierarchy::linkLight(std::vector<RGB>& reflected, const std::vector<float>*
     std::vector<RGB> sent(oriented ? linkOffsets_[np + nc] - clusterLinkBase_ : 0);
     // Per cluster, what its textured patches' leaves reflect beyond the
     // tree's sum A_k rho_k of patch means (hr.texture_rho = element).
-    std::vector<RGB> leafExcess = textureReflectingExcess();
+    // Per textured root patch, reflectingArea once (not once per link share).
+    std::vector<RGB> rootReflecting;
+    if (elementRho_) {
+        rootReflecting.assign(np, RGB(0.0));
+        for (uint32_t root = 0; root < np; ++root)
+            if (pushesIrradiance(root)) rootReflecting[root] = reflectingArea(root);
+    }
+    std::vector<RGB> leafExcess = textureReflectingExcess(rootReflecting);
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nc, 16), [&](const auto& range) {
         for (uint32_t c = range.begin(); c != range.end(); ++c)
             for (uint64_t i = linkBegin(np + c); i < linkEnd(np + c); ++i) {
@@ -255,7 +262,7 @@ void Hierarchy::linkLight(std::vector<RGB>& reflected, const std::vector<float>*
                     const scene::Patch& P = scene_->patches[root];
                     forEachShare(np + c, root, [&](uint64_t i, double w) {
                         reflected[i] += pushesIrradiance(root)
-                                            ? w * (reflectingArea(root) * sent[i - clusterLinkBase_])
+                                            ? w * (rootReflecting[root] * sent[i - clusterLinkBase_])
                                             : (P.area * w) * (P.rho * sent[i - clusterLinkBase_]);
                     });
                 }
@@ -279,7 +286,7 @@ void Hierarchy::linkLight(std::vector<RGB>& reflected, const std::vector<float>*
                         v += d * d;
                     });
             }
-            const RGB rho = pushesIrradiance(root) ? reflectingArea(root) / area_[root]
+            const RGB rho = pushesIrradiance(root) ? rootReflecting[root] / area_[root]
                                                    : scene_->patches[root].rho;
             (*patchVariance)[root] += rho * rho * v;
         }

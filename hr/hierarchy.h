@@ -513,9 +513,10 @@ class Hierarchy {
     /// gathered (reflectance applied); empty without clusters.
     std::vector<RGB> clusterIrradianceToRoots() const;
     /// Per cluster, sum over the textured root patches below it of
-    /// reflectingArea(root) - A_root rho_root: what their leaves reflect
-    /// beyond the tree's patch means (empty without setElementRho or clusters).
-    std::vector<RGB> textureReflectingExcess() const;
+    /// reflectingArea(root) - A_root rho_root (`rootReflecting` holds the
+    /// first term per root patch): what their leaves reflect beyond the
+    /// tree's patch means (empty without setElementRho or clusters).
+    std::vector<RGB> textureReflectingExcess(const std::vector<RGB>& rootReflecting) const;
     /// Per cluster, the isotropic irradiance it and its ancestors gathered.
     std::vector<RGB> clusterDown() const;
     /// Oriented model: calls f(i, w) for every link i in cluster element c's
