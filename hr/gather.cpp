@@ -70,7 +70,9 @@ void Hierarchy::gatherRow(uint32_t r) {
         gathered_[r] = sum;
         return;
     }
-    const RGB& rho = scene_->patches[patch_[r]].rho;
+    // Elements of textured patches (hr.texture_rho = element) gather
+    // irradiance: each leaf applies its own rho in push-pull.
+    const RGB rho = gatherReflectance(r);
     gathered_[r] = rho * sum + (r < lightGathered.size() ? lightGathered[r] : RGB(0.0));
     for (int a = 1; a < nb_; ++a)
         gatheredHi_[size_t(r) * size_t(nb_ - 1) + size_t(a - 1)] = rho * sumHi[a];
@@ -159,7 +161,6 @@ void Hierarchy::forEachShare(uint32_t c, uint32_t root, F&& f) const {
 RGB Hierarchy::clusterIrradianceAt(uint32_t root, const std::vector<RGB>& down,
                                    const glm::vec3* sent) const {
     const uint32_t np = numPatches();
-    const scene::Patch& P = scene_->patches[root];
     // A patch the tree leaves out (hr.reach_rays) has no cluster above it.
     if (parent_[root] == kNone) return RGB(0.0);
     RGB h = down[parent_[root] - np];
@@ -174,7 +175,22 @@ RGB Hierarchy::clusterIrradianceAt(uint32_t root, const std::vector<RGB>& down,
                                : linkSent(i, clusterLinkDir_[i - clusterLinkBase_]));
             });
     }
-    return P.rho * h;
+    return gatherReflectance(root) * h;
+}
+
+std::vector<RGB> Hierarchy::textureReflectingExcess(const std::vector<RGB>& rootReflecting) const {
+    std::vector<RGB> excess;
+    if (!elementRho_ || !tree_) return excess;
+    excess.assign(numClusters_, RGB(0.0));
+    for (uint32_t c = 0; c < numClusters_; ++c) {
+        const cluster::ClusterNode& node = tree_->node(c);
+        for (uint32_t q = node.patchBegin; q < node.patchEnd; ++q) {
+            const uint32_t root = tree_->patchAt(q);
+            if (pushesIrradiance(root))
+                excess[c] += rootReflecting[root] - area_[root] * scene_->patches[root].rho;
+        }
+    }
+    return excess;
 }
 
 void Hierarchy::linkLight(std::vector<RGB>& reflected, const std::vector<float>* relError,
@@ -188,7 +204,7 @@ void Hierarchy::linkLight(std::vector<RGB>& reflected, const std::vector<float>*
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, numElements(), 256), [&](const auto& range) {
         for (uint32_t r = range.begin(); r != range.end(); ++r) {
             if (patch_[r] == kNone || linkBegin(r) == linkEnd(r)) continue;
-            const RGB ar = area_[r] * scene_->patches[patch_[r]].rho;
+            const RGB ar = reflectingArea(r);
             const Vec3 cr = oriented ? center(r) : Vec3(0.0);
             for (uint64_t i = linkBegin(r); i < linkEnd(r); ++i)
                 reflected[i] = ar * rowSent(i, oriented ? &cr : nullptr);
@@ -210,6 +226,16 @@ void Hierarchy::linkLight(std::vector<RGB>& reflected, const std::vector<float>*
     auto byArea = [&](const Link& l) { return !oriented || (l.byArea() && !l.bySeen()); };
     std::vector<RGB> isoVar(nc, RGB(0.0));
     std::vector<RGB> sent(oriented ? linkOffsets_[np + nc] - clusterLinkBase_ : 0);
+    // Per cluster, what its textured patches' leaves reflect beyond the
+    // tree's sum A_k rho_k of patch means (hr.texture_rho = element).
+    // Per textured root patch, reflectingArea once (not once per link share).
+    std::vector<RGB> rootReflecting;
+    if (elementRho_) {
+        rootReflecting.assign(np, RGB(0.0));
+        for (uint32_t root = 0; root < np; ++root)
+            if (pushesIrradiance(root)) rootReflecting[root] = reflectingArea(root);
+    }
+    std::vector<RGB> leafExcess = textureReflectingExcess(rootReflecting);
     tbb::parallel_for(tbb::blocked_range<uint32_t>(0, nc, 16), [&](const auto& range) {
         for (uint32_t c = range.begin(); c != range.end(); ++c)
             for (uint64_t i = linkBegin(np + c); i < linkEnd(np + c); ++i) {
@@ -217,6 +243,7 @@ void Hierarchy::linkLight(std::vector<RGB>& reflected, const std::vector<float>*
                     const RGB s = rowSent(i, nullptr);
                     // sum_k A_k rho_k over the surfaces below.
                     reflected[i] = s * (tree_->node(c).area * tree_->node(c).rho);
+                    if (!leafExcess.empty()) reflected[i] += s * leafExcess[c];
                     isoVar[c] += (s * rel(i)) * (s * rel(i));
                 } else {
                     sent[i - clusterLinkBase_] = linkSent(i, clusterLinkDir_[i - clusterLinkBase_]);
@@ -234,7 +261,9 @@ void Hierarchy::linkLight(std::vector<RGB>& reflected, const std::vector<float>*
                     const uint32_t root = tree_->patchAt(q);
                     const scene::Patch& P = scene_->patches[root];
                     forEachShare(np + c, root, [&](uint64_t i, double w) {
-                        reflected[i] += (P.area * w) * (P.rho * sent[i - clusterLinkBase_]);
+                        reflected[i] += pushesIrradiance(root)
+                                            ? w * (rootReflecting[root] * sent[i - clusterLinkBase_])
+                                            : (P.area * w) * (P.rho * sent[i - clusterLinkBase_]);
                     });
                 }
             }
@@ -257,7 +286,8 @@ void Hierarchy::linkLight(std::vector<RGB>& reflected, const std::vector<float>*
                         v += d * d;
                     });
             }
-            const RGB& rho = scene_->patches[root].rho;
+            const RGB rho = pushesIrradiance(root) ? rootReflecting[root] / area_[root]
+                                                   : scene_->patches[root].rho;
             (*patchVariance)[root] += rho * rho * v;
         }
     });
@@ -302,13 +332,15 @@ void Hierarchy::pushPullRoot(uint32_t root, const RGB& fromAbove, std::vector<Pu
     // Iterative depth-first traversal: push the accumulated gathered
     // radiosity down, set leaves, pull averages up on the way back.
     const RGB& E = scene_->patches[root].emission;
+    const bool irradiance = pushesIrradiance(root);
     stack.clear();
     stack.push_back({root, gathered_[root] + fromAbove, 0});
     while (!stack.empty()) {
         PushFrame& f = stack.back();
         uint32_t fc = firstChild_[f.e];
         if (fc == kNone) {
-            B_[f.e] = E + f.down;
+            // Textured (hr.texture_rho = element): `down` is irradiance.
+            B_[f.e] = irradiance ? E + rho(f.e) * f.down : E + f.down;
             stack.pop_back();
             continue;
         }
@@ -429,6 +461,7 @@ void Hierarchy::pushPullPolynomial(const std::vector<RGB>& fromAbove) {
             const scene::Patch& P = scene_->patches[root];
             const scene::Basis& basis = basis_->of(P.kind);
             const RGB& E = P.emission;
+            const bool irradiance = pushesIrradiance(root);
             stack.clear();
             Frame f0{root, {}, 0};
             f0.down[0] = gathered_[root] + fromAbove[root];
@@ -438,8 +471,11 @@ void Hierarchy::pushPullPolynomial(const std::vector<RGB>& fromAbove) {
                 Frame& f = stack.back();
                 uint32_t fc = firstChild_[f.e];
                 if (fc == kNone) {
-                    B_[f.e] = E + f.down[0];
-                    for (size_t a = 1; a <= m; ++a) hi_[size_t(f.e) * m + a - 1] = f.down[a];
+                    // Textured (hr.texture_rho = element): `down` is irradiance.
+                    const RGB rho = irradiance ? this->rho(f.e) : RGB(1.0);
+                    B_[f.e] = irradiance ? E + rho * f.down[0] : E + f.down[0];
+                    for (size_t a = 1; a <= m; ++a)
+                        hi_[size_t(f.e) * m + a - 1] = irradiance ? rho * f.down[a] : f.down[a];
                     stack.pop_back();
                     continue;
                 }

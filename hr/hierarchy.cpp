@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "core/rng.h"
 #include "core/timer.h"
+#include "hr/element_rho.h"
 #include "hr/handover.h"
 #include "transport/formfactor.h"
 #include "transport/visibility.h"
@@ -183,7 +184,37 @@ double Hierarchy::radius(uint32_t e) const {
 
 RGB Hierarchy::rho(uint32_t e) const {
     if (isCluster(e)) return tree_->node(clusterIndex(e)).rho;
+    if (e >= numPatches() && pushesIrradiance(e)) {
+        const uint32_t fc = firstChild_[parent_[e]];
+        return elementRho_->child(fc, e - fc);
+    }
     return scene_->patches[patch_[e]].rho;
+}
+
+void Hierarchy::setElementRho(bool on) {
+    HRAD_CHECK(numElements() == numPatches() + numClusters_);  // before any subdivision
+    elementRho_.reset();
+    if (!on) return;
+    auto t = std::make_unique<ElementRho>(*scene_);
+    if (t->any()) elementRho_ = std::move(t);
+}
+
+uint64_t Hierarchy::elementRhoBytes() const { return elementRho_ ? elementRho_->bytes() : 0; }
+
+bool Hierarchy::pushesIrradiance(uint32_t e) const {
+    return elementRho_ && patch_[e] != kNone && elementRho_->textured(patch_[e]);
+}
+
+RGB Hierarchy::gatherReflectance(uint32_t e) const {
+    return pushesIrradiance(e) ? RGB(1.0) : scene_->patches[patch_[e]].rho;
+}
+
+RGB Hierarchy::reflectingArea(uint32_t e) const {
+    if (!pushesIrradiance(e)) return area_[e] * scene_->patches[patch_[e]].rho;
+    if (firstChild_[e] == kNone) return area_[e] * rho(e);
+    RGB sum(0.0);
+    for (uint32_t c = firstChild_[e]; c < firstChild_[e] + 4; ++c) sum += reflectingArea(c);
+    return sum;
 }
 
 scene::Domain Hierarchy::domain(uint32_t e) const {
@@ -212,6 +243,7 @@ void Hierarchy::subdivide(uint32_t e) {
         B_.push_back(B_[e]);
         gathered_.push_back(RGB(0.0));
     }
+    if (pushesIrradiance(e)) elementRho_->addChildren(first, p, d);
     if (nb_ > 1) {
         // Children start with the parent's polynomial restricted to them
         // (exact two-scale push), as constant children inherit B.
@@ -431,7 +463,9 @@ RGB Hierarchy::standInSent(const Link& l) const {
 RGB Hierarchy::standInReflected(uint32_t r, uint64_t i) const {
     const Link& l = links_[i];
     const RGB sent = standInSent(l);
-    if (!isCluster(r)) return sent * area(r) * scene_->patches[patch_[r]].rho;
+    if (!isCluster(r))
+        return pushesIrradiance(r) ? sent * reflectingArea(r)
+                                   : sent * area(r) * scene_->patches[patch_[r]].rho;
     if (l.bySeen())  // as the push hands it (clusterIrradianceAt)
         if (const std::optional<RGB> sum = handOver_->surfaceReflected(r, i)) return sent * *sum;
     Vec3 d = center(l.sender) - center(r);
@@ -442,9 +476,10 @@ RGB Hierarchy::standInReflected(uint32_t r, uint64_t i) const {
     RGB sum(0.0);
     const cluster::ClusterNode& node = tree_->node(clusterIndex(r));
     for (uint32_t q = node.patchBegin; q < node.patchEnd; ++q) {
-        const scene::Patch& P = scene_->patches[tree_->patchAt(q)];
+        const uint32_t root = tree_->patchAt(q);
+        const scene::Patch& P = scene_->patches[root];
         const double w = byCosine ? std::max(0.0, double(glm::dot(glm::vec3(P.normal), dir))) : 1.0;
-        sum += (P.area * w) * P.rho;
+        sum += pushesIrradiance(root) ? w * reflectingArea(root) : (P.area * w) * P.rho;
     }
     return sent * sum;
 }
@@ -488,6 +523,7 @@ uint64_t Hierarchy::linkBytes() const {
 
 void Hierarchy::reportMemory(MemoryCounters& m) const {
     m.set("elements", elementBytes());
+    if (elementRho_) m.set("element_rho", elementRhoBytes());
     m.set("links", links_.capacity() * sizeof(Link));
     m.set("link_offsets", linkOffsets_.capacity() * sizeof(uint32_t));
     if (!couplingIndex_.empty())

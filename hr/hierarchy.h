@@ -174,6 +174,7 @@ class KernelSamples {
 static_assert(sizeof(KernelSamples) == 24, "kernel samples must stay 24 bytes");
 
 class HandOver;
+class ElementRho;
 
 class Hierarchy {
   public:
@@ -244,8 +245,27 @@ class Hierarchy {
     /// Area-weighted centroid, and the radius of a sphere around it containing the node.
     Vec3 center(uint32_t e) const;
     double radius(uint32_t e) const;
-    /// Mean reflectance (a cluster's is area-weighted over its surfaces).
+    /// Mean reflectance (a cluster's is area-weighted over its surfaces; an
+    /// element of a textured patch under hr.texture_rho = element its own,
+    /// hr/element_rho.h).
     RGB rho(uint32_t e) const;
+    /// hr.texture_rho = element: elements of textured root patches carry
+    /// their own reflectance (hr/element_rho.h). Set before any subdivision;
+    /// no-op for a scene without textured patches.
+    void setElementRho(bool on);
+    /// Whether element e gathers irradiance and its leaves apply their own
+    /// reflectance in push-pull (an element of a textured root patch under
+    /// setElementRho); false for clusters and every untextured patch.
+    bool pushesIrradiance(uint32_t e) const;
+    /// The factor gatherRow applies to what surface element e gathers: its
+    /// root patch's rho, or 1 where e pushes irradiance (pushesIrradiance).
+    RGB gatherReflectance(uint32_t e) const;
+    /// sum over the leaves l below surface element e of A_l rho_l: the power
+    /// e reflects per unit of irradiance it gathers (A_e rho_patch where e
+    /// does not push irradiance).
+    RGB reflectingArea(uint32_t e) const;
+    /// Bytes of the per-element reflectance table (0 without one).
+    uint64_t elementRhoBytes() const;
 
     // ---- element attributes -------------------------------------------------
     uint32_t patch(uint32_t e) const { return patch_[e]; }
@@ -492,6 +512,11 @@ class Hierarchy {
     /// Irradiance the clusters hand each root patch after their rows have
     /// gathered (reflectance applied); empty without clusters.
     std::vector<RGB> clusterIrradianceToRoots() const;
+    /// Per cluster, sum over the textured root patches below it of
+    /// reflectingArea(root) - A_root rho_root (`rootReflecting` holds the
+    /// first term per root patch): what their leaves reflect beyond the
+    /// tree's patch means (empty without setElementRho or clusters).
+    std::vector<RGB> textureReflectingExcess(const std::vector<RGB>& rootReflecting) const;
     /// Per cluster, the isotropic irradiance it and its ancestors gathered.
     std::vector<RGB> clusterDown() const;
     /// Oriented model: calls f(i, w) for every link i in cluster element c's
@@ -529,6 +554,7 @@ class Hierarchy {
     const scene::Scene* scene_;
     const cluster::ClusterTree* tree_ = nullptr;
     std::unique_ptr<HandOver> handOver_;  ///< setHandOver
+    std::unique_ptr<ElementRho> elementRho_;  ///< setElementRho (null: one rho per root patch)
     cluster::ClusterModel model_ = cluster::ClusterModel::None;
     const cluster::TransferModel* transfer_ = nullptr;
     uint32_t numClusters_ = 0;

@@ -150,7 +150,7 @@ LightLinks::Judged LightLinks::judge(const Hierarchy& h, const LightLink& l,
     est.receiverArea = h.area(e);
     est.senderArea = h.area(e);  // reverseF() = F: a light has no area
     est.senderB = RGB(pt.hiFree);
-    est.receiverRho = cluster ? h.rho(e) : scene_->patches[h.patch(e)].rho;
+    est.receiverRho = h.rho(e);
     est.emittedPower = epsPower;
     est.emittedRadiosity = emittedRadiosity;
     est.receiverLevel = h.level(e);
@@ -224,12 +224,14 @@ void LightLinks::apply(Hierarchy& h) const {
     for (const LightLink& l : links_) {
         const RGB E(l.E[0], l.E[1], l.E[2]);
         if (!h.isCluster(l.receiver)) {
-            h.lightGathered[l.receiver] += scene_->patches[h.patch(l.receiver)].rho * E;
+            // In gathered_'s units: rho E, or E on a textured patch whose
+            // leaves apply their own rho (Hierarchy::gatherReflectance).
+            h.lightGathered[l.receiver] += h.gatherReflectance(l.receiver) * E;
             continue;
         }
         // A cluster's mean to every root patch below it (node q = patch q).
         forEachPatch(h, l.receiver,
-                     [&](uint32_t q) { h.lightGathered[q] += scene_->patches[q].rho * E; });
+                     [&](uint32_t q) { h.lightGathered[q] += h.gatherReflectance(q) * E; });
     }
 }
 

@@ -245,6 +245,10 @@ void readBasis(const Params& p, HrSettings& s) {
                    "open a partly visible link into a cluster when the light it may hand to unseen "
                    "surfaces exceeds eps (keep: as the oracle decides)"},
                   s.openPartialReceivers ? "open" : "keep", {"open", "keep"}) == "open";
+    s.elementRho = p.getEnum({"hr.texture_rho",
+                              "reflectance of the elements of a textured root patch: the patch's "
+                              "texture mean (patch) or each element's own (element, hr/element_rho.h)"},
+                             s.elementRho ? "element" : "patch", {"patch", "element"}) == "element";
     s.basisDegree = scene::basisDegree(
         p.getEnum({"hr.basis",
                    "polynomial basis on every element (constant, linear, quadratic, cubic: "

@@ -90,6 +90,9 @@ struct HrSettings {
     bool gaussSeidel = false;          ///< hr.iteration
     int gsBlocks = 0;                  ///< hr.gs_blocks (0: one block per root patch)
     cluster::ClusterLinkSettings clusterLink;
+    /// hr.texture_rho = element: elements of textured root patches carry
+    /// their own reflectance (hr/element_rho.h); patch: the root patch's mean.
+    bool elementRho = false;
     /// hr.basis as a degree: 0 constant, 1 linear, 2 quadratic, 3 cubic.
     int basisDegree = 0;
     /// hr.basis_points: quadrature points per axis of the coupling

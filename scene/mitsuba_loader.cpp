@@ -1142,7 +1142,7 @@ class Loader {
     /// uv.y = 0), so hrad's UV is (u, 1 - v) of Mitsuba's: meshes' stored
     /// coordinates after Mitsuba's flip_tex_coords (default true for obj, false
     /// for ply; serialized has none), the analytic shapes' parametrisations of
-    /// Mitsuba 3 (src/shapes/{rectangle,cube,disk,sphere}.cpp, 2026-08).
+    /// Mitsuba 3 (src/shapes/{rectangle,cube,disk,sphere,cylinder}.cpp, 2026-08).
     std::vector<std::vector<Vec3>> geometry(const Node& s, const std::string& type,
                                             std::vector<std::vector<Vec2>>& uvs) {
         std::vector<std::vector<Vec3>> polys;
@@ -1161,7 +1161,7 @@ class Loader {
         } else if (type == "disk") {
             diskGeometry(n, polys, uvs);
         } else if (type == "cylinder") {
-            cylinderGeometry(s, n, polys);
+            cylinderGeometry(s, n, polys, uvs);
         } else if (type == "sphere") {
             sphereGeometry(s, n, polys, uvs);
         }
@@ -1298,7 +1298,15 @@ class Loader {
         }
     }
 
-    void cylinderGeometry(const Node& s, int n, std::vector<std::vector<Vec3>>& polys) const {
+    /// The cylinder's lateral surface as an n-sided prism. Mitsuba 3
+    /// (cylinder.cpp) places its local unit cylinder (z in [0, 1]) with
+    /// to_frame(Frame(d / |d|)), d = p1 - p0, whose (s, t) is the orthonormal
+    /// basis of Duff et al., "Building an Orthonormal Basis, Revisited" (JCGT
+    /// 6(1), 2017; Mitsuba's coordinate_system), and its uv is (phi / 2 pi, z),
+    /// phi = atan2(local y, local x) in [0, 2 pi). hrad's UV is (phi / 2 pi,
+    /// 1 - z) at each corner, the facet over the seam unwrapped past u = 1.
+    void cylinderGeometry(const Node& s, int n, std::vector<std::vector<Vec3>>& polys,
+                          std::vector<std::vector<Vec2>>& uvs) const {
         Vec3 p0 = pointProp(s, "p0", Vec3(0, 0, 0)), p1 = pointProp(s, "p1", Vec3(0, 0, 1));
         double radius = floatProp(s, "radius", 1.0);
         if (!(radius > 0) || !(glm::length(p1 - p0) > 0)) fail(s, "cylinder needs radius > 0 and p0 != p1");
@@ -1311,8 +1319,20 @@ class Loader {
             double a = 2 * kPi * k / n;
             return base + r * (std::cos(a) * u + std::sin(a) * v);
         };
-        for (int k = 0; k < n; ++k)
+        // Mitsuba's (s, t) around w (Duff et al. 2017, listing 3; sign(0) = 1).
+        const double sg = w.z >= 0 ? 1.0 : -1.0, a = -1.0 / (sg + w.z), b = w.x * w.y * a;
+        const Vec3 fs(1 + sg * w.x * w.x * a, sg * b, -sg * w.x), ft(b, sg + w.y * w.y * a, -w.y);
+        // Both frames are right-handed around w: Mitsuba's phi is ours plus
+        // the angle of our u in (s, t).
+        double offset = std::atan2(glm::dot(u, ft), glm::dot(u, fs)) / (2 * kPi);
+        offset -= std::floor(offset);
+        for (int k = 0; k < n; ++k) {
             polys.push_back({at(k, p0), at(k + 1, p0), at(k + 1, p1), at(k, p1)});
+            double u0 = offset + double(k) / n;
+            u0 -= std::floor(u0);
+            const double u1 = u0 + 1.0 / n;
+            uvs.push_back({Vec2(u0, 1), Vec2(u1, 1), Vec2(u1, 0), Vec2(u0, 0)});
+        }
     }
 
     /// A UV sphere of n segments and n / 2 rings. Mitsuba's uv is

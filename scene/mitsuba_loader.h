@@ -56,8 +56,8 @@
 //              twosided/mask/bumpmap) is kept as the material's texture
 //              (scene/texture.h: sRGB-decoded unless `raw`, wrap_mode; UVs of
 //              obj, ply (flip_tex_coords) and serialized meshes, rectangles,
-//              cubes, disks and spheres in Mitsuba 3's parametrisations;
-//              cylinders have none; each patch gets its own mean); any
+//              cubes, disks, spheres and cylinders in Mitsuba 3's
+//              parametrisations; each patch gets its own mean); any
 //              other bitmap is replaced by its mean over all texels, with a
 //              warning; checkerboard the mean of its two colours. A bitmap
 //              that is missing or unreadable gets mitsuba.texture_rho grey

@@ -253,47 +253,66 @@ RGB textureRho(const Scene& scene, const Patch& p, double u, double v) {
     return b.scale * scene.textures[size_t(b.texture)]->lookup(st.x, st.y);
 }
 
-RGB patchTextureMean(const Scene& scene, const Patch& p) {
+RGB patchTextureMean(const Scene& scene, const Patch& p) { return elementTextureMean(scene, p, Domain{}); }
+
+RGB elementTextureMean(const Scene& scene, const Patch& p, const Domain& d) {
     const TextureBinding& b = *patchTexture(scene, p);
     const Texture& t = *scene.textures[size_t(b.texture)];
     const auto& uv = scene.cornerUVs[p.uvs];
-    // The UV footprint in texels (shoelace area of the corner UVs) sets the
-    // grid: about two samples per texel along each axis, 4 .. 64 per axis.
+    // The UV footprint in texels (shoelace area of the corner UVs, times the
+    // element's share h^2 of the patch's domain) sets the grid: about two
+    // samples per texel along each axis, 4 .. 64 per axis.
     double a2 = 0;
     const int n = p.numVertices();
     for (int i = 0; i < n; ++i) {
         const glm::vec2 &q0 = uv[size_t(i)], &q1 = uv[size_t((i + 1) % n)];
         a2 += double(q0.x) * q1.y - double(q1.x) * q0.y;
     }
-    const double texels = 0.5 * std::fabs(a2) * t.width * t.height;
+    const double texels = 0.5 * std::fabs(a2) * t.width * t.height * (d.h * d.h);
     const int k = int(std::clamp(std::ceil(2.0 * std::sqrt(texels)), 4.0, 64.0));
-    // A quad: midpoints of a k x k grid on its square, weighted by the
-    // Jacobian of its bilinear map (area measure). A triangle: the centroids
-    // of its k^2 congruent sub-triangles (k - i - j upright, inverted ones
-    // between), equal weights; exact for rho linear in (u, v).
-    const Domain root{};
+    // A quad: midpoints of a k x k grid on the element's square, weighted by
+    // the Jacobian of its bilinear map (area measure). A triangle: the
+    // centroids of its k^2 congruent sub-triangles (k - i - j upright,
+    // inverted ones between), equal weights; exact for rho linear in (u, v).
+    // Local coordinates (a, c) map to the patch's (u0 + a h, v0 + c h)
+    // (scene/element.h domainParam; h < 0 for an inverted triangle).
+    auto at = [&](double a, double c) {
+        const Vec2 q = domainParam(d, a, c);
+        return textureRho(scene, p, q.x, q.y);
+    };
     RGB sum(0.0);
     double wsum = 0;
     if (p.kind == PatchKind::Quad) {
         for (int j = 0; j < k; ++j)
             for (int i = 0; i < k; ++i) {
                 const double a = (i + 0.5) / k, c = (j + 0.5) / k;
-                const double w = elementJacobian(p, root, a, c);
-                sum += w * textureRho(scene, p, a, c);
+                const double w = elementJacobian(p, d, a, c);
+                sum += w * at(a, c);
                 wsum += w;
             }
     } else {
         for (int j = 0; j < k; ++j)
             for (int i = 0; i + j < k; ++i) {
-                sum += textureRho(scene, p, (i + 1.0 / 3) / k, (j + 1.0 / 3) / k);
+                sum += at((i + 1.0 / 3) / k, (j + 1.0 / 3) / k);
                 wsum += 1;
                 if (i + j + 1 < k) {
-                    sum += textureRho(scene, p, (i + 2.0 / 3) / k, (j + 2.0 / 3) / k);
+                    sum += at((i + 2.0 / 3) / k, (j + 2.0 / 3) / k);
                     wsum += 1;
                 }
             }
     }
     return wsum > 0 ? sum / wsum : b.scale * t.mean;
+}
+
+RGB elementRho(const Scene& scene, const Patch& p, const Domain& d) {
+    const TextureBinding& b = *patchTexture(scene, p);
+    RGB m = elementTextureMean(scene, p, d);
+    // An element brighter than 1 keeps the loader's clamp, or, where the
+    // binding clamps with 0 (the patch mean < 1 was checked on load), the
+    // patch's own mean in that channel.
+    for (int c = 0; c < 3; ++c)
+        if (m[c] >= 1.0) m[c] = b.clampRho > 0 ? b.clampRho : p.rho[c];
+    return m;
 }
 
 size_t applyTextureMeans(Scene& scene) {

@@ -15,11 +15,12 @@
 // baseColorFactor, 1 for Mitsuba. The solve uses per root patch the mean of
 // rho(x) over the patch by area (patchTextureMean: a regular grid in the
 // patch's domain, as many samples as the patch's UV footprint covers texels,
-// 4 x 4 .. 64 x 64), clamped like the loader's other reflectances. Per
-// element is not carried: it would add to hr/'s measured bytes per element,
-// and push-pull hands gathered radiosity down unchanged, which holds only
-// for one rho per root patch (papers/notes/2026-12-02-textures.md). The
-// renderer shows rho(x) H(x) (render/texturing.h).
+// 4 x 4 .. 64 x 64), clamped like the loader's other reflectances. With
+// hr.texture_rho = element the hierarchy gives each sub-element the same
+// quadrature over its own domain (elementTextureMean, elementRho;
+// hr/element_rho.h); the default keeps the patch mean
+// (papers/notes/2026-12-02-textures.md). The renderer shows rho(x) H(x)
+// (render/texturing.h).
 //
 // Memory: decoded texels count against texture.max_mb (12 bytes per texel),
 // checked from the image's header before it is decoded.
@@ -34,6 +35,7 @@
 
 #include "core/error.h"
 #include "core/types.h"
+#include "scene/element.h"
 #include "scene/scene.h"
 
 namespace hrad::scene {
@@ -89,6 +91,14 @@ const TextureBinding* patchTexture(const Scene& scene, const Patch& p);
 RGB textureRho(const Scene& scene, const Patch& p, double u, double v);
 /// Area mean of scale * texel over the patch (not clamped).
 RGB patchTextureMean(const Scene& scene, const Patch& p);
+/// Area mean of scale * texel over the element of domain d (scene/element.h),
+/// by the same quadrature as the patch mean (which is the root domain's);
+/// not clamped. Requires patchTexture.
+RGB elementTextureMean(const Scene& scene, const Patch& p, const Domain& d);
+/// elementTextureMean clamped as the loader clamps patch means: a channel
+/// >= 1 becomes the binding's clampRho (the patch's rho where that is 0).
+/// The reflectance hr.texture_rho = element gives a sub-element.
+RGB elementRho(const Scene& scene, const Patch& p, const Domain& d);
 /// Sets every textured patch's rho to its clamped patchTextureMean; returns
 /// the number of textured patches. Throws InputError for a mean >= 1 whose
 /// binding clamps with 0.

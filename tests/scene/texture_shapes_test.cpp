@@ -1,4 +1,4 @@
-// UVs of PLY, .serialized and Mitsuba's analytic shapes (cube, disk, sphere)
+// UVs of PLY, .serialized and Mitsuba's analytic shapes (cube, disk, sphere, cylinder)
 // under a Mitsuba `bitmap`: a known texel lands where Mitsuba 3 puts it, and a
 // patch's rho is the analytic mean of the texels it covers.
 //
@@ -303,6 +303,61 @@ TEST(ShapeUVs, DiskAndSphereFollowMitsubasParametrisation) {
         ++checkedTexels;
     }
     EXPECT_GT(checkedTexels, 50u);
+}
+
+/// Mitsuba 3's uv of point x on a cylinder from p0 to p1 (cylinder.cpp):
+/// local = the inverse of translate(p0) to_frame(Frame(d / |d|)) scale(r, r,
+/// |d|); uv = (atan2(y, x) / 2 pi in [0, 1), z). The frame's (s, t) is Duff
+/// et al.'s basis (JCGT 6(1), 2017, listing 3), written out here.
+Vec2 cylinderUV(const Vec3& x, const Vec3& p0, const Vec3& p1) {
+    const Vec3 d = p1 - p0, n = glm::normalize(d);
+    const double sg = n.z >= 0 ? 1.0 : -1.0, a = -1.0 / (sg + n.z), b = n.x * n.y * a;
+    const Vec3 fs(1 + sg * n.x * n.x * a, sg * b, -sg * n.x), ft(b, sg + n.y * n.y * a, -n.y);
+    const Vec3 q = x - p0;
+    double phi = std::atan2(glm::dot(q, ft), glm::dot(q, fs));
+    if (phi < 0) phi += 2 * M_PI;
+    return {phi / (2 * M_PI), glm::dot(q, n) / glm::length(d)};
+}
+
+TEST(ShapeUVs, CylinderFollowsMitsubasParametrisation) {
+    auto dir = test::tempDir("uv_cylinder");
+    writeQuadrants(dir / "quad.png");
+    // A tilted axis, so that Mitsuba's frame is not the identity.
+    const Vec3 p0(1, 2, 3), p1(1.3, 2.4, 5);
+    Scene s = loadShapes(dir, bitmapShape("cylinder",
+                                          "<point name=\"p0\" x=\"1\" y=\"2\" z=\"3\"/>"
+                                          "<point name=\"p1\" x=\"1.3\" y=\"2.4\" z=\"5\"/>"
+                                          "<float name=\"radius\" value=\"0.5\"/>"));
+    const auto ps = textured(s);
+    ASSERT_EQ(ps.size(), 24u);  // mitsuba.resolution's default: 24 facets
+    int left = 0, right = 0;
+    for (const Patch* p : ps) {
+        // At the facet's mid-angle (a = 1/2) a chord point has Mitsuba's angle
+        // exactly (symmetry), and z is linear along the axis: the linear UV
+        // is Mitsuba's there up to the float UVs (1e-6). b = 1/4 is nearer
+        // p0, so hrad's v = 1 - z = 3/4 tells the v direction.
+        const Vec3 x = p->point(0.5, 0.25);
+        const Vec2 want = cylinderUV(x, p0, p1);
+        const Vec2 st = uvAt(*p, *patchUVs(s, *p), 0.5, 0.25);
+        EXPECT_NEAR(st.x - std::floor(st.x), want.x, 1e-6);
+        EXPECT_NEAR(want.y, 0.25, 1e-9);
+        EXPECT_NEAR(st.y, 1 - want.y, 1e-6);
+        // Each facet spans v in [0, 1]: over a whole period in v the repeat-
+        // wrapped bilinear mean of a column is (top + bottom) / 2. A facet
+        // whose u lies inside one half (half a texel from its borders) has
+        // that half's mean: (a + c) / 2 left, (b + d) / 2 right.
+        const auto& uv = *patchUVs(s, *p);
+        const double lo = std::min(uv[0].x, uv[1].x), hi = std::max(uv[0].x, uv[1].x);
+        if (lo > 1 / 16.0 && hi < 0.5 - 1 / 16.0) {
+            expectRGB(p->rho, 0.5 * (kA + kC), 1e-6, "left facet");
+            ++left;
+        } else if (lo > 0.5 + 1 / 16.0 && hi < 1 - 1 / 16.0) {
+            expectRGB(p->rho, 0.5 * (kB + kD), 1e-6, "right facet");
+            ++right;
+        }
+    }
+    EXPECT_GE(left, 8);
+    EXPECT_GE(right, 8);
 }
 
 }  // namespace

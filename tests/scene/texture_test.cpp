@@ -99,6 +99,41 @@ TEST(Texture, PatchMeanOfACheckerIsItsAnalyticMean) {
     }
 }
 
+/// elementTextureMean (hr.texture_rho = element): the root domain is the
+/// patch mean bit for bit; where rho is linear each child triangle's mean is
+/// rho at its UV centroid, the inverted middle child included; a child
+/// brighter than 1 is clamped as the loader clamps patch means.
+TEST(Texture, ElementMeansFollowEachElementsOwnDomain) {
+    Texture ramp = checker(2, 0, 0);
+    ramp.height = 1;
+    ramp.texels = {0.1f, 0.1f, 0.1f, 0.7f, 0.7f, 0.7f};
+    ramp.wrapU = ramp.wrapV = TextureWrap::Clamp;
+    // UVs inside the texel centres' span: rho = 0.1 + 1.2 (u - 1/4).
+    Scene s = texturedQuad(ramp, {glm::vec2(0.25, 0.5), {0.75, 0.5}, {0.25, 1.0}, {0.25, 1.0}},
+                           PatchKind::Triangle);
+    const Patch& p = s.patches[0];
+    const RGB root = elementTextureMean(s, p, Domain{});
+    const RGB patch = patchTextureMean(s, p);
+    EXPECT_EQ(root.r, patch.r);
+    EXPECT_EQ(root.b, patch.b);
+    for (int c = 0; c < 4; ++c) {
+        const Domain d = childDomain(p.kind, Domain{}, c);
+        // The UV centroid's u: corners u0, u0 + h, u0 of the parametric
+        // triangle map to UV u = 0.25 + 0.5 * (parametric u).
+        const double uc = 0.25 + 0.5 * (d.u0 + d.h / 3);
+        EXPECT_NEAR(elementTextureMean(s, p, d).r, 0.1 + 1.2 * (uc - 0.25), 1e-7) << c;
+    }
+    // A half-white quad: the white child's mean 1 becomes clamp_rho.
+    Texture half = checker(2, 0.0, 1.0);
+    half.height = 1;
+    half.texels = {0.f, 0.f, 0.f, 1.f, 1.f, 1.f};
+    half.wrapU = half.wrapV = TextureWrap::Clamp;
+    Scene q = texturedQuad(half, {glm::vec2(0.75, 0), {1, 0}, {1, 1}, {0.75, 1}});
+    q.materials[0].diffuseMap.clampRho = 0.95;
+    EXPECT_NEAR(elementTextureMean(q, q.patches[0], Domain{0, 0, 0.5}).g, 1.0, 1e-7);
+    EXPECT_EQ(elementRho(q, q.patches[0], Domain{0, 0, 0.5}).g, 0.95);
+}
+
 TEST(Texture, MeansAreAppliedPerPatchAndClamped) {
     Texture white = checker(2, 1.0, 1.0);
     Scene s = texturedQuad(white, {glm::vec2(0, 0), {1, 0}, {1, 1}, {0, 1}});
