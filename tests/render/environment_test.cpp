@@ -16,7 +16,10 @@
 #include "core/params.h"
 #include "core/rng.h"
 #include "reference/montecarlo.h"
+#include "render/camera.h"
+#include "render/error_map.h"
 #include "render/final_gather.h"
+#include "render/image.h"
 #include "render/render.h"
 #include "scene/field.h"
 #include "scene/lights/light.h"
@@ -200,6 +203,116 @@ TEST(EnvironmentNee, PathTracedAndGatheredImagesMatchTheTexelSum) {
             }
         }
     }
+}
+
+// ---- the sky seen by the camera (render.background) ---------------------------
+
+/// The floor under a constant sky of radiance L, rho `rho`, seen from above
+/// its near edge looking down at its middle: the top rows of the 24 x 16
+/// image miss it (the sky above the horizon).
+struct SkyView {
+    scene::Scene scene;
+    double L;
+};
+SkyView constantSky(double L, double rho) {
+    SkyView v;
+    v.L = L;
+    scene::Material m;
+    m.name = "floor";
+    m.rho = RGB(rho);
+    const uint32_t f = v.scene.addMaterial(m);
+    v.scene.addQuad(Vec3(-2, 0, 2), Vec3(2, 0, 2), Vec3(2, 0, -2), Vec3(-2, 0, -2), f);
+    scene::LightSpec l;
+    l.kind = "constant";
+    l.value = RGB(L);
+    v.scene.lights.push_back(scene::makeLight(l));
+    return v;
+}
+
+render::RenderSettings skySettings(const std::string& rec, const std::string& background) {
+    Params p;
+    p.set("render.width", int64_t(24));
+    p.set("render.height", int64_t(16));
+    p.set("render.reconstruction", rec);
+    p.set("render.background", background);
+    p.set("render.gather_rays", int64_t(4));
+    p.set("render.eye", std::string("0, 1, 3"));
+    p.set("render.target", std::string("0, 0, 0"));
+    return render::RenderSettings::fromParams(p);
+}
+
+// In every reconstruction a pixel whose ray hits nothing shows the sky as
+// radiosity, pi L (an image holds B = pi x radiance: a white floor under
+// the sky would show the same), exactly; with background = black it shows
+// 0; the pixels on the floor are the same bit for bit either way.
+TEST(EnvironmentBackground, MissedPixelsShowTheSkyInEveryReconstruction) {
+    const SkyView v = constantSky(0.75, 0.5);
+    transport::Visibility vis(v.scene);
+    scene::UniformField field(v.scene, scene::uniformLevels(v.scene, 2, 0.0, 2));
+    for (size_t i = 0; i < field.numElements(); ++i) field.value(i) = RGB(0.5 * kPi * v.L);
+    for (const std::string rec :
+         {"flat", "interpolated", "final-gather", "path-traced", "lightmap"}) {
+        const render::RenderSettings env = skySettings(rec, "environment"),
+                                     black = skySettings(rec, "black");
+        const scene::Camera cam = render::chooseCamera(v.scene, vis, env);
+        const render::Image a = render::renderField(v.scene, vis, field, cam, env);
+        const render::Image b = render::renderField(v.scene, vis, field, cam, black);
+        ASSERT_EQ(a.surface.size(), a.pixels.size()) << rec;
+        EXPECT_TRUE(b.surface.empty()) << rec;
+        const render::CameraFrame frame(cam, a.width, a.height);
+        int sky = 0, ground = 0;
+        for (int y = 0; y < a.height; ++y)
+            for (int x = 0; x < a.width; ++x) {
+                const bool miss = !vis.intersect(frame.eye, frame.direction(x + 0.5, y + 0.5)).hit;
+                if (miss) {
+                    ++sky;
+                    EXPECT_EQ(a.at(x, y), RGB(kPi * v.L)) << rec << " " << x << "," << y;
+                    EXPECT_EQ(b.at(x, y), RGB(0.0)) << rec;
+                    EXPECT_EQ(a.surface[size_t(y * a.width + x)], 0.0f);
+                } else {
+                    ++ground;
+                    EXPECT_EQ(a.at(x, y), b.at(x, y)) << rec << " " << x << "," << y;
+                    EXPECT_GT(a.at(x, y).r, 0.0) << rec;
+                    EXPECT_EQ(a.surface[size_t(y * a.width + x)], 1.0f);
+                }
+            }
+        EXPECT_GT(sky, 24) << rec;  // at least the top row
+        EXPECT_GT(ground, 24 * 8) << rec;
+    }
+}
+
+// A sky 100 times brighter than the floor (rho 0.01) would set the key and
+// the clip quantile of the automatic exposure and leave the floor nearly
+// black: the exposure counts surface pixels only, so it is the one of the
+// image with a black background, to the bit (one sample per pixel: every
+// pixel is all sky or all floor), and the sky clips. The error map of the
+// image against itself with the sky changed finds no error on sky pixels.
+TEST(EnvironmentBackground, AutoExposureIsSetByTheSurfacesNotTheSky) {
+    const SkyView v = constantSky(4.0, 0.01);
+    transport::Visibility vis(v.scene);
+    scene::UniformField field(v.scene, scene::uniformLevels(v.scene, 0, 0.0, 0));
+    field.value(0) = RGB(0.01 * kPi * v.L);
+    const render::RenderSettings env = skySettings("flat", "environment"),
+                                 black = skySettings("flat", "black");
+    const scene::Camera cam = render::chooseCamera(v.scene, vis, env);
+    const render::Image a = render::renderField(v.scene, vis, field, cam, env);
+    const render::Image b = render::renderField(v.scene, vis, field, cam, black);
+    const render::ToneMap ta = render::ToneSettings{}.choose(a), tb = render::ToneSettings{}.choose(b);
+    EXPECT_EQ(ta.exposure, tb.exposure);
+    EXPECT_TRUE(ta.clips(a.at(12, 0)));  // the top row is sky
+    // Without the mask the sky would have set it: the clip rule maps the sky
+    // (more than 1 % of the pixels) to 1, 1 / (4 pi), 18 times lower.
+    const render::ToneMap unmasked = render::ToneSettings{}.choose(a.pixels);
+    EXPECT_DOUBLE_EQ(unmasked.exposure, 1.0 / (kPi * v.L));
+    EXPECT_LT(10 * unmasked.exposure, ta.exposure);
+    render::Image c = a;
+    for (size_t i = 0; i < c.pixels.size(); ++i)
+        if (c.surface[i] == 0) c.pixels[i] *= 2.0;
+    const render::ErrorMap m = render::computeErrorMap(c, a);
+    EXPECT_EQ(m.maxAbs, 0.0);
+    size_t floorPixels = 0;
+    for (float f : a.surface) floorPixels += f > 0 ? 1 : 0;
+    EXPECT_EQ(m.pixels, floorPixels);
 }
 
 }  // namespace
