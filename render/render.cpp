@@ -148,7 +148,7 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
         int(params.getInt({key("gather_rays"), "render final-gather: gather rays per pixel"},
                           s.gather.gatherRays, 1, 1 << 20));
     s.gather.shadowRays = int(
-        params.getInt({key("shadow_rays"), "render final-gather: shadow rays per gather sample"},
+        params.getInt({key("shadow_rays"), "render final-gather and path-traced: shadow rays per emitter and draws of each importance-sampled environment, per sample"},
                       s.gather.shadowRays, 1, 1 << 16));
     s.gather.seed = uint64_t(params.getInt(
         {key("seed"), "render: seed of final-gather and path-traced rays"}, 0, 0, INT64_MAX));
