@@ -10,6 +10,23 @@
 
 namespace hrad::app {
 
+namespace {
+/// The non-area lights (scene/lights/light.h): describe(), which names the
+/// kind and its parameters (an envmap's file, size, scale and mean
+/// radiance), the power each sends into the scene's bounding sphere (max
+/// channel, the oracles' power scale), and whether the random walks draw it
+/// by next-event estimation (importance-sampled).
+void printLights(const scene::Scene& s) {
+    if (s.lights.empty()) return;
+    const double R = 0.5 * s.bounds().diagonal();
+    fmt::print("lights         {} non-area (power: into the bounding sphere, max channel)\n",
+               s.lights.size());
+    for (const auto& l : s.lights)
+        fmt::print("  {}; power {:.6g} W{}\n", l->describe(), l->power(R),
+                   l->importanceSampled() ? "; importance-sampled" : "");
+}
+}  // namespace
+
 int runInfo(const std::string& spec, Params& params) {
     scene::Scene s = transport::loadScene(spec, params);
     params.reportUnused();
@@ -62,6 +79,7 @@ int runInfo(const std::string& spec, Params& params) {
     fmt::print("total area     {:.6g}\n", s.totalArea());
     fmt::print("emitted power  ({:.6g}, {:.6g}, {:.6g})  [E * area, RGB]\n", power.r, power.g,
                power.b);
+    printLights(s);
     fmt::print("bounds         ({:.6g}, {:.6g}, {:.6g}) .. ({:.6g}, {:.6g}, {:.6g})\n", b.lo.x,
                b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
     if (s.camera)

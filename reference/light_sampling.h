@@ -62,10 +62,11 @@ Vec3 sampleCosine(const Vec3& n, Pcg32& rng);
 /// Direct light at x (front of `patch`, normal n) by next-event estimation:
 /// from the area emitters `em` (one emitter point, MIS-weighted when `mis`)
 /// plus every delta light of the scene (point, spot, sun: one shadow ray
-/// each, exact; scene/lights/light.h). Environments are not sampled here:
-/// a cosine ray that escapes picks up pi L(w) (environmentHit), which for a
-/// constant sky is already the ideal density (pdf cos t / pi is
-/// proportional to the unoccluded integrand), so MIS would add nothing.
+/// each, exact; scene/lights/light.h). Environments are not drawn here: a
+/// cosine ray that escapes picks up pi L(w), which for a constant sky is
+/// already the ideal density (pdf cos t / pi is proportional to the
+/// unoccluded integrand); an importance-sampled map is drawn beside it by
+/// the walk (reference/montecarlo.h, transport::sampledEnvironmentDirect).
 /// `rays` counts the shadow rays.
 RGB directLight(const scene::Scene& s, const transport::Visibility& vis, const EmitterTable& em,
                 const Vec3& x, const Vec3& n, uint32_t patch, bool mis, Pcg32& rng,

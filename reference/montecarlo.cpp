@@ -31,7 +31,8 @@ class Walker {
     Walker(const scene::Scene& s, const transport::Visibility& vis, const EmitterTable& em,
            const MonteCarloSettings& st)
         : scene_(s), vis_(vis), em_(em), maxDepth_(st.maxDepth), mis_(st.mis),
-          hasEnv_(transport::hasEnvironment(s)) {}
+          hasEnv_(transport::hasEnvironment(s)),
+          envMis_(st.environmentMis && transport::hasSampledEnvironment(s)) {}
 
     uint64_t rays = 0;
 
@@ -42,13 +43,15 @@ class Walker {
             const scene::Patch& p = scene_.patches[patch];
             // Light paths ending after depth + 1 segments: NEE at x_depth ...
             H += beta * direct(x, p.normal, patch, rng);
+            if (envMis_)  // the sampled environments' light draw (balance heuristic)
+                H += beta * transport::sampledEnvironmentDirect(scene_, vis_, x, p.normal, patch,
+                                                                1, 1, rng, rays);
             // ... and (with MIS) the emitter hit by the cosine ray below.
             Vec3 dir = sampleCosine(p.normal, rng);
             ++rays;
             transport::RayHit hit = vis_.intersect(x, dir, 0.0, 1e300, patch);
             if (!hit.hit) {
-                // Escaped: the environment's radiance, scored pi L by the cosine pdf.
-                if (hasEnv_) H += beta * (kPi * transport::environmentRadiance(scene_, dir));
+                if (hasEnv_) H += beta * escaped(p.normal, dir);
                 break;
             }
             const scene::Patch& q = scene_.patches[hit.patch];
@@ -77,12 +80,21 @@ class Walker {
         return directLight(scene_, vis_, em_, x, n, patch, mis_, rng, rays);
     }
 
+    /// What a cosine ray of direction dir that left the scene scores.
+    RGB escaped(const Vec3& n, const Vec3& dir) const {
+        // Cosine alone: pi L by the cosine pdf.
+        if (!envMis_) return kPi * transport::environmentRadiance(scene_, dir);
+        return kPi * transport::unsampledEnvironmentRadiance(scene_, dir) +
+               transport::sampledEnvironmentEscape(scene_, n, dir, 1, 1);
+    }
+
     const scene::Scene& scene_;
     const transport::Visibility& vis_;
     const EmitterTable& em_;
     int maxDepth_;
     bool mis_;
     bool hasEnv_;
+    bool envMis_;  ///< mc.environment = mis and an importanceSampled() light
 };
 
 }  // namespace
@@ -113,13 +125,19 @@ MonteCarloSettings MonteCarloSettings::fromParams(const Params& params, const st
                                     int64_t(s.seed), 0, std::numeric_limits<int64_t>::max()));
     s.mis = params.getBool(
         {key("mis"), "Monte Carlo: multiple importance sampling of next-event estimation"}, s.mis);
+    s.environmentMis =
+        params.getEnum({key("environment"),
+                        "Monte Carlo: importance-sampled environments (envmaps) by light draws "
+                        "and cosine rays with MIS, or by escaping cosine rays alone"},
+                       "mis", {"mis", "cosine"}) == "mis";
     return s;
 }
 
 std::string MonteCarloSettings::describe() const {
     return fmt::format(
-        "level={} max_area={} max_level={} samples={} time_budget={} max_depth={} seed={} mis={}",
-        level, maxArea, maxLevel, samples, timeBudget, maxDepth, seed, mis);
+        "level={} max_area={} max_level={} samples={} time_budget={} max_depth={} seed={} mis={}{}",
+        level, maxArea, maxLevel, samples, timeBudget, maxDepth, seed, mis,
+        environmentMis ? "" : " environment=cosine");
 }
 
 MonteCarloResult solveMonteCarlo(const scene::Scene& scene, const transport::Visibility& visibility,

@@ -14,7 +14,13 @@
 // Emission hit by an indirect ray is not added (D's job). Non-area lights
 // (scene/lights/light.h): D includes every delta light by one shadow ray
 // (reference/light_sampling.h), and a ray that escapes the scene adds
-// pi L(w) of the environment (light otherwise escaping is lost).
+// pi L(w) of the environment (light otherwise escaping is lost). An
+// environment that is importanceSampled() (an envmap that varies) is, with
+// `environment` = mis (default), also drawn at every vertex: one draw of
+// its sample() and the walk's own cosine ray, weighted by the power
+// heuristic (Veach & Guibas 1995; transport/light_irradiance.h), so a small
+// bright sun is found by the light draw instead of by rare cosine hits. `environment` = cosine
+// keeps the escaping rays alone (pi L: unbiased, heavy-tailed for a sun).
 //
 // Multiple importance sampling (`mis`, default on): pure NEE has infinite
 // variance where an emitter meets a receiver at an edge (the second moment
@@ -61,11 +67,19 @@ struct MonteCarloSettings {
     int maxDepth = 0;
     uint64_t seed = 1;
     bool mis = true;
+    /// mc.environment: importance-sampled environments by light draws and
+    /// cosine rays (mis) or by escaping cosine rays alone (cosine).
+    bool environmentMis = true;
 
     /// Reads the keys listed above below `prefix` ("mc.level", "mc.samples", ...).
     static MonteCarloSettings fromParams(const Params& params, const std::string& prefix = "mc");
     /// One line, "level=0 max_area=0 ... seed=1"; every setting that changes
-    /// the result appears (it is part of the reference cache key).
+    /// the result appears (it is part of the reference cache key);
+    /// environment only when it is cosine, so the keys of references made
+    /// before the setting existed stay valid (without an importance-sampled
+    /// environment both values give the same paths bit for bit; with one,
+    /// such an entry is a cosine-only estimate: unbiased, its own standard
+    /// error stored beside it).
     std::string describe() const;
 };
 

@@ -24,9 +24,13 @@ ErrorMap computeErrorMap(const Image& solution, const Image& reference, double f
     std::vector<double> ys(n), yr(n);
     double sumRef = 0.0;
     size_t shown = 0;
+    // Pixels of sky alone in both renders (Image::surface, render.background)
+    // carry no error, as the black misses did before the sky was shown.
+    const bool masks = solution.surface.size() == n && reference.surface.size() == n;
     for (size_t i = 0; i < n; ++i) {
-        ys[i] = luminance(solution.pixels[i]);
-        yr[i] = luminance(reference.pixels[i]);
+        const bool sky = masks && solution.surface[i] == 0 && reference.surface[i] == 0;
+        ys[i] = sky ? 0.0 : luminance(solution.pixels[i]);
+        yr[i] = sky ? 0.0 : luminance(reference.pixels[i]);
         if (yr[i] > 0 || ys[i] > 0) {
             sumRef += yr[i];
             ++shown;

@@ -10,7 +10,9 @@
 // Y_s > 0). e is the signed relative error: negative where the solution is
 // too dark, positive where it is too bright. The floor keeps e finite on
 // surfaces the reference shows (almost) black. Pixels where both renders are
-// black (rays that miss, black surfaces) carry no error and are NaN.
+// black (rays that miss, black surfaces) carry no error and are NaN, and so
+// do pixels that show the sky alone in both (Image::surface 0: rays that
+// miss under render.background = environment).
 //
 // Statistics over the finite pixels: the mean and 95th percentile of |e|, its
 // maximum, and the image-space relative errors of luminance

@@ -32,7 +32,8 @@ bool isEmitter(const scene::Patch& p) {
 
 Gatherer::Gatherer(const scene::Scene& scene, const transport::Visibility& visibility,
                    GatherSettings settings)
-    : scene_(&scene), vis_(&visibility), settings_(settings) {
+    : scene_(&scene), vis_(&visibility), settings_(settings),
+      hasSampledEnv_(transport::hasSampledEnvironment(scene)) {
     for (uint32_t i = 0; i < scene.patches.size(); ++i)
         if (isEmitter(scene.patches[i])) emitters_.push_back(i);
 }
@@ -84,7 +85,8 @@ RGB Gatherer::finalGather(const scene::RadiosityField& field, uint32_t patch, co
     const int n = settings_.gatherRays;
     const int strata = int(std::lround(std::sqrt(double(n))));
     const bool stratified = strata * strata == n;
-    RGB ind(0.0);
+    const bool envMis = hasSampledEnv_;
+    RGB ind(0.0), env(0.0);  // env: the sampled environments' cosine half, already weighted
     for (int s = 0; s < n; ++s) {
         double r1 = rng.nextDouble(), r2 = rng.nextDouble();
         if (stratified) {
@@ -94,7 +96,13 @@ RGB Gatherer::finalGather(const scene::RadiosityField& field, uint32_t patch, co
         Vec3 dir = cosineDir(r.normal, r1, r2);
         transport::RayHit h = vis_->intersect(x, dir, 0.0, 1e300, patch);
         if (!h.hit) {
-            ind += kPi * transport::environmentRadiance(*scene_, dir);  // the sky, pi L by the cosine pdf
+            if (!envMis) {
+                ind += kPi * transport::environmentRadiance(*scene_, dir);  // the sky, pi L by the cosine pdf
+                continue;
+            }
+            ind += kPi * transport::unsampledEnvironmentRadiance(*scene_, dir);
+            env += transport::sampledEnvironmentEscape(*scene_, r.normal, dir,
+                                                       settings_.shadowRays, n);
             continue;
         }
         const scene::Patch& q = scene_->patches[h.patch];
@@ -103,7 +111,18 @@ RGB Gatherer::finalGather(const scene::RadiosityField& field, uint32_t patch, co
         if (q.kind == scene::PatchKind::Triangle && uv.x + uv.y > 1) uv /= uv.x + uv.y;
         ind += field.at(h.patch, uv.x, uv.y) - q.emission;
     }
-    return r.emission + rhoAt(patch, x) * (direct(patch, x, rng) + ind / double(n));
+    if (!envMis) return r.emission + rhoAt(patch, x) * (direct(patch, x, rng) + ind / double(n));
+    const RGB d = direct(patch, x, rng);
+    env += environmentDirect(patch, x, n, rng);
+    return r.emission + rhoAt(patch, x) * (d + ind / double(n) + env);
+}
+
+RGB Gatherer::environmentDirect(uint32_t patch, const Vec3& x, int cosineSamples,
+                                Pcg32& rng) const {
+    uint64_t rays = 0;  // not reported: the image counts no rays
+    return transport::sampledEnvironmentDirect(*scene_, *vis_, x, scene_->patches[patch].normal,
+                                               patch, settings_.shadowRays, cosineSamples, rng,
+                                               rays);
 }
 
 RGB Gatherer::rhoAt(uint32_t patch, const Vec3& x) const {
@@ -127,6 +146,7 @@ RGB Gatherer::pathTraced(uint32_t patch, const Vec3& x0, Pcg32& rng) const {
         const scene::Patch& p = scene_->patches[cur];
         throughput *= rhoAt(cur, x);
         result += throughput * direct(cur, x, rng);
+        if (hasSampledEnv_) result += throughput * environmentDirect(cur, x, 1, rng);
         if (depth >= 3) {
             double q = std::min(0.95, maxComponent(throughput));
             if (!(q > 0) || rng.nextDouble() >= q) break;
@@ -135,8 +155,13 @@ RGB Gatherer::pathTraced(uint32_t patch, const Vec3& x0, Pcg32& rng) const {
         Vec3 dir = cosineDir(p.normal, rng.nextDouble(), rng.nextDouble());
         transport::RayHit h = vis_->intersect(x, dir, 0.0, 1e300, cur);
         if (!h.hit) {
-            // Escaped: the environment (no MIS: see final_gather.h).
-            result += throughput * (kPi * transport::environmentRadiance(*scene_, dir));
+            // Escaped: the environment, MIS-weighted for the sampled ones (final_gather.h).
+            if (!hasSampledEnv_)
+                result += throughput * (kPi * transport::environmentRadiance(*scene_, dir));
+            else
+                result += throughput * (kPi * transport::unsampledEnvironmentRadiance(*scene_, dir) +
+                                        transport::sampledEnvironmentEscape(
+                                            *scene_, p.normal, dir, settings_.shadowRays, 1));
             break;
         }
         if (glm::dot(scene_->patches[h.patch].normal, dir) >= 0) break;

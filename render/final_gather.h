@@ -22,11 +22,14 @@
 // converges to the exact radiosity: the Monte Carlo reference image.
 //
 // Non-area lights (scene/lights/light.h) in both: D(x) adds every point,
-// spot and sun light by one shadow ray (exact), and a gather or path ray
-// that escapes adds pi L(w) of the environment (cosine sampling only: for a
-// constant sky its pdf is proportional to the unoccluded integrand, so MIS
-// with light sampling would add nothing; an importance-sampled envmap would
-// want it).
+// spot and sun light by one shadow ray (exact). An environment that is
+// importanceSampled() (an envmap that varies) is drawn by next-event
+// estimation, shadow_rays draws of its sample() at x, beside the cosine
+// rays that escape (gather_rays of them in the final gather, the path's one
+// at a path vertex), all weighted by the power heuristic (Veach & Guibas
+// 1995; transport/light_irradiance.h). Other environments (a constant sky)
+// score pi L(w) on escaping rays alone: the cosine pdf is proportional to
+// their unoccluded integrand, so light draws would add rays and nothing else.
 //
 // Both are deterministic per (seed, pixel, sample): the random sequence of a
 // sample is seeded by hashIds(seed, pixel, sample), so images do not depend
@@ -38,7 +41,8 @@
 //                                 "path-traced" (render/render.h)
 //   gather_rays    int    64      indirect rays per pixel sample (final gather);
 //                                 a square k*k is stratified over the hemisphere
-//   shadow_rays    int    4       points per emitter for the direct term
+//   shadow_rays    int    4       points per emitter for the direct term, and
+//                                 draws of each importance-sampled environment
 //   seed           int    0       seed of every sampled image
 #pragma once
 
@@ -77,10 +81,14 @@ class Gatherer {
   private:
     /// rho(x) at x on `patch` with textures on, else the patch's rho.
     RGB rhoAt(uint32_t patch, const Vec3& x) const;
+    /// The sampled environments' light half at x (shadow_rays draws, each
+    /// weighted against `cosineSamples` cosine rays).
+    RGB environmentDirect(uint32_t patch, const Vec3& x, int cosineSamples, Pcg32& rng) const;
     const scene::Scene* scene_;
     const transport::Visibility* vis_;
     GatherSettings settings_;
     std::vector<uint32_t> emitters_;
+    bool hasSampledEnv_ = false;  ///< an importanceSampled() light (transport/light_irradiance.h)
 };
 
 }  // namespace hrad::render

@@ -147,7 +147,14 @@ ToneMap ToneSettings::choose(const std::vector<RGB>& values, const std::vector<d
     return t;
 }
 
-ToneMap ToneSettings::choose(const Image& image) const { return choose(image.pixels); }
+ToneMap ToneSettings::choose(const Image& image) const {
+    if (image.surface.empty()) return choose(image.pixels);
+    // Weighted by the pixels' surface share (header); sky alone: all pixels.
+    std::vector<double> w(image.surface.begin(), image.surface.end());
+    bool any = false;
+    for (size_t i = 0; i < w.size() && !any; ++i) any = w[i] > 0 && luminance(image.pixels[i]) > 0;
+    return any ? choose(image.pixels, w) : choose(image.pixels);
+}
 
 double clippedShare(const std::vector<RGB>& values, const ToneMap& tone,
                     const std::vector<double>& weights, bool nonBlackOnly) {

@@ -16,7 +16,13 @@
 // exposure drops until exactly the (1 - max_clipped) quantile of the largest
 // channel maps to 1; with `reinhard`, L_w is that quantile (exposed). So at
 // most max_clipped (1 %) of the non-black pixels clip either way. Values are
-// weighted (by area for a field's leaves).
+// weighted (by area for a field's leaves). An image that shows the sky
+// (Image::surface set) weights each pixel by its share of surface samples:
+// a bright sky would otherwise set both the key and the clip quantile and
+// leave the surfaces dark; so the exposure is about the one of the
+// surfaces alone (as with render.background = black) and the sky may clip, as a
+// photograph exposed for the ground does. An image of sky alone is
+// exposed for the sky.
 //
 // Settings (ToneSettings::fromParams, below "render"):
 //   exposure     double 0       > 0: fixed; 0: automatic as above
@@ -40,6 +46,10 @@ namespace hrad::render {
 struct Image {
     int width = 0, height = 0;
     std::vector<RGB> pixels;  ///< row-major, row 0 at the top
+    /// Empty, or per pixel the share of its samples that hit a surface, set
+    /// by a render that shows the environment on the other samples
+    /// (render.background, render/render.h); empty means every pixel is surface.
+    std::vector<float> surface;
 
     Image() = default;
     Image(int w, int h) : width(w), height(h), pixels(size_t(w) * size_t(h), RGB(0.0)) {}

@@ -20,6 +20,7 @@
 #include "render/camera.h"
 #include "render/texturing.h"
 #include "scene/element.h"
+#include "transport/light_irradiance.h"
 
 namespace hrad::render {
 
@@ -147,7 +148,7 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
         int(params.getInt({key("gather_rays"), "render final-gather: gather rays per pixel"},
                           s.gather.gatherRays, 1, 1 << 20));
     s.gather.shadowRays = int(
-        params.getInt({key("shadow_rays"), "render final-gather: shadow rays per gather sample"},
+        params.getInt({key("shadow_rays"), "render final-gather and path-traced: shadow rays per emitter and draws of each importance-sampled environment, per sample"},
                       s.gather.shadowRays, 1, 1 << 16));
     s.gather.seed = uint64_t(params.getInt(
         {key("seed"), "render: seed of final-gather and path-traced rays"}, 0, 0, INT64_MAX));
@@ -160,6 +161,11 @@ RenderSettings RenderSettings::fromParams(const Params& params, const std::strin
     s.backFacesBlack =
         params.getEnum({key("back_faces"), "render: back faces black, or shaded as front faces"},
                        "black", {"black", "front"}) == "black";
+    s.backgroundEnvironment =
+        params.getEnum({key("background"),
+                        "render: what primary rays that hit nothing show: the environment (its "
+                        "radiance L as radiosity pi L) or black"},
+                       "environment", {"environment", "black"}) == "environment";
     s.camera = readExplicitCamera(params, key);
     return s;
 }
@@ -203,10 +209,11 @@ std::string RenderSettings::describe() const {
                           ? fmt::format(" reconstruction=lightmap lightmap_size={} lightmap_density={}",
                                         lightmap.size, lightmap.density)
                           : std::string();
-    return fmt::format("width={} height={} spp={} interpolate={} crease_angle={} back_faces={} textures={} "
-                       "texture_filter={} camera={}{}",
+    return fmt::format("width={} height={} spp={} interpolate={} crease_angle={} back_faces={} "
+                       "background={} textures={} texture_filter={} camera={}{}",
                        width, height, spp, interpolate, smooth.creaseDegrees,
-                       backFacesBlack ? "black" : "front", textures ? "on" : "off",
+                       backFacesBlack ? "black" : "front",
+                       backgroundEnvironment ? "environment" : "black", textures ? "on" : "off",
                        textureFilter == TextureFilter::Mip ? "mip" : "bilinear", cam, rec);
 }
 
@@ -216,6 +223,34 @@ scene::Camera chooseCamera(const scene::Scene& scene, const transport::Visibilit
 }
 
 namespace {
+
+/// render.background: what a primary ray that hits nothing shows. With an
+/// environment shown, every image also records the share of each pixel's
+/// samples that hit a surface (Image::surface), so that the automatic
+/// exposure and the error maps see the surfaces, not the sky.
+class Background {
+  public:
+    Background(const scene::Scene& scene, const RenderSettings& settings)
+        : scene_(scene),
+          shown_(settings.backgroundEnvironment && transport::hasEnvironment(scene)) {}
+    bool shown() const { return shown_; }
+    /// The environment along dir as radiosity: pi L (an image holds B = pi x radiance).
+    RGB miss(const Vec3& dir) const {
+        return 3.14159265358979323846 * transport::environmentRadiance(scene_, dir);
+    }
+    void prepare(std::vector<Image>& img) const {
+        if (shown_)
+            for (Image& i : img) i.surface.assign(i.pixels.size(), 1.0f);
+    }
+    void record(std::vector<Image>& img, int x, int y, int hits, int spp) const {
+        if (shown_)
+            for (Image& i : img) i.surface[size_t(y) * size_t(i.width) + size_t(x)] = float(hits) / float(spp);
+    }
+
+  private:
+    const scene::Scene& scene_;
+    bool shown_;
+};
 
 /// Final gather / path tracing: parallel over 16 x 16 tiles; every sample's
 /// random sequence is seeded by (seed, pixel, sample), so the image does not
@@ -228,6 +263,8 @@ std::vector<Image> renderGathered(const scene::Scene& scene, const transport::Vi
     Gatherer gatherer(scene, visibility, settings.gather);
     CameraFrame frame(camera, settings.width, settings.height);
     std::vector<Image> img(nf, Image(settings.width, settings.height));
+    const Background background(scene, settings);
+    background.prepare(img);
     const int spp = settings.spp, tile = 16;
     const int tx = (settings.width + tile - 1) / tile, ty = (settings.height + tile - 1) / tile;
     ProgressBar bar(path ? "path tracing" : "final gather", uint64_t(tx) * ty, settings.showProgress);
@@ -239,13 +276,19 @@ std::vector<Image> renderGathered(const scene::Scene& scene, const transport::Vi
                 for (int x = x0; x < std::min(x0 + tile, settings.width); ++x) {
                     std::fill(sum.begin(), sum.end(), RGB(0.0));
                     const uint64_t pixel = uint64_t(y) * uint64_t(settings.width) + uint64_t(x);
+                    int hits = 0;
                     for (int s = 0; s < spp; ++s) {
                         Pcg32 rng(hashIds(settings.gather.seed, pixel, uint64_t(s)));
                         double jx = spp > 1 ? rng.nextDouble() : 0.5;
                         double jy = spp > 1 ? rng.nextDouble() : 0.5;
                         Vec3 dir = frame.direction(x + jx, y + jy);
                         transport::RayHit hit = visibility.intersect(frame.eye, dir);
-                        if (!hit.hit) continue;
+                        if (!hit.hit) {
+                            if (background.shown())
+                                for (size_t f = 0; f < nf; ++f) sum[f] += background.miss(dir);
+                            continue;
+                        }
+                        ++hits;
                         const scene::Patch& p = scene.patches[hit.patch];
                         if (glm::dot(dir, p.normal) > 0) {
                             if (settings.backFacesBlack) continue;
@@ -258,6 +301,7 @@ std::vector<Image> renderGathered(const scene::Scene& scene, const transport::Vi
                         }
                     }
                     for (size_t f = 0; f < nf; ++f) img[f].at(x, y) = sum[f] / double(spp);
+                    background.record(img, x, y, hits, spp);
                 }
             bar.add(1);
         }
@@ -301,6 +345,8 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
     const bool mip = tex && tex->filter() == TextureFilter::Mip;
     CameraFrame frame(camera, settings.width, settings.height);
     std::vector<Image> img(nf, Image(settings.width, settings.height));
+    const Background background(scene, settings);
+    background.prepare(img);
     const int spp = settings.spp;
     const int strata = int(std::lround(std::sqrt(double(spp))));
     const bool stratified = strata * strata == spp;
@@ -319,6 +365,7 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
                 for (int x = 0; x < settings.width; ++x) {
                     Pcg32 rng(hashIds(uint64_t(x), uint64_t(y)));
                     std::fill(sum.begin(), sum.end(), RGB(0.0));
+                    int hits = 0;
                     for (int s = 0; s < spp; ++s) {
                         double jx = 0.5, jy = 0.5;
                         if (spp > 1) {
@@ -331,7 +378,12 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
                         }
                         Vec3 dir = frame.direction(x + jx, y + jy);
                         transport::RayHit hit = visibility.intersect(frame.eye, dir);
-                        if (!hit.hit) continue;
+                        if (!hit.hit) {
+                            if (background.shown())
+                                for (size_t f = 0; f < nf; ++f) sum[f] += background.miss(dir);
+                            continue;
+                        }
+                        ++hits;
                         const scene::Patch& p = scene.patches[hit.patch];
                         if (settings.backFacesBlack && glm::dot(dir, p.normal) > 0) continue;
                         Vec2 uv = scene::clampToPatchDomain(p.kind, scene::patchInverse(p, hit.point));
@@ -350,6 +402,7 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
                         }
                     }
                     for (size_t f = 0; f < nf; ++f) img[f].at(x, y) = sum[f] / double(spp);
+                    background.record(img, x, y, hits, spp);
                 }
             }
         });

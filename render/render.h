@@ -57,7 +57,17 @@
 //                                render/texturing.h), "bilinear": rho(x) at
 //                                the hit alone. Flat, interpolated and
 //                                lightmap-less pictures only
-// Rays that hit nothing are black.
+//   background   string  "environment" what primary rays that hit nothing
+//                                show: "environment" the scene's environment
+//                                lights (constant, envmap) along the ray, as
+//                                radiosity pi L like every pixel (B = pi x
+//                                radiance), in every reconstruction; "black".
+//                                Without an environment they are black either
+//                                way. With the sky shown, Image::surface holds
+//                                each pixel's share of samples that hit a
+//                                surface: the automatic exposure
+//                                (render/image.h) and the error maps
+//                                (render/error_map.h) count surfaces only
 #pragma once
 
 #include <memory>
@@ -91,6 +101,8 @@ struct RenderSettings {
     int spp = 1;
     int64_t maxSamples = int64_t(1) << 26;  ///< render.max_samples: width x height x spp bound
     bool backFacesBlack = true;
+    /// render.background = environment: misses show the environment (above).
+    bool backgroundEnvironment = true;
     /// render.textures: textured patches show E + rho(x) H (render/texturing.h).
     bool textures = true;
     /// render.texture_filter (render/texturing.h).

@@ -136,6 +136,67 @@ RGB environmentRadiance(const scene::Scene& s, const Vec3& dir) {
     return L;
 }
 
+bool hasSampledEnvironment(const scene::Scene& s) {
+    for (const auto& l : s.lights)
+        if (l->importanceSampled()) return true;
+    return false;
+}
+
+namespace {
+/// The power heuristic's score of direction w for light l, drawn by either
+/// strategy (header): with a = n_l pdf_l(w), b = n_c cos t / pi, a light
+/// draw scores a f / (a^2 + b^2) and a cosine draw b f / (a^2 + b^2),
+/// f = L(w) cos t; `fromLight` says which.
+RGB powerScore(const scene::Light& l, const Vec3& n, const Vec3& w, int nl, int nc,
+               bool fromLight) {
+    const double c = glm::dot(n, w);
+    if (!(c > 0)) return RGB(0.0);
+    const RGB L = l.radiance(w);
+    if (!(maxComponent(L) > 0)) return RGB(0.0);
+    const double a = nl * l.pdf(w), b = nc * c / kPi;
+    return L * (c * (fromLight ? a : b) / (a * a + b * b));
+}
+}  // namespace
+
+RGB sampledEnvironmentDirect(const scene::Scene& s, const Visibility& vis, const Vec3& x,
+                             const Vec3& n, uint32_t patch, int lightSamples, int cosineSamples,
+                             Pcg32& rng, uint64_t& rays) {
+    // m x m strata of the unit square when n_l = m^2 (Veach 1997 sec. 2.7),
+    // else independent draws.
+    const int m = int(std::lround(std::sqrt(double(lightSamples))));
+    const bool strata = m * m == lightSamples;
+    RGB sum(0.0);
+    for (const auto& l : s.lights) {
+        if (!l->importanceSampled()) continue;
+        for (int k = 0; k < lightSamples; ++k) {
+            double u1 = rng.nextDouble(), u2 = rng.nextDouble();
+            if (strata) u1 = (k % m + u1) / m, u2 = (k / m + u2) / m;
+            const Vec3 w = l->sample(x, u1, u2).dir;
+            const RGB e = powerScore(*l, n, w, lightSamples, cosineSamples, true);
+            if (!(maxComponent(e) > 0)) continue;
+            ++rays;
+            if (!blocked(vis, x, w, std::numeric_limits<double>::infinity(), patch)) sum += e;
+        }
+    }
+    return sum;
+}
+
+RGB sampledEnvironmentEscape(const scene::Scene& s, const Vec3& n, const Vec3& dir,
+                             int lightSamples, int cosineSamples) {
+    RGB sum(0.0);
+    for (const auto& l : s.lights)
+        if (l->importanceSampled())
+            sum += powerScore(*l, n, dir, lightSamples, cosineSamples, false);
+    return sum;
+}
+
+RGB unsampledEnvironmentRadiance(const scene::Scene& s, const Vec3& dir) {
+    RGB L(0.0);
+    for (const auto& l : s.lights)
+        if (!l->importanceSampled()) L += l->radiance(dir);
+    return L;
+}
+
 bool hasEnvironment(const scene::Scene& s) {
     for (const auto& l : s.lights)
         if (!l->isDelta()) return true;

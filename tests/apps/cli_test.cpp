@@ -793,3 +793,38 @@ TEST(Cli, LinkCostSecondsAreCpuTime) {
     // The strided estimate (every 8th evaluation times 8) may overshoot a little.
     EXPECT_LT(sum, 1.25 * s["cpu_seconds"].get<double>()) << s["link_cost"].dump();
 }
+
+// `hrad info` lists the non-area lights: kind and parameters (an envmap's
+// file and size), each one's power into the bounding sphere (max channel:
+// 4 pi I for a point, pi L 4 pi R^2 for a sky, R = sqrt(2) here) and which
+// ones the random walks draw by next-event estimation; no such section
+// without lights.
+TEST(Cli, InfoListsTheLights) {
+    auto dir = hrad::test::tempDir("cli_info_lights");
+    // A 4 x 2 Radiance HDR, flat RGBE: every texel 1 (128 128 128 e 129)
+    // but one of 2 (exponent 130), so the map varies and is importance-sampled.
+    std::string hdr = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 2 +X 4\n";
+    for (int k = 0; k < 8; ++k) hdr += std::string("\x80\x80\x80") + char(k == 2 ? 0x82 : 0x81);
+    hrad::test::writeFile(dir / "sky.hdr", hdr);
+    auto xml = hrad::test::writeFile(dir / "lights.xml", R"(<scene version="3.0.0">
+  <shape type="rectangle"><bsdf type="diffuse"/></shape>
+  <emitter type="point"><point name="position" x="0" y="0" z="1"/><rgb name="intensity" value="2, 1, 1"/></emitter>
+  <emitter type="constant"><rgb name="radiance" value="0.5"/></emitter>
+  <emitter type="envmap"><string name="filename" value="sky.hdr"/></emitter>
+</scene>
+)");
+    Result r = run("info " + xml.string());
+    ASSERT_EQ(r.code, 0) << r.output;
+    for (const char* line :
+         {"lights         3 non-area",
+          "\n  point at (0, 0, 1) I = (2, 1, 1) W/sr; power 25.1327 W\n",
+          "\n  constant environment L = (0.5, 0.5, 0.5) W/m^2/sr; power 39.4784 W\n",
+          "\n  envmap 'sky.hdr' 4 x 2, scale 1, "})
+        EXPECT_NE(r.output.find(line), std::string::npos) << line << "\n" << r.output;
+    const size_t env = r.output.find("envmap 'sky.hdr'");
+    EXPECT_NE(r.output.find("; importance-sampled\n", env), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("importance-sampled"), r.output.rfind("importance-sampled"));
+    Result plain = run("info cornell");
+    ASSERT_EQ(plain.code, 0) << plain.output;
+    EXPECT_EQ(plain.output.find("lights "), std::string::npos) << plain.output;
+}
