@@ -18,6 +18,7 @@
 #include "core/error.h"
 #include "core/safe_file.h"
 #include "core/log.h"
+#include "transport/light_irradiance.h"
 
 namespace hrad::reference {
 
@@ -472,7 +473,17 @@ std::unique_ptr<scene::LeafField> loadSolution(const std::string& path, const sc
         eMax = std::max(eMax, maxComponent(m.emission));
         rhoMax = std::max(rhoMax, maxComponent(m.rho));
     }
-    double bound = 1000.0 * eMax / std::max(1e-12, 1.0 - rhoMax) + 1e-300;
+    const double emitterBound = 1000.0 * eMax / std::max(1e-12, 1.0 - rhoMax) + 1e-300;
+    // Lights that are not patches (point, spot, sun, sky: scene/lights/)
+    // bound a patch by power instead: A_p B_p is at most the radiosity power
+    // of the whole scene, P / (1 - rho_max), P their power into the scene's
+    // bounding sphere (transport::lightsPower), widened 1000x as above.
+    const double lightPower =
+        scene.lights.empty() ? 0.0 : 1000.0 * transport::lightsPower(scene) / std::max(1e-12, 1.0 - rhoMax);
+    auto boundOf = [&](uint64_t p) {
+        return lightPower > 0 ? emitterBound + lightPower / std::max(1e-300, scene.patches[p].area)
+                              : emitterBound;
+    };
     uint32_t degree = 0;
     if (version == kSolutionVersionPolynomial) {
         size_t at = r.pos;
@@ -488,6 +499,7 @@ std::unique_ptr<scene::LeafField> loadSolution(const std::string& path, const sc
     std::vector<std::vector<scene::LeafField::Leaf>> leaves(patches);
     std::vector<std::vector<RGB>> higher(degree > 0 ? patches : 0);
     for (uint64_t p = 0; p < patches; ++p) {
+        const double bound = boundOf(p);
         size_t countAt = r.pos;
         auto n = r.pod<uint32_t>();
         if (r.bad || (buf.size() - r.pos) / leafBytes < n)

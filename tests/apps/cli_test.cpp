@@ -828,3 +828,23 @@ TEST(Cli, InfoListsTheLights) {
     ASSERT_EQ(plain.code, 0) << plain.output;
     EXPECT_EQ(plain.output.find("lights "), std::string::npos) << plain.output;
 }
+
+// A solution lit only by lights that are not patches (a point light over a
+// plane) is rendered again from its .hrsol: the load's radiosity bound
+// counts the lights' power (reference/cache.cpp), where an emission-only
+// bound of 0 refused every leaf as "outside what the scene can produce".
+TEST(Cli, RenderReadsASolutionLitOnlyByAPointLight) {
+    auto dir = hrad::test::tempDir("cli_point_render");
+    auto xml = hrad::test::writeFile(dir / "point.xml", R"(<scene version="3.0.0">
+  <shape type="rectangle"><bsdf type="diffuse"/></shape>
+  <emitter type="point"><point name="position" x="0" y="0" z="1"/><rgb name="intensity" value="2"/></emitter>
+</scene>
+)");
+    Result s = run("solve " + xml.string() + " --no-images --no-ply -o " + (dir / "o").string());
+    ASSERT_EQ(s.code, 0) << s.output;
+    Result r = run("render " + xml.string() + " " + (dir / "o" / "solution.hrsol").string() +
+                   " --width 32 --height 24 -o " + (dir / "img").string());
+    EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_EQ(r.output.find("outside what the scene"), std::string::npos) << r.output;
+    EXPECT_TRUE(std::filesystem::exists(dir / "img" / "image.png")) << r.output;
+}
