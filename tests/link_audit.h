@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/rng.h"
+#include "core/sampling.h"
 #include "hr/solver.h"
 #include "scene/element.h"
 #include "transport/visibility.h"
@@ -24,6 +25,17 @@ struct LinkPower {
     double mcOpen = 0.0;  ///< the same integral without visibility (V = 1), same pairs
 };
 
+/// An area-uniform point on node e of h (an element or a cluster's surfaces).
+inline Vec3 auditPoint(const scene::Scene& s, const hr::Hierarchy& h, uint32_t e, Pcg32& rng,
+                       uint32_t& patch) {
+    double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
+    if (h.isCluster(e)) return h.clusterTree()->samplePoint(h.clusterIndex(e), a, b, c, patch);
+    patch = h.patch(e);
+    const auto& P = s.patches[patch];
+    if (P.kind == scene::PatchKind::Triangle && a + b > 1) a = 1 - a, b = 1 - b;
+    return scene::elementPoint(P, h.domain(e), a, b);
+}
+
 /// Link i of res's hierarchy (receiver recv[i]) audited with `pairs` point
 /// pairs (seeded by i, so repeatable).
 inline LinkPower auditLink(const scene::Scene& s, const transport::Visibility& vis,
@@ -34,14 +46,7 @@ inline LinkPower auditLink(const scene::Scene& s, const transport::Visibility& v
     const hr::Link& l = h.link(i);
     const uint32_t r = recv[i], sd = l.sender, k = h.numPatches();
     const bool rc = h.isCluster(r), sc = h.isCluster(sd);
-    auto point = [&](uint32_t e, Pcg32& rng, uint32_t& patch) {
-        double a = rng.nextDouble(), b = rng.nextDouble(), c = rng.nextDouble();
-        if (h.isCluster(e)) return t->samplePoint(h.clusterIndex(e), a, b, c, patch);
-        patch = h.patch(e);
-        const auto& P = s.patches[patch];
-        if (P.kind == scene::PatchKind::Triangle && a + b > 1) a = 1 - a, b = 1 - b;
-        return scene::elementPoint(P, h.domain(e), a, b);
-    };
+    auto point = [&](uint32_t e, Pcg32& rng, uint32_t& patch) { return auditPoint(s, h, e, rng, patch); };
     Vec3 u = h.center(sd) - h.center(r);
     u /= std::max(1e-300, glm::length(u));
     LinkPower out;
@@ -101,6 +106,51 @@ inline LinkPower auditLink(const scene::Scene& s, const transport::Visibility& v
     out.mcOpen = pairs > 0 ? scale * open / pairs : 0.0;
     out.mcVar =
         pairs > 1 ? scale * scale * std::max(0.0, sum2 / pairs - mean * mean) / (pairs - 1) : 0.0;
+    return out;
+}
+
+/// Link i of res's hierarchy audited by gathering: `rays` receiver points by
+/// area, one cosine-distributed ray each from the point's surface, whose first
+/// hit counts its solved root-patch radiosity (green) when it lies on the
+/// sender: power = A_r E[B(y) 1(y on the sender)] (irradiance is the
+/// integral of (B / pi) cos over directions). B is bounded, so this
+/// estimate's variance is finite where the pairs' cos cos / (pi d^2) has an
+/// infinite one (ends that touch or overlap: the stand-ins taken by area).
+/// `orderPos[p]`: patch p's position in the cluster tree's order. The model
+/// is auditLink's; mcOpen is not estimated (0).
+inline LinkPower auditLinkByGather(const scene::Scene& s, const transport::Visibility& vis,
+                                   const hr::HrResult& res, const std::vector<uint32_t>& recv,
+                                   uint64_t i, int rays, const std::vector<uint32_t>& orderPos) {
+    const hr::Hierarchy& h = *res.hierarchy;
+    LinkPower out = auditLink(s, vis, res, recv, i, 0);
+    const uint32_t r = recv[i], sd = h.link(i).sender;
+    auto onSender = [&](uint32_t q, const Vec3& y) {
+        if (h.isCluster(sd)) {
+            const auto& nd = h.clusterTree()->node(h.clusterIndex(sd));
+            return orderPos[q] >= nd.patchBegin && orderPos[q] < nd.patchEnd;
+        }
+        if (q != h.patch(sd)) return false;
+        const auto& Q = s.patches[q];
+        const Vec2 uv = scene::clampToPatchDomain(Q.kind, scene::patchInverse(Q, y));
+        return scene::keyAt(Q.kind, uv.x, uv.y, h.level(sd)) == h.key(sd);
+    };
+    Pcg32 rng(hashIds(i, 91));
+    double sum = 0, sum2 = 0;
+    for (int j = 0; j < rays; ++j) {
+        uint32_t pa = 0;
+        const Vec3 x = auditPoint(s, h, r, rng, pa);
+        const Vec3 dir = cosineDirection(s.patches[pa].normal, rng.nextDouble(), rng.nextDouble());
+        const transport::RayHit hit = vis.intersect(x, dir, 0.0, 1e300, pa);
+        double b = 0.0;
+        if (hit.hit && glm::dot(s.patches[hit.patch].normal, dir) < 0 && onSender(hit.patch, hit.point))
+            b = h.B(hit.patch).g;
+        sum += b, sum2 += b * b;
+    }
+    const double scale = h.area(r), mean = rays > 0 ? sum / rays : 0.0;
+    out.mc = scale * mean;
+    out.mcOpen = 0.0;
+    out.mcVar =
+        rays > 1 ? scale * scale * std::max(0.0, sum2 / rays - mean * mean) / (rays - 1) : 0.0;
     return out;
 }
 

@@ -65,6 +65,9 @@ SceneAudit audit(const std::string& spec, const Params& extra, const std::string
     const hr::Hierarchy& h = *res.hierarchy;
     const std::vector<uint32_t> recv = h.linkReceivers();
     SceneAudit a;
+    std::vector<uint32_t> orderPos(s.patches.size(), 0);
+    if (res.clusterTree)
+        for (uint32_t k = 0; k < res.clusterTree->orderSize(); ++k) orderPos[res.clusterTree->patchAt(k)] = k;
     // The default leaves few stand-ins, spanning large clusters: more point
     // pairs each, or the audit's own noise decides nothing.
     constexpr int kPairs = 256;
@@ -84,8 +87,13 @@ SceneAudit audit(const std::string& spec, const Params& extra, const std::string
             weight = double(otherStride);
         } else
             continue;
+        // Stand-ins taken by area join ends that touch or overlap, where the
+        // point pairs' cos cos / (pi d^2) has an infinite variance (on Lost
+        // Empire their sum moved 21 % with 16x the pairs); they are audited
+        // by gathering, whose variance is bounded (tests/link_audit.h).
         const test::LinkPower pw =
-            test::auditLink(s, vis, res, recv, i, group == kOther ? kPairs : standInPairs);
+            group == kByArea ? test::auditLinkByGather(s, vis, res, recv, i, standInPairs, orderPos)
+                             : test::auditLink(s, vis, res, recv, i, group == kOther ? kPairs : standInPairs);
         a.g[group].add(pw, weight);
     }
     static const char* names[kGroups] = {"stand-ins by area", "stand-ins by cosine",
@@ -101,8 +109,10 @@ SceneAudit audit(const std::string& spec, const Params& extra, const std::string
 // All the stand-ins together (by area, by cosine, and those that found
 // nothing and carry 0) against the Monte Carlo power of the same links.
 // Each stand-in's transfer is an unbiased estimate (cluster/link.h), so the
-// sum must match within its noise and the audit's (measured 1.004 on
-// office:4, 1.003 on Lost Empire). Stand-ins judged by the estimate they
+// sum must match within its noise and the audit's (measured 1.009 on
+// office:4; on Lost Empire 1.042 +- 0.011, the stand-ins taken by area
+// carrying 1.65x their power: a known bias this test fails on, README
+// "Known limitations", papers/notes/2026-12-02-modern-hall-light.md s. 10). Stand-ins judged by the estimate they
 // carry would be kept more often where it is low, and the sum would fall
 // short. The found-nothing group alone is biased low and the others high by
 // the same power (which of the two a link falls in is its own estimate).

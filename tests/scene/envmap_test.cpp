@@ -243,8 +243,8 @@ TEST(Envmap, SampledIrradianceMatchesTheSumOverTexels) {
     }
 }
 
-// The Monte Carlo reference (cosine directions, the map on escaping rays)
-// on the open upward floor: B = rho E everywhere, each region within 4
+// The Monte Carlo reference (the map's directions and cosine directions
+// combined by the power heuristic, mc.environment = mis) on the open upward floor: B = rho E everywhere, each region within 4
 // standard errors of rho times the closed form.
 TEST(Envmap, MonteCarloMatchesTheSumOverTexels) {
     auto dir = test::tempDir("envmap_mc");
