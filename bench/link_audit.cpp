@@ -20,6 +20,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <unordered_set>
@@ -133,9 +134,10 @@ void coverage(const scene::Scene& s, const transport::Visibility& vis, const hr:
         all += b;
         chain(leafAt(p, scene::clampToPatchDomain(P.kind, scene::patchInverse(P, x))), cx);
         chain(ly, cy);
-        bool covered = false;
-        for (uint32_t r : cx)
-            for (uint32_t q : cy) covered = covered || linked.count(uint64_t(r) << 32 | q);
+        const bool covered = std::any_of(cx.begin(), cx.end(), [&](uint32_t r) {
+            return std::any_of(cy.begin(), cy.end(),
+                               [&](uint32_t q) { return linked.count(uint64_t(r) << 32 | q) > 0; });
+        });
         if (!covered) lost += b, lost2 += b * b, ++lostRays;
         // A hit on a face in the receiver's own plane (at t ~ 0: a face
         // stacked back to back with it) is light no physical path carries.

@@ -391,6 +391,38 @@ constexpr char kSolutionMagic[8] = {'H', 'R', 'A', 'D', 'S', 'O', 'L', '\0'};
 // version 1, byte for byte as before.
 constexpr uint32_t kSolutionVersion = 1;
 constexpr uint32_t kSolutionVersionPolynomial = 2;
+
+/// The largest |B| (and basis coefficient) a patch of `scene` can hold, by
+/// which loadSolution refuses 1e308 or NaN, which the checksum cannot (a
+/// checksum only says the bytes are as written). With reflectances below
+/// rho_max and emissions below E_max, every radiosity lies in
+/// [0, E_max / (1 - rho_max)] (the Neumann series of B = E + rho F B with row
+/// sums of F <= 1). Lights that are not patches (point, spot, sun, sky:
+/// scene/lights/) bound a patch by power instead: A_p B_p is at most the
+/// radiosity power of the whole scene, P / (1 - rho_max), P their power into
+/// the scene's bounding sphere (transport::lightsPower). Both are widened
+/// 1000x for quadrature error in F and Aitken extrapolation.
+class RadiosityBound {
+  public:
+    explicit RadiosityBound(const scene::Scene& scene) : scene_(scene) {
+        double eMax = 0.0, rhoMax = 0.0;
+        for (const auto& m : scene.materials) {
+            eMax = std::max(eMax, maxComponent(m.emission));
+            rhoMax = std::max(rhoMax, maxComponent(m.rho));
+        }
+        const double amplification = 1000.0 / std::max(1e-12, 1.0 - rhoMax);
+        emitters_ = amplification * eMax + 1e-300;
+        lights_ = scene.lights.empty() ? 0.0 : amplification * transport::lightsPower(scene);
+    }
+    double operator()(uint64_t patch) const {
+        return lights_ > 0 ? emitters_ + lights_ / std::max(1e-300, scene_.patches[patch].area)
+                           : emitters_;
+    }
+
+  private:
+    const scene::Scene& scene_;
+    double emitters_ = 0.0, lights_ = 0.0;
+};
 }  // namespace
 
 void saveSolution(const std::string& path, const scene::RadiosityField& field) {
@@ -462,28 +494,7 @@ std::unique_ptr<scene::LeafField> loadSolution(const std::string& path, const sc
                                      "{}, {} patches; this scene: {}, {} patches)",
                                      hex64(hash), patches, hex64(sceneContentHash(scene)),
                                      scene.patches.size()));
-    // Radiosities are checked against what the scene can produce: with
-    // reflectances below rho_max and emissions below E_max, every radiosity
-    // lies in [0, E_max / (1 - rho_max)] (the Neumann series of B = E + rho F B
-    // with row sums of F <= 1). The bound is widened 1000x for quadrature
-    // error in F and Aitken extrapolation; it refuses 1e308 or NaN, which the
-    // checksum cannot (a checksum only says the bytes are as written).
-    double eMax = 0.0, rhoMax = 0.0;
-    for (const auto& m : scene.materials) {
-        eMax = std::max(eMax, maxComponent(m.emission));
-        rhoMax = std::max(rhoMax, maxComponent(m.rho));
-    }
-    const double emitterBound = 1000.0 * eMax / std::max(1e-12, 1.0 - rhoMax) + 1e-300;
-    // Lights that are not patches (point, spot, sun, sky: scene/lights/)
-    // bound a patch by power instead: A_p B_p is at most the radiosity power
-    // of the whole scene, P / (1 - rho_max), P their power into the scene's
-    // bounding sphere (transport::lightsPower), widened 1000x as above.
-    const double lightPower =
-        scene.lights.empty() ? 0.0 : 1000.0 * transport::lightsPower(scene) / std::max(1e-12, 1.0 - rhoMax);
-    auto boundOf = [&](uint64_t p) {
-        return lightPower > 0 ? emitterBound + lightPower / std::max(1e-300, scene.patches[p].area)
-                              : emitterBound;
-    };
+    const RadiosityBound boundOf(scene);
     uint32_t degree = 0;
     if (version == kSolutionVersionPolynomial) {
         size_t at = r.pos;

@@ -17,6 +17,17 @@ inline void addQuadFacing(scene::Scene& s, Vec3 a, Vec3 b, Vec3 c, Vec3 d, uint3
     s.addQuad(a, b, c, d, mat);
 }
 
+/// A unit floor quad (z = 0, facing +z, patch 0, material "floor" of rho 0.5)
+/// under a black emitting unit square at z = 1 facing down (E = 1, patch 1).
+/// Returns the floor's material.
+inline uint32_t addFloorUnderLamp(scene::Scene& s) {
+    const uint32_t floor = s.addMaterial({"floor", RGB(0.5), RGB(0.0)});
+    const uint32_t lamp = s.addMaterial({"lamp", RGB(0.0), RGB(1.0)});
+    s.addQuad(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), floor);
+    s.addQuad(Vec3(0, 0, 1), Vec3(0, 1, 1), Vec3(1, 1, 1), Vec3(1, 0, 1), lamp);
+    return floor;
+}
+
 /// Adds the six faces of the axis-aligned box [lo, hi], facing inwards
 /// (inward=true) or outwards. mats[i] is the material of face i in the order
 /// -x, +x, -y, +y, -z, +z.

@@ -486,27 +486,18 @@ void addSquare(scene::Scene& s, const Vec3& c, const Vec3& n, double h, uint32_t
     const Vec3 b = glm::cross(n, t), e = 0.5 * h * t, f = 0.5 * h * b;
     test::addQuadFacing(s, c - e - f, c + e - f, c + e + f, c - e + f, m, c + n);
 }
-}  // namespace
 
-// The visibility of a link from a sending cluster whose light towards the
-// receiver comes from two small surfaces among 40: one faces the receiver
-// squarely and is hidden by an occluder, one is nearly edge-on (cosine
-// 0.15) and in the open; the other 38 face away. The sender's points are
-// drawn by area x B x cosine by rejection, and a draw is accepted in about 3
-// % of the tries, so 32 tries fail for 39 % of the points. The estimate is a
-// ratio of kernel weights (LinkRays::estimate); its mean over 2000 links
-// must be the true kernel-weighted visible fraction (area-uniform pairs,
-// 2^18 per surface), within 4 standard errors. Taking the best rejected
-// candidate instead of giving a failed draw no weight made it 0.158 +- 0.003
-// against 0.131 (papers/notes/2026-12-02-modern-hall-light.md, section 10).
-TEST(ClusterLink, VisibilityFromARarelyFacingSenderIsUnbiased) {
+/// The scene of VisibilityFromARarelyFacingSenderIsUnbiased: a unit receiver
+/// (patch 0) at z = 0, an occluder (patch 1), then the 40 sender surfaces
+/// from patch 2: one facing down and hidden, one nearly edge-on (cosine 0.15
+/// towards the receiver's centre) and open, 38 facing away.
+scene::Scene rarelyFacingSender() {
     scene::Scene s;
     s.name = "rarely-facing-sender";
     const uint32_t m = s.addMaterial({"grey", RGB(0.5), RGB(0.0)});
     test::addQuadFacing(s, Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), m,
                         Vec3(0.5, 0.5, 5));  // receiver, patch 0
     addSquare(s, Vec3(0.3, 0.5, 4.0), Vec3(0, 0, -1), 0.45, m);  // occluder, patch 1
-    const uint32_t first = uint32_t(s.patches.size());
     addSquare(s, Vec3(0.3, 0.5, 5.0), Vec3(0, 0, -1), 0.1, m);  // facing, hidden
     const Vec3 toR = glm::normalize(Vec3(0.5, 0.5, 0) - Vec3(0.7, 0.5, 5.0));
     const Vec3 side = glm::normalize(glm::cross(toR, Vec3(0, 1, 0)));
@@ -515,25 +506,13 @@ TEST(ClusterLink, VisibilityFromARarelyFacingSenderIsUnbiased) {
     for (int i = 0; i < 38; ++i)  // facing away
         addSquare(s, Vec3(0.25 + 0.5 * (i % 7) / 6.0, 0.25 + 0.5 * (i / 7) / 5.0, 5.05),
                   Vec3(0, 0, 1), 0.05, m);
-    transport::Visibility vis(s);
-    ClusterSettings cs;
-    cs.leafSize = 40;
-    ClusterTree tree(s, cs);
-    // The node holding exactly the 40 sender surfaces (and perhaps the
-    // occluder, which carries no light).
-    uint32_t c = UINT32_MAX;
-    for (uint32_t i = 0; i < tree.size(); ++i) {
-        const auto& nd = tree.node(i);
-        bool hasReceiver = false;
-        for (uint32_t k = nd.patchBegin; k < nd.patchEnd; ++k) hasReceiver |= tree.patchAt(k) == 0;
-        if (!hasReceiver && nd.patchEnd - nd.patchBegin >= 40) c = i;
-    }
-    ASSERT_NE(c, UINT32_MAX);
-    std::vector<RGB> rootB(s.patches.size(), RGB(1.0));
-    rootB[0] = rootB[1] = RGB(0.0);
+    return s;
+}
 
-    // The truth: sum over the two facing surfaces of the kernel integral
-    // with and without visibility.
+/// The kernel-weighted visible fraction of receiver patch 0 from patches
+/// `first` and `first + 1`: sum of the cos cos / d^2 integrals with and
+/// without visibility, 2^18 area-uniform pairs per surface.
+double trueVisibleFraction(const scene::Scene& s, const transport::Visibility& vis, uint32_t first) {
     double vis1 = 0.0, all = 0.0;
     for (uint32_t p : {first, first + 1}) {
         Pcg32 rng(hashIds(7, p));
@@ -551,8 +530,42 @@ TEST(ClusterLink, VisibilityFromARarelyFacingSenderIsUnbiased) {
             if (!vis.occluded(transport::Segment{x, y, 0, p})) vis1 += k;
         }
     }
-    const double truth = vis1 / all;
+    return vis1 / all;
+}
+}  // namespace
 
+// The visibility of a link from a sending cluster whose light towards the
+// receiver comes from two small surfaces among 40: one faces the receiver
+// squarely and is hidden by an occluder, one is nearly edge-on (cosine
+// 0.15) and in the open; the other 38 face away. The sender's points are
+// drawn by area x B x cosine by rejection, and a draw is accepted in about 3
+// % of the tries, so 32 tries fail for 39 % of the points. The estimate is a
+// ratio of kernel weights (LinkRays::estimate); its mean over 2000 links
+// must be the true kernel-weighted visible fraction (area-uniform pairs,
+// 2^18 per surface), within 4 standard errors. Taking the best rejected
+// candidate instead of giving a failed draw no weight made it 0.158 +- 0.003
+// against 0.131 (papers/notes/2026-12-02-modern-hall-light.md, section 10).
+TEST(ClusterLink, VisibilityFromARarelyFacingSenderIsUnbiased) {
+    scene::Scene s = rarelyFacingSender();
+    const uint32_t first = 2;
+    transport::Visibility vis(s);
+    ClusterSettings cs;
+    cs.leafSize = 40;
+    ClusterTree tree(s, cs);
+    // The node holding exactly the 40 sender surfaces (and perhaps the
+    // occluder, which carries no light).
+    uint32_t c = UINT32_MAX;
+    for (uint32_t i = 0; i < tree.size(); ++i) {
+        const auto& nd = tree.node(i);
+        bool hasReceiver = false;
+        for (uint32_t k = nd.patchBegin; k < nd.patchEnd; ++k) hasReceiver |= tree.patchAt(k) == 0;
+        if (!hasReceiver && nd.patchEnd - nd.patchBegin >= 40) c = i;
+    }
+    ASSERT_NE(c, UINT32_MAX);
+    std::vector<RGB> rootB(s.patches.size(), RGB(1.0));
+    rootB[0] = rootB[1] = RGB(0.0);
+
+    const double truth = trueVisibleFraction(s, vis, first);
     LinkEnd r;
     r.patch = 0;
     r.center = Vec3(0.5, 0.5, 0);

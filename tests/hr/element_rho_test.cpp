@@ -25,10 +25,7 @@ namespace {
 scene::Scene halfBlackFloor() {
     scene::Scene s;
     s.name = "half-black-floor";
-    const uint32_t floor = s.addMaterial({"floor", RGB(0.5), RGB(0.0)});
-    const uint32_t lamp = s.addMaterial({"lamp", RGB(0.0), RGB(1.0)});
-    s.addQuad(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), floor);
-    s.addQuad(Vec3(0, 0, 1), Vec3(0, 1, 1), Vec3(1, 1, 1), Vec3(1, 0, 1), lamp);
+    const uint32_t floor = test::addFloorUnderLamp(s);
     scene::Texture t;
     t.file = "half";
     t.width = 256;

@@ -4,7 +4,6 @@
 // gather and the path tracer (render/final_gather.h), checked against the
 // closed-form sum over the map's texels on an open upward plane; a constant
 // map stays exact on cosine rays.
-#include <ImfRgbaFile.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -23,6 +22,7 @@
 #include "render/render.h"
 #include "scene/field.h"
 #include "scene/lights/light.h"
+#include "tests/scene/lat_long_exr.h"
 #include "tests/test_util.h"
 
 namespace hrad {
@@ -36,17 +36,7 @@ using MapFn = std::function<RGB(int i, int j)>;
 
 /// A kW x kH lat-long map as half-float OpenEXR (the values used are exact in half).
 std::filesystem::path writeMap(const std::filesystem::path& file, const MapFn& f) {
-    std::vector<Imf::Rgba> px(size_t(kW) * kH);
-    for (int j = 0; j < kH; ++j)
-        for (int i = 0; i < kW; ++i) {
-            const RGB c = f(i, j);
-            px[size_t(j) * kW + size_t(i)] =
-                Imf::Rgba(half(float(c.r)), half(float(c.g)), half(float(c.b)));
-        }
-    Imf::RgbaOutputFile out(file.c_str(), kW, kH, Imf::WRITE_RGB);
-    out.setFrameBuffer(px.data(), 1, kW);
-    out.writePixels(kH);
-    return file;
+    return test::writeLatLongExr(file, kW, kH, f);
 }
 
 /// Sky 0.25 above the horizon, ground 0.0625 below, and a sun of 2 x 2

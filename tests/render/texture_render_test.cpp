@@ -52,10 +52,7 @@ RGB expectedTexel(const scene::Texture& t, double u, double v) {
 scene::Scene quadUnderLight() {
     scene::Scene s;
     s.name = "textured-quad";
-    const uint32_t floor = s.addMaterial({"floor", RGB(0.5), RGB(0.0)});
-    const uint32_t lamp = s.addMaterial({"lamp", RGB(0.0), RGB(1.0)});
-    s.addQuad(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), floor);
-    s.addQuad(Vec3(0, 0, 1), Vec3(0, 1, 1), Vec3(1, 1, 1), Vec3(1, 0, 1), lamp);
+    const uint32_t floor = test::addFloorUnderLamp(s);
     s.materials[floor].diffuseMap.texture = scene::addTexture(s, fourColours());
     s.patches[0].uvs = 0;
     s.cornerUVs.push_back({glm::vec2(0, 0), {1, 0}, {1, 1}, {0, 1}});

@@ -6,7 +6,6 @@
 // beats cosine directions alone on a map with a sun; the Mitsuba loader
 // reads filename, scale and to_world, and names a bad file at its line.
 // Small OpenEXR and Radiance HDR maps are written into a temporary folder.
-#include <ImfRgbaFile.h>
 #include <gtest/gtest.h>
 #include <stb/stb_image_write.h>  // Debian libstb-dev; implementation in libstb
 
@@ -25,6 +24,7 @@
 #include "render/final_gather.h"
 #include "scene/loader.h"
 #include "tests/hr/settings.h"
+#include "tests/scene/lat_long_exr.h"
 #include "tests/test_util.h"
 #include "transport/light_irradiance.h"
 
@@ -40,17 +40,7 @@ using MapFn = std::function<RGB(int i, int j)>;
 /// Writes a kW x kH lat-long map as half-float OpenEXR (every value used
 /// here is exact in half).
 std::filesystem::path writeExr(const std::filesystem::path& file, const MapFn& f) {
-    std::vector<Imf::Rgba> px(size_t(kW) * kH);
-    for (int j = 0; j < kH; ++j)
-        for (int i = 0; i < kW; ++i) {
-            const RGB c = f(i, j);
-            px[size_t(j) * kW + size_t(i)] =
-                Imf::Rgba(half(float(c.r)), half(float(c.g)), half(float(c.b)));
-        }
-    Imf::RgbaOutputFile out(file.c_str(), kW, kH, Imf::WRITE_RGB);
-    out.setFrameBuffer(px.data(), 1, kW);
-    out.writePixels(kH);
-    return file;
+    return test::writeLatLongExr(file, kW, kH, f);
 }
 
 /// The same as Radiance HDR (RGBE: the dyadic values used here are exact).

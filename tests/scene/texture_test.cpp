@@ -48,6 +48,18 @@ Scene texturedQuad(const Texture& t, const std::array<glm::vec2, 4>& uv, PatchKi
     return s;
 }
 
+/// A triangle whose UVs (0.25, 0.5), (0.75, 0.5), (0.25, 1) stay between
+/// the texel centres of a clamped 2 x 1 texture (0.1, 0.7): rho is linear
+/// there, 0.1 + 1.2 (u - 1/4).
+Scene rampTriangle() {
+    Texture ramp = checker(2, 0, 0);
+    ramp.height = 1;
+    ramp.texels = {0.1f, 0.1f, 0.1f, 0.7f, 0.7f, 0.7f};
+    ramp.wrapU = ramp.wrapV = TextureWrap::Clamp;
+    return texturedQuad(ramp, {glm::vec2(0.25, 0.5), {0.75, 0.5}, {0.25, 1.0}, {0.25, 1.0}},
+                        PatchKind::Triangle);
+}
+
 TEST(Texture, LookupHitsTexelCentresAndWraps) {
     Texture t = checker(4, 0.2, 0.6);
     // Texel (0, 0) is the top-left: u = 1/8, v = 1 - 1/8.
@@ -89,12 +101,7 @@ TEST(Texture, PatchMeanOfACheckerIsItsAnalyticMean) {
     // stay there, so its mean is rho at the UV centroid, u = 5/12:
     // c0 + (5/12 - 1/4) / (1/2) (c1 - c0) = c0 + (c1 - c0) / 3.
     {
-        Texture ramp = checker(2, 0, 0);
-        ramp.height = 1;
-        ramp.texels = {0.1f, 0.1f, 0.1f, 0.7f, 0.7f, 0.7f};
-        ramp.wrapU = ramp.wrapV = TextureWrap::Clamp;
-        Scene s = texturedQuad(ramp, {glm::vec2(0.25, 0.5), {0.75, 0.5}, {0.25, 1.0}, {0.25, 1.0}},
-                               PatchKind::Triangle);
+        Scene s = rampTriangle();
         EXPECT_NEAR(patchTextureMean(s, s.patches[0]).r, 0.1 + (0.7 - 0.1) / 3, 1e-7);
     }
 }
@@ -104,13 +111,8 @@ TEST(Texture, PatchMeanOfACheckerIsItsAnalyticMean) {
 /// rho at its UV centroid, the inverted middle child included; a child
 /// brighter than 1 is clamped as the loader clamps patch means.
 TEST(Texture, ElementMeansFollowEachElementsOwnDomain) {
-    Texture ramp = checker(2, 0, 0);
-    ramp.height = 1;
-    ramp.texels = {0.1f, 0.1f, 0.1f, 0.7f, 0.7f, 0.7f};
-    ramp.wrapU = ramp.wrapV = TextureWrap::Clamp;
     // UVs inside the texel centres' span: rho = 0.1 + 1.2 (u - 1/4).
-    Scene s = texturedQuad(ramp, {glm::vec2(0.25, 0.5), {0.75, 0.5}, {0.25, 1.0}, {0.25, 1.0}},
-                           PatchKind::Triangle);
+    Scene s = rampTriangle();
     const Patch& p = s.patches[0];
     const RGB root = elementTextureMean(s, p, Domain{});
     const RGB patch = patchTextureMean(s, p);
