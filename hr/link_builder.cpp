@@ -15,7 +15,7 @@ namespace hrad::hr {
 
 using oracles::Decision;
 
-cluster::LinkEnd LinkBuilder::endOf(const Hierarchy& h, uint32_t e) const {
+cluster::LinkEnd LinkBuilder::endOf(const Hierarchy& h, uint32_t e) {
     cluster::LinkEnd x;
     x.isCluster = h.isCluster(e);
     if (x.isCluster) {

@@ -79,7 +79,7 @@ class LinkBuilder {
                       const std::vector<size_t>& open, bool judge) const;
 
     /// Node e as the cluster link physics sees it.
-    cluster::LinkEnd endOf(const Hierarchy& h, uint32_t e) const;
+    static cluster::LinkEnd endOf(const Hierarchy& h, uint32_t e);
     /// Refinement forced by validity (self-links, single-surface clusters,
     /// clusters too close for the point approximation), independent of the
     /// oracle; Accept means "valid". make() evaluates it once and marks

@@ -6,6 +6,8 @@
 // model's power against the Monte Carlo power and its standard error. Not a
 // fast test: office:4, and Lost Empire when ../shared/scenes is there.
 #include <gtest/gtest.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -22,16 +24,19 @@ using namespace hrad;
 namespace {
 
 struct Group {
-    double model = 0, mc = 0, var = 0;
+    double model = 0, mc = 0, var = 0, modelVar = 0;
     uint64_t links = 0;
-    void add(const test::LinkPower& p, double weight) {
+    void add(const test::LinkPower& p, double weight, double pModelVar) {
         model += weight * p.model;
         mc += weight * p.mc;
         var += weight * weight * p.mcVar;
+        modelVar += weight * weight * pModelVar;
         ++links;
     }
     double ratio() const { return mc > 0 ? model / mc : 1.0; }
     double se() const { return std::sqrt(var); }
+    /// The standard error of model - mc: the audit's and the draws' own.
+    double combinedSe() const { return std::sqrt(var + modelVar); }
 };
 
 enum { kByArea, kByCosine, kFoundNothing, kOther, kGroups };
@@ -39,6 +44,85 @@ enum { kByArea, kByCosine, kFoundNothing, kOther, kGroups };
 struct SceneAudit {
     Group g[kGroups];
 };
+
+/// One audited link: its group, its weight in the group's sum, its powers and
+/// the variance of its model power.
+struct Audited {
+    uint64_t link;
+    int group;
+    double weight;
+    test::LinkPower pw;
+    double modelVar;
+};
+
+// A stand-in's transfer is one draw of an estimator whose relative standard
+// error is about its `uncertainty` / 200 (twice the relative error, in
+// percent, cluster/stand_in.cpp judgeStandIn), and a few links whose draws or
+// audits are very noisy decide a group's sum: on Lost Empire one by-area
+// stand-in held 0.029 of its group's 0.076, one draw of an estimator whose
+// mean over 64 draws is 0.0168 +- 0.0012 (Monte Carlo 0.0163 +- 0.0011).
+// The kHeavy stand-ins with the largest noise, the draw's plus the audit's,
+// are audited again: the estimator's mean over kDraws independent draws
+// (test::StandInRedraw) against kHeavyRays Monte Carlo samples; where there
+// are at most kRedrawAll stand-ins, every one is drawn afresh. Each group's
+// sum then compares the estimator's expectation, which is what an unbiased
+// estimator promises, not one draw per link: the draws of a heavy-tailed
+// estimator mostly fall below its mean (on Lost Empire's default regime the
+// kept draws summed to 0.123 against a mean of 0.132).
+constexpr int kHeavy = 96, kDraws = 64, kHeavyRays = 1 << 18;
+constexpr size_t kRedrawAll = 4096;
+
+// A stand-in's Monte Carlo power: with sender points weighted by radiosity
+// where its ends' bounding spheres are apart (bounded kernel,
+// test::auditLinkBySenderRadiosity), else by gathering (ends that touch or
+// overlap, where point pairs' cos cos / (pi d^2) has an infinite variance).
+test::LinkPower auditStandIn(const scene::Scene& s, const transport::Visibility& vis,
+                             const hr::HrResult& res, const std::vector<uint32_t>& recv, uint64_t i,
+                             int n, const std::vector<uint32_t>& orderPos) {
+    const hr::Hierarchy& h = *res.hierarchy;
+    const uint32_t r = recv[i], sd = h.link(i).sender;
+    const bool apart = glm::length(h.center(r) - h.center(sd)) > h.radius(r) + h.radius(sd);
+    return apart ? test::auditLinkBySenderRadiosity(s, vis, res, recv, i, n)
+                 : test::auditLinkByGather(s, vis, res, recv, i, n, orderPos);
+}
+
+void reauditNoisiest(const scene::Scene& s, const transport::Visibility& vis,
+                     const hr::HrResult& res, const hr::HrSettings& hs,
+                     const std::vector<uint32_t>& recv, const std::vector<uint32_t>& orderPos,
+                     std::vector<Audited>& audited) {
+    std::vector<size_t> order;
+    for (size_t k = 0; k < audited.size(); ++k)
+        if (audited[k].group != kOther) order.push_back(k);
+    auto noise = [&](size_t k) { return audited[k].modelVar + audited[k].pw.mcVar; };
+    const size_t n = std::min<size_t>(kHeavy, order.size());
+    std::partial_sort(order.begin(), order.begin() + n, order.end(),
+                      [&](size_t a, size_t b) { return noise(a) > noise(b); });
+    const test::StandInRedraw redraw(s, vis, res, hs.clusterLink);
+    for (size_t j = 0; j < n; ++j) {
+        Audited& a = audited[order[j]];
+        const test::StandInRedraw::Power p = redraw.power(recv, a.link, kDraws);
+        const test::LinkPower g = auditStandIn(s, vis, res, recv, a.link, kHeavyRays, orderPos);
+        std::cout << "  link " << a.link << ": drawn " << a.pw.model << " +- "
+                  << std::sqrt(a.modelVar) << ", mean of " << kDraws << " draws " << p.model
+                  << " +- " << std::sqrt(p.modelVar) << "; Monte Carlo " << a.pw.mc << " +- "
+                  << std::sqrt(a.pw.mcVar) << ", with " << kHeavyRays << " rays " << g.mc
+                  << " +- " << std::sqrt(g.mcVar) << "\n";
+        a.pw.model = p.model;
+        a.modelVar = p.modelVar;
+        a.pw.mc = g.mc;
+        a.pw.mcVar = g.mcVar;
+    }
+    // Few stand-ins (the default regime): every one is drawn afresh.
+    if (order.size() > kRedrawAll) return;
+    tbb::parallel_for(tbb::blocked_range<size_t>(n, order.size(), 8), [&](const auto& range) {
+        for (size_t j = range.begin(); j != range.end(); ++j) {
+            Audited& a = audited[order[j]];
+            const test::StandInRedraw::Power p = redraw.power(recv, a.link, kDraws);
+            a.pw.model = p.model;
+            a.modelVar = p.modelVar;
+        }
+    });
+}
 
 // The two regimes audited: every near pair whose spheres are apart judged and
 // overlapping pairs opened (kApartJudged), or the default: near and
@@ -64,7 +148,7 @@ SceneAudit audit(const std::string& spec, const Params& extra, const std::string
     hr::HrResult res = solver.solve();
     const hr::Hierarchy& h = *res.hierarchy;
     const std::vector<uint32_t> recv = h.linkReceivers();
-    SceneAudit a;
+    std::vector<Audited> audited;
     std::vector<uint32_t> orderPos(s.patches.size(), 0);
     if (res.clusterTree)
         for (uint32_t k = 0; k < res.clusterTree->orderSize(); ++k) orderPos[res.clusterTree->patchAt(k)] = k;
@@ -87,40 +171,40 @@ SceneAudit audit(const std::string& spec, const Params& extra, const std::string
             weight = double(otherStride);
         } else
             continue;
-        // Stand-ins taken by area join ends that touch or overlap, where the
-        // point pairs' cos cos / (pi d^2) has an infinite variance (on Lost
-        // Empire their sum moved 21 % with 16x the pairs); they are audited
-        // by gathering, whose variance is bounded (tests/link_audit.h).
-        const test::LinkPower pw =
-            group == kByArea ? test::auditLinkByGather(s, vis, res, recv, i, standInPairs, orderPos)
-                             : test::auditLink(s, vis, res, recv, i, group == kOther ? kPairs : standInPairs);
-        a.g[group].add(pw, weight);
+        const test::LinkPower pw = group == kOther ? test::auditLink(s, vis, res, recv, i, kPairs)
+                                                   : auditStandIn(s, vis, res, recv, i, standInPairs, orderPos);
+        const double relative = double(l.uncertainty) / 200.0;
+        audited.push_back({i, group, weight, pw,
+                           group == kOther ? 0.0 : (pw.model * relative) * (pw.model * relative)});
     }
+    reauditNoisiest(s, vis, res, hs, recv, orderPos, audited);
+    SceneAudit a;
+    for (const Audited& x : audited) a.g[x.group].add(x.pw, x.weight, x.modelVar);
     static const char* names[kGroups] = {"stand-ins by area", "stand-ins by cosine",
                                          "sampled, found nothing", "other cluster links"};
     for (int k = 0; k < kGroups; ++k)
         std::cout << spec << " near=" << near
                   << (regime == Regime::kDefault ? " (default pairs)" : "") << ", " << names[k]
                   << ": " << a.g[k].links << " links, model " << a.g[k].model << ", Monte Carlo "
-                  << a.g[k].mc << " +- " << a.g[k].se() << ", ratio " << a.g[k].ratio() << "\n";
+                  << a.g[k].mc << " +- " << a.g[k].se() << ", ratio " << a.g[k].ratio()
+                  << " (model - Monte Carlo +- " << a.g[k].combinedSe() << ")\n";
     return a;
 }
 
 // All the stand-ins together (by area, by cosine, and those that found
 // nothing and carry 0) against the Monte Carlo power of the same links.
 // Each stand-in's transfer is an unbiased estimate (cluster/link.h), so the
-// sum must match within its noise and the audit's (measured 1.009 on
-// office:4; on Lost Empire 1.042 +- 0.011, the stand-ins taken by area
-// carrying 1.65x their power: a known bias this test fails on, README
-// "Known limitations", papers/notes/2026-12-02-modern-hall-light.md s. 10). Stand-ins judged by the estimate they
-// carry would be kept more often where it is low, and the sum would fall
-// short. The found-nothing group alone is biased low and the others high by
-// the same power (which of the two a link falls in is its own estimate).
-// On office:4 the always-opened solve's cluster links are printed for
+// sum of the estimators' means must match the Monte Carlo power within 1.5 %
+// (measured 0.999 +- 0.002 on office:4 and 0.999 +- 0.006 on Lost Empire,
+// the standard error counting the audit's and the draws' noise; the
+// stand-ins taken by area 1.005 +- 0.009 and 1.02 +- 0.03). Stand-ins judged by the estimate they carry
+// would be kept more often where it is low, and the sum would fall short.
+// The found-nothing group alone is biased low and the others high by the
+// same power (which of the two a link falls in is its own draw). On
+// office:4 the always-opened solve's cluster links are printed for
 // comparison: the point approximation carries 1.5 % more than Monte Carlo
 // there, and 3.8 % more on Lost Empire (5.002 against 4.820 +- 0.018,
-// measured once; that second solve of Lost Empire is not part of the test,
-// where it took 55 of its 123 s).
+// measured once; that second solve of Lost Empire is not part of the test).
 // The stand-in groups summed (by area, by cosine, found nothing), printed.
 Group allStandIns(const SceneAudit& a) {
     Group all;
@@ -128,11 +212,12 @@ Group allStandIns(const SceneAudit& a) {
         all.model += a.g[k].model;
         all.mc += a.g[k].mc;
         all.var += a.g[k].var;
+        all.modelVar += a.g[k].modelVar;
         all.links += a.g[k].links;
     }
     std::cout << "stand-ins in all: " << all.links << " links, model " << all.model
               << ", Monte Carlo " << all.mc << " +- " << all.se() << ", ratio " << all.ratio()
-              << "\n";
+              << " (model - Monte Carlo +- " << all.combinedSe() << ")\n";
     return all;
 }
 
@@ -155,19 +240,15 @@ TEST(StandInAudit, StandInsCarryTheirMonteCarloPowerOnLostEmpire) {
     if (!dir) GTEST_SKIP() << "../shared/scenes is absent";
     Params p;
     p.set("scene.clamp_rho", 0.99);
-    // The texel alone, as the scene's reflectance was before textures were
-    // read: with map_Kd x Kd per patch (the default since 2026-12-02) the
-    // stand-ins spread by area carry 1.51x their Monte Carlo power and all
-    // stand-ins 1.045x (README, "Known limitations").
-    p.set("obj.texture_kd", std::string("replace"));
     const std::string le = (*dir / "lost-empire/lost_empire.obj").string();
     expectStandInsUnbiased(audit(le, p, "stand_in", 8));
 }
 
 // The default regime: overlapping pairs are judged too, and small pairs are
 // opened, so fewer stand-ins remain (Lost Empire 5,108 against 440,039),
-// spanning larger clusters, and their sum is judged against the audit's own
-// standard error (4,096 point pairs per stand-in): measured 1.028 +- 0.015.
+// spanning larger clusters, each drawn afresh 64 times, and their sum is
+// judged against the audit's and the draws' standard error (4,096 Monte
+// Carlo samples per stand-in): measured 0.985 +- 0.025.
 TEST(StandInAudit, DefaultStandInsCarryTheirMonteCarloPowerOnLostEmpire) {
     auto dir = test::sharedScenesDir();
     if (!dir) GTEST_SKIP() << "../shared/scenes is absent";
@@ -178,7 +259,7 @@ TEST(StandInAudit, DefaultStandInsCarryTheirMonteCarloPowerOnLostEmpire) {
     ASSERT_GT(a.g[kByArea].links + a.g[kByCosine].links, 100u);
     const Group all = allStandIns(a);
     ASSERT_GT(all.mc, 0.0);
-    EXPECT_LT(std::fabs(all.model - all.mc), 3.0 * all.se());
+    EXPECT_LT(std::fabs(all.model - all.mc), 3.0 * all.combinedSe());
 }
 
 // On office:4 the default leaves about 100-130 stand-ins (cluster pairs of
