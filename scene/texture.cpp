@@ -37,6 +37,123 @@ int wrapIndex(int i, int n, TextureWrap mode) {
     return ((i % n) + n) % n;
 }
 
+/// Prefix sums S(j, i) = sum of the texels of rows < j and columns < i.
+std::vector<RGB> summedArea(const Texture& t) {
+    const size_t w = size_t(t.width), h = size_t(t.height);
+    std::vector<RGB> s((w + 1) * (h + 1), RGB(0.0));
+    for (size_t j = 0; j < h; ++j) {
+        RGB row(0.0);
+        for (size_t i = 0; i < w; ++i) {
+            const float* p = &t.texels[(j * w + i) * 3];
+            row += RGB(p[0], p[1], p[2]);
+            s[(j + 1) * (w + 1) + i + 1] = s[j * (w + 1) + i + 1] + row;
+        }
+    }
+    return s;
+}
+
+/// Texel indices [a, b) of one axis, taken `times` times.
+struct Run {
+    int a = 0, b = 0;
+    double times = 0;
+};
+
+int64_t floorDiv(int64_t a, int64_t n) { return a >= 0 ? a / n : -((-a + n - 1) / n); }
+
+/// The lattice indices [m0, m1) (m0 < m1) of an axis of n texels as runs of
+/// texels under the wrap mode (lookup's wrapIndex for every index): repeat
+/// and mirror split into a head, whole periods and a tail (mirror's periods
+/// are 2n long, each half a run), clamp into the first texel, the inside and
+/// the last texel. At most 6 runs.
+int wrapRuns(int64_t m0, int64_t m1, int n, TextureWrap mode, Run out[6]) {
+    int k = 0;
+    if (mode == TextureWrap::Clamp) {
+        if (m0 < 0) out[k++] = {0, 1, double(std::min<int64_t>(m1, 0) - m0)};
+        if (std::max<int64_t>(m0, 0) < std::min<int64_t>(m1, n))
+            out[k++] = {int(std::max<int64_t>(m0, 0)), int(std::min<int64_t>(m1, n)), 1.0};
+        if (m1 > n) out[k++] = {n - 1, n, double(m1 - std::max<int64_t>(m0, n))};
+        return k;
+    }
+    const int64_t period = mode == TextureWrap::Mirror ? 2 * int64_t(n) : n;
+    const int64_t q0 = floorDiv(m0, period), q1 = floorDiv(m1 - 1, period);
+    const int64_t r0 = m0 - q0 * period, r1 = m1 - q1 * period;  // r1 in [1, period]
+    Run pos[3];  // runs of positions within one period
+    int np = 0;
+    if (q0 == q1) {
+        pos[np++] = {int(r0), int(r1), 1.0};
+    } else {
+        pos[np++] = {int(r0), int(period), 1.0};
+        if (q1 - q0 > 1) pos[np++] = {0, int(period), double(q1 - q0 - 1)};
+        pos[np++] = {0, int(r1), 1.0};
+    }
+    for (int i = 0; i < np; ++i) {
+        if (mode == TextureWrap::Repeat) {
+            out[k++] = pos[i];
+            continue;
+        }
+        // Mirror: position p < n is texel p, p >= n texel 2n - 1 - p.
+        const Run& r = pos[i];
+        if (r.a < n) out[k++] = {r.a, std::min(r.b, n), r.times};
+        if (r.b > n) out[k++] = {2 * n - r.b, 2 * n - std::max(r.a, n), r.times};
+    }
+    return k;
+}
+
+/// One axis of a box as lattice ranges [m0, m1) with weights (coverage per
+/// texel, over the box's length): the inner whole texels and the partly
+/// covered ones at each end. At most 3.
+struct Weighted {
+    int64_t m0, m1;
+    double w;
+};
+int axisWeights(double x0, double x1, Weighted out[3]) {
+    const double lim = 1e15;  // keeps the indices in int64 range
+    x0 = std::clamp(x0, -lim, lim);
+    x1 = std::clamp(x1, x0, lim);
+    const double len = x1 - x0;
+    const int64_t i0 = int64_t(std::floor(x0)), i1 = int64_t(std::floor(x1));
+    if (!(len > 1e-12) || i0 == i1) {
+        out[0] = {i0, i0 + 1, 1.0};  // one texel holds the whole box
+        return 1;
+    }
+    int k = 0;
+    const double head = double(i0 + 1) - x0, tail = x1 - double(i1);
+    out[k++] = {i0, i0 + 1, head / len};
+    if (i1 > i0 + 1) out[k++] = {i0 + 1, i1, 1.0 / len};
+    if (tail > 0) out[k++] = {i1, i1 + 1, tail / len};
+    return k;
+}
+
+}  // namespace
+
+RGB Texture::boxMean(double x0, double x1, double y0, double y1) const {
+    HRAD_CHECK(sums);
+    const std::vector<RGB>& s = *sums;
+    const size_t stride = size_t(width) + 1;
+    auto rect = [&](const Run& x, const Run& y) {  // sum over texels [x.a, x.b) x [y.a, y.b)
+        return s[size_t(y.b) * stride + size_t(x.b)] - s[size_t(y.a) * stride + size_t(x.b)] -
+               s[size_t(y.b) * stride + size_t(x.a)] + s[size_t(y.a) * stride + size_t(x.a)];
+    };
+    Weighted wx[3], wy[3];
+    const int nx = axisWeights(x0, x1, wx), ny = axisWeights(y0, y1, wy);
+    RGB sum(0.0);
+    for (int a = 0; a < nx; ++a) {
+        Run rx[6];
+        const int kx = wrapRuns(wx[a].m0, wx[a].m1, width, wrapU, rx);
+        for (int b = 0; b < ny; ++b) {
+            Run ry[6];
+            const int ky = wrapRuns(wy[b].m0, wy[b].m1, height, wrapV, ry);
+            RGB part(0.0);
+            for (int i = 0; i < kx; ++i)
+                for (int j = 0; j < ky; ++j) part += (rx[i].times * ry[j].times) * rect(rx[i], ry[j]);
+            sum += (wx[a].w * wy[b].w) * part;
+        }
+    }
+    return sum;
+}
+
+namespace {
+
 void finish(Texture& t) {
     Vec3 sum(0.0);
     const size_t n = size_t(t.width) * size_t(t.height);
@@ -224,6 +341,7 @@ std::optional<Texture> decodeTextureFile(const std::string& file, TextureEncodin
 }
 
 int32_t addTexture(Scene& scene, Texture t) {
+    t.sums = std::make_shared<const std::vector<RGB>>(summedArea(t));
     scene.textures.push_back(std::make_shared<const Texture>(std::move(t)));
     return int32_t(scene.textures.size() - 1);
 }
@@ -255,13 +373,29 @@ RGB textureRho(const Scene& scene, const Patch& p, double u, double v) {
 
 RGB patchTextureMean(const Scene& scene, const Patch& p) { return elementTextureMean(scene, p, Domain{}); }
 
+namespace {
+
+/// A quad that is a parallelogram in 3D (to 1e-9 of its size) with corner
+/// UVs forming a rectangle along the texture's axes (exactly, as floats).
+bool axisAlignedParallelogram(const Patch& p, const std::array<glm::vec2, 4>& uv) {
+    if (p.kind != PatchKind::Quad) return false;
+    const Vec3 skew = (p.v[0] + p.v[2]) - (p.v[1] + p.v[3]);
+    const double size = glm::length(p.v[2] - p.v[0]) + glm::length(p.v[3] - p.v[1]);
+    if (!(glm::length(skew) <= 1e-9 * size)) return false;
+    const bool uFirst = uv[0].y == uv[1].y && uv[1].x == uv[2].x && uv[2].y == uv[3].y && uv[3].x == uv[0].x;
+    const bool vFirst = uv[0].x == uv[1].x && uv[1].y == uv[2].y && uv[2].x == uv[3].x && uv[3].y == uv[0].y;
+    return uFirst || vFirst;
+}
+
+}  // namespace
+
 RGB elementTextureMean(const Scene& scene, const Patch& p, const Domain& d) {
     const TextureBinding& b = *patchTexture(scene, p);
     const Texture& t = *scene.textures[size_t(b.texture)];
     const auto& uv = scene.cornerUVs[p.uvs];
     // The UV footprint in texels (shoelace area of the corner UVs, times the
     // element's share h^2 of the patch's domain) sets the grid: about two
-    // samples per texel along each axis, 4 .. 64 per axis.
+    // cells per texel along each axis, 4 .. 64 per axis (see texture.h).
     double a2 = 0;
     const int n = p.numVertices();
     for (int i = 0; i < n; ++i) {
@@ -270,38 +404,69 @@ RGB elementTextureMean(const Scene& scene, const Patch& p, const Domain& d) {
     }
     const double texels = 0.5 * std::fabs(a2) * t.width * t.height * (d.h * d.h);
     const int k = int(std::clamp(std::ceil(2.0 * std::sqrt(texels)), 4.0, 64.0));
-    // A quad: midpoints of a k x k grid on the element's square, weighted by
-    // the Jacobian of its bilinear map (area measure). A triangle: the
-    // centroids of its k^2 congruent sub-triangles (k - i - j upright,
-    // inverted ones between), equal weights; exact for rho linear in (u, v).
-    // Local coordinates (a, c) map to the patch's (u0 + a h, v0 + c h)
-    // (scene/element.h domainParam; h < 0 for an inverted triangle).
-    auto at = [&](double a, double c) {
+    // Each cell contributes the exact mean of the texel squares over its UV
+    // box (Texture::boxMean, a summed-area table): a quad's cells are the k x
+    // k squares of the element's local coordinates, boxed by their four
+    // corners' UVs, weighted by the bilinear Jacobian at their centre (area
+    // measure); a triangle's are its k^2 congruent sub-triangles, equal
+    // weights (below). Exact where the UV map is axis-aligned, except on a
+    // triangle's k hypotenuse cells (1/k of its area).
+    // Local (a, c) map to the patch's (u0 + a h, v0 + c h) (scene/element.h
+    // domainParam; h < 0 for an inverted triangle).
+    const Vec2 texelsPerUV(t.width, t.height);
+    auto uvOf = [&](double a, double c) {
         const Vec2 q = domainParam(d, a, c);
-        return textureRho(scene, p, q.x, q.y);
+        return uvAt(p, uv, q.x, q.y);
     };
+    // The mean over the UV box [lo, hi] (texel y runs down: y = (1 - v) H).
+    auto box = [&](const Vec2& lo, const Vec2& hi) {
+        return t.boxMean(lo.x * texelsPerUV.x, hi.x * texelsPerUV.x, (1 - hi.y) * texelsPerUV.y,
+                         (1 - lo.y) * texelsPerUV.y);
+    };
+    if (axisAlignedParallelogram(p, uv)) {
+        // Constant Jacobian, the element's UV image a rectangle: one box is
+        // the grid's sum exactly (Lost Empire's cube faces: 112 k patches).
+        const Vec2 x = uvOf(0, 0), y = uvOf(1, 1);
+        return b.scale * box(glm::min(x, y), glm::max(x, y));
+    }
     RGB sum(0.0);
     double wsum = 0;
     if (p.kind == PatchKind::Quad) {
         for (int j = 0; j < k; ++j)
             for (int i = 0; i < k; ++i) {
-                const double a = (i + 0.5) / k, c = (j + 0.5) / k;
-                const double w = elementJacobian(p, d, a, c);
-                sum += w * at(a, c);
+                const Vec2 c[4] = {uvOf(double(i) / k, double(j) / k), uvOf(double(i + 1) / k, double(j) / k),
+                                   uvOf(double(i + 1) / k, double(j + 1) / k), uvOf(double(i) / k, double(j + 1) / k)};
+                const Vec2 lo = glm::min(glm::min(c[0], c[1]), glm::min(c[2], c[3]));
+                const Vec2 hi = glm::max(glm::max(c[0], c[1]), glm::max(c[2], c[3]));
+                const double w = elementJacobian(p, d, (i + 0.5) / k, (j + 0.5) / k);
+                sum += w * box(lo, hi);
                 wsum += w;
             }
     } else {
+        // Row j of the k^2 sub-triangles: an upright and an inverted one
+        // form the square [i, i + 1] x [j, j + 1] / k, boxed by its four
+        // corners (weight 2: two sub-triangles); the last upright one of the
+        // row, on the hypotenuse, a box of its own area about its centroid
+        // (the one approximation where the UV map is axis-aligned).
+        const double s = 1.0 / k;
         for (int j = 0; j < k; ++j)
             for (int i = 0; i + j < k; ++i) {
-                sum += at((i + 1.0 / 3) / k, (j + 1.0 / 3) / k);
-                wsum += 1;
+                const Vec2 x = uvOf(i * s, j * s), y = uvOf((i + 1) * s, j * s), z = uvOf(i * s, (j + 1) * s);
                 if (i + j + 1 < k) {
-                    sum += at((i + 2.0 / 3) / k, (j + 2.0 / 3) / k);
-                    wsum += 1;
+                    const Vec2 w = uvOf((i + 1) * s, (j + 1) * s);
+                    sum += 2.0 * box(glm::min(glm::min(x, y), glm::min(z, w)),
+                                     glm::max(glm::max(x, y), glm::max(z, w)));
+                    wsum += 2;
+                    continue;
                 }
+                // Kept inside the triangle's own bounding box.
+                const Vec2 blo = glm::min(glm::min(x, y), z), bhi = glm::max(glm::max(x, y), z);
+                const Vec2 centroid = (x + y + z) / 3.0, half = (bhi - blo) * (0.5 / std::sqrt(2.0));
+                sum += box(glm::max(centroid - half, blo), glm::min(centroid + half, bhi));
+                wsum += 1;
             }
     }
-    return wsum > 0 ? sum / wsum : b.scale * t.mean;
+    return wsum > 0 ? b.scale * (sum / wsum) : b.scale * t.mean;
 }
 
 RGB elementRho(const Scene& scene, const Patch& p, const Domain& d) {

@@ -13,9 +13,17 @@
 // Reflectance where a material has a texture: rho(x) = scale * texel(uv(x)),
 // scale = OBJ Kd (the MTL spec: map_Kd is multiplied by Kd), glTF
 // baseColorFactor, 1 for Mitsuba. The solve uses per root patch the mean of
-// rho(x) over the patch by area (patchTextureMean: a regular grid in the
-// patch's domain, as many samples as the patch's UV footprint covers texels,
-// 4 x 4 .. 64 x 64), clamped like the loader's other reflectances. With
+// rho(x) over the patch by area (patchTextureMean), clamped like the loader's
+// other reflectances: a k x k grid of cells in the patch's domain (k about
+// two per texel of the UV footprint, 4..64), each contributing the exact
+// mean of the texels, taken as the squares they cover, over its UV box
+// (Texture::boxMean, a summed-area table: Crow 1984), so a footprint of
+// thousands of texels per cell is box-filtered, not point-sampled (the old
+// point grid aliased by some 30 %: papers/notes/2026-12-02-textures.md,
+// 2026-12-04). Exact where the UV map is axis-aligned (quads; triangles up
+// to their k hypotenuse cells); the bilinear picture's own mean differs
+// within half a texel of a patch's UV border. The table costs 24 bytes per
+// texel (RGB doubles) besides the 12 of the texels. With
 // hr.texture_rho = element the hierarchy gives each sub-element the same
 // quadrature over its own domain (elementTextureMean, elementRho;
 // hr/element_rho.h); the default keeps the patch mean
@@ -49,9 +57,18 @@ struct Texture {
     std::vector<float> texels;  ///< linear RGB, row-major, row 0 at the top (v = 1)
     TextureWrap wrapU = TextureWrap::Repeat, wrapV = TextureWrap::Repeat;
     RGB mean{0.0};  ///< mean over all texels
+    /// Summed-area table of the texels (Crow 1984): (width + 1) x (height + 1)
+    /// prefix sums in double, row-major; built by addTexture (boxMean).
+    std::shared_ptr<const std::vector<RGB>> sums;
 
     /// Bilinear lookup at (u, v), v up (see above).
     RGB lookup(double u, double v) const;
+    /// Exact mean of the texels as little squares (texel i covers texel
+    /// coordinates [i, i + 1)) over the box [x0, x1] x [y0, y1] in texel
+    /// coordinates (x = u width, y = (1 - v) height), with the wrap modes;
+    /// a box of zero extent on an axis takes the texel it lies in. Requires
+    /// `sums` (addTexture).
+    RGB boxMean(double x0, double x1, double y0, double y1) const;
     uint64_t bytes() const { return uint64_t(texels.size()) * sizeof(float); }
 };
 
@@ -78,7 +95,7 @@ std::optional<Texture> decodeTextureFile(const std::string& file, TextureEncodin
 Texture textureFromPixels(const std::string& name, int width, int height, int components,
                           int bits, const unsigned char* data, TextureEncoding enc);
 
-/// Adds a texture to the scene's table; returns its index.
+/// Adds a texture to the scene's table, with its summed-area table; returns its index.
 int32_t addTexture(Scene& scene, Texture t);
 
 /// Corner UVs of patch p (nullptr when it has none).

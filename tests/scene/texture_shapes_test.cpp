@@ -74,15 +74,6 @@ void expectRGB(const RGB& got, const RGB& want, double tol, const std::string& w
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], want[c], tol) << what << " channel " << c;
 }
 
-// The bilinear reconstruction over one whole quadrant (4 x 4 texels from
-// x = 0 to 4, repeat wrap): along a row a a a a b b b b, the half texels at
-// either end blend with the neighbour quadrant, the mean over the quadrant is
-// (15 a + b) / 16 per axis; in 2D the weights multiply: (15/16)^2 for its own
-// quadrant, 15/256 for each edge neighbour, 1/256 for the diagonal one.
-RGB quadrantMean(const RGB& own, const RGB& edge1, const RGB& edge2, const RGB& diag) {
-    return (225.0 * own + 15.0 * (edge1 + edge2) + diag) / 256.0;
-}
-
 TEST(ShapeUVs, PlyUVsFollowMitsubaAndItsFlipTexCoords) {
     auto dir = test::tempDir("uv_ply");
     writeQuadrants(dir / "quad.png");
@@ -105,10 +96,11 @@ TEST(ShapeUVs, PlyUVsFollowMitsubaAndItsFlipTexCoords) {
     for (const Patch* p : ps) {
         ASSERT_EQ(p->kind, PatchKind::Quad);
         const bool flipped = p->v[0].z > 1;
-        // Unflipped: the top-left quadrant a (neighbours b right, c below, d);
-        // flip_tex_coords: Mitsuba's v is 1 - stored, the bottom-left c.
-        const RGB want = flipped ? quadrantMean(kC, kD, kA, kB) : quadrantMean(kA, kB, kC, kD);
-        // Texels are floats; the midpoint grid integrates each bilinear piece exactly.
+        // Unflipped: the top-left quadrant a; flip_tex_coords: Mitsuba's v is
+        // 1 - stored, the bottom-left c. The patch mean is that of the texels
+        // as squares (scene/texture.h): over one whole quadrant, its colour.
+        const RGB want = flipped ? kC : kA;
+        // Texels are floats; the box quadrature is exact on an axis-aligned map.
         expectRGB(p->rho, want, 1e-6, flipped ? "flipped ply" : "ply");
         // The texel near the corner (0.1, 0.1): Mitsuba uv (0.05, 0.05) or (0.05, 0.95).
         const Vec2 at = patchInverse(*p, Vec3(0.2, 0.2, p->v[0].z));

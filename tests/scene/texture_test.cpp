@@ -3,6 +3,7 @@
 // (small fixtures written into a temporary folder; glTF: gltf_loader_test).
 #include <stb/stb_image_write.h>  // Debian libstb-dev; implementation in libstb
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -48,9 +49,8 @@ Scene texturedQuad(const Texture& t, const std::array<glm::vec2, 4>& uv, PatchKi
     return s;
 }
 
-/// A triangle whose UVs (0.25, 0.5), (0.75, 0.5), (0.25, 1) stay between
-/// the texel centres of a clamped 2 x 1 texture (0.1, 0.7): rho is linear
-/// there, 0.1 + 1.2 (u - 1/4).
+/// A triangle whose UVs (0.25, 0.5), (0.75, 0.5), (0.25, 1) straddle the
+/// border u = 1/2 of the two texels of a clamped 2 x 1 texture (0.1, 0.7).
 Scene rampTriangle() {
     Texture ramp = checker(2, 0, 0);
     ramp.height = 1;
@@ -86,32 +86,101 @@ TEST(Texture, PatchMeanOfACheckerIsItsAnalyticMean) {
         Scene twice = texturedQuad(t, {glm::vec2(0, 0), {2, 0}, {2, 2}, {0, 2}});
         EXPECT_NEAR(patchTextureMean(twice, twice.patches[0]).g, 0.5 * (a + b), 1e-7);
     }
-    // One texel cell (the top-left, value a): the bilinear reconstruction
-    // over the cell weighs its own centre 9/16, the four edge neighbours (b)
-    // 6/16 together and the four diagonal ones (a) 1/16: (10 a + 6 b) / 16.
-    // The midpoint grid (4 x 4 here) integrates each bilinear piece exactly;
-    // the tolerance is the float storage of the texels.
+    // One texel cell (the top-left, value a): the mean of the texels as
+    // squares is that texel's value (the bilinear picture's mean over the
+    // cell would be (10 a + 6 b) / 16: the two differ within half a texel of
+    // a patch's UV border, texture.h); a quarter of it, too. The tolerance
+    // is the float storage of the texels.
     {
         const float h = 1.0f / 8;
         Scene s = texturedQuad(t, {glm::vec2(0, 1 - h), {h, 1 - h}, {h, 1}, {0, 1}});
-        EXPECT_NEAR(patchTextureMean(s, s.patches[0]).b, (10 * a + 6 * b) / 16, 1e-7);
+        EXPECT_NEAR(patchTextureMean(s, s.patches[0]).b, a, 1e-7);
+        Scene q = texturedQuad(t, {glm::vec2(h / 4, 1 - h / 2), {h / 2, 1 - h / 2}, {h / 2, 1 - h / 4}, {h / 4, 1 - h / 4}});
+        EXPECT_NEAR(patchTextureMean(q, q.patches[0]).b, a, 1e-7);
     }
-    // A triangle where rho is linear: a 2 x 1 texture (c0, c1) with clamp is
-    // linear in u between the texel centres 1/4 and 3/4; the triangle's UVs
-    // stay there, so its mean is rho at the UV centroid, u = 5/12:
-    // c0 + (5/12 - 1/4) / (1/2) (c1 - c0) = c0 + (c1 - c0) / 3.
+    // A triangle over two texels: a quarter of its area lies at u >= 1/2
+    // (the part of a right triangle beyond half its leg), so its mean is
+    // 0.75 c0 + 0.25 c1. The texel border falls on the quadrature's grid, so
+    // every sub-triangle lies in one texel and the quadrature is exact.
     {
         Scene s = rampTriangle();
-        EXPECT_NEAR(patchTextureMean(s, s.patches[0]).r, 0.1 + (0.7 - 0.1) / 3, 1e-7);
+        EXPECT_NEAR(patchTextureMean(s, s.patches[0]).r, 0.75 * 0.1 + 0.25 * 0.7, 1e-7);
+    }
+}
+
+/// The exact mean of the texels as squares over the texel box [x0, x1] x
+/// [y0, y1], by brute force over every lattice texel the box touches, with
+/// the test's own wrap arithmetic (Texture::boxMean's definition).
+RGB bruteBoxMean(const Texture& t, double x0, double x1, double y0, double y1) {
+    auto wrap = [](int64_t i, int n, TextureWrap m) -> int64_t {
+        if (m == TextureWrap::Clamp) return std::clamp<int64_t>(i, 0, n - 1);
+        if (m == TextureWrap::Repeat) return ((i % n) + n) % n;
+        const int64_t q = ((i % (2 * n)) + 2 * n) % (2 * n);
+        return q < n ? q : 2 * n - 1 - q;
+    };
+    RGB sum(0.0);
+    for (int64_t j = int64_t(std::floor(y0)); double(j) < y1; ++j) {
+        const double cy = std::min(y1, double(j + 1)) - std::max(y0, double(j));
+        const int64_t row = wrap(j, t.height, t.wrapV);
+        for (int64_t i = int64_t(std::floor(x0)); double(i) < x1; ++i) {
+            const double cx = std::min(x1, double(i + 1)) - std::max(x0, double(i));
+            const float* p = &t.texels[size_t(3 * (row * t.width + wrap(i, t.width, t.wrapU)))];
+            sum += (cx * cy) * RGB(p[0], p[1], p[2]);
+        }
+    }
+    return sum / ((x1 - x0) * (y1 - y0));
+}
+
+/// A large UV footprint (issue 60; papers/notes/2026-12-02-textures.md: the
+/// capped 64 x 64 point grid aliased patch means by some 30 %): a 512 x 512
+/// grid of one-texel lines (1 every 8th column and 16th row, 0.05 between)
+/// over a quad whose UVs span 37.3 x 3.2 repeats, the lines 300 texels apart
+/// between grid points. The patch mean, and a child element's, is the exact
+/// area mean of the texels (brute force, double sums over float texels:
+/// 1e-9) for repeat, mirror and clamp. A square takes one box; a quad skewed
+/// by eps = 1e-6 (Jacobian 1 + c eps) takes the 64 x 64 grid of boxes, whose
+/// Jacobian weights then differ from uniform by at most eps: within 2 eps
+/// (max - min) = 1.9e-6 of the exact unweighted mean.
+TEST(Texture, PatchMeanOnALargeFootprintIsTheExactTexelMean) {
+    Texture lines;
+    lines.file = "lines";
+    lines.width = lines.height = 512;
+    for (int j = 0; j < 512; ++j)
+        for (int i = 0; i < 512; ++i)
+            for (int c = 0; c < 3; ++c) lines.texels.push_back(i % 8 == 0 || j % 16 == 0 ? 1.f : 0.05f);
+    const glm::vec2 lo(0.013f, 0.2f), hi(37.3f, 3.41f);
+    for (TextureWrap mode : {TextureWrap::Repeat, TextureWrap::Mirror, TextureWrap::Clamp}) {
+        lines.wrapU = lines.wrapV = mode;
+        Scene s = texturedQuad(lines, {lo, {hi.x, lo.y}, hi, {lo.x, hi.y}});
+        auto exact = [&](const Domain& d) {
+            // The domain's UV rectangle in texel coordinates (y = (1 - v) 512).
+            const Vec2 l(lo), e = Vec2(hi) - Vec2(lo);  // in double, as uvAt
+            const double u0 = l.x + d.u0 * e.x, u1 = l.x + (d.u0 + d.h) * e.x;
+            const double v0 = l.y + d.v0 * e.y, v1 = l.y + (d.v0 + d.h) * e.y;
+            return bruteBoxMean(lines, 512 * u0, 512 * u1, 512 * (1 - v1), 512 * (1 - v0));
+        };
+        const RGB want = exact(Domain{});
+        const RGB got = patchTextureMean(s, s.patches[0]);
+        EXPECT_NEAR(got.g, want.g, 1e-9) << int(mode);
+        Scene skewed = s;
+        skewed.patches[0].v[2].x += 1e-6;
+        EXPECT_NEAR(patchTextureMean(skewed, skewed.patches[0]).g, want.g, 2e-6 * 0.95 + 1e-9) << int(mode);
+        const Domain child{0.5, 0.25, 0.25};
+        EXPECT_NEAR(elementTextureMean(s, s.patches[0], child).r, exact(child).r, 1e-9) << int(mode);
+        // Not the texture's own mean: the rectangle holds no whole periods.
+        if (mode == TextureWrap::Repeat) {
+            EXPECT_GT(std::fabs(want.g - s.textures[0]->mean.g), 1e-5);
+        }
     }
 }
 
 /// elementTextureMean (hr.texture_rho = element): the root domain is the
-/// patch mean bit for bit; where rho is linear each child triangle's mean is
-/// rho at its UV centroid, the inverted middle child included; a child
-/// brighter than 1 is clamped as the loader clamps patch means.
+/// patch mean bit for bit; each child triangle's mean is that of the texel
+/// it lies in, the inverted middle child included; a child brighter than 1
+/// is clamped as the loader clamps patch means.
 TEST(Texture, ElementMeansFollowEachElementsOwnDomain) {
-    // UVs inside the texel centres' span: rho = 0.1 + 1.2 (u - 1/4).
+    // Children 0, 2 and the inverted 3 lie at u <= 1/2 (texel 0.1), child 1
+    // beyond it (0.7).
     Scene s = rampTriangle();
     const Patch& p = s.patches[0];
     const RGB root = elementTextureMean(s, p, Domain{});
@@ -120,10 +189,7 @@ TEST(Texture, ElementMeansFollowEachElementsOwnDomain) {
     EXPECT_EQ(root.b, patch.b);
     for (int c = 0; c < 4; ++c) {
         const Domain d = childDomain(p.kind, Domain{}, c);
-        // The UV centroid's u: corners u0, u0 + h, u0 of the parametric
-        // triangle map to UV u = 0.25 + 0.5 * (parametric u).
-        const double uc = 0.25 + 0.5 * (d.u0 + d.h / 3);
-        EXPECT_NEAR(elementTextureMean(s, p, d).r, 0.1 + 1.2 * (uc - 0.25), 1e-7) << c;
+        EXPECT_NEAR(elementTextureMean(s, p, d).r, c == 1 ? 0.7 : 0.1, 1e-7) << c;
     }
     // A half-white quad: the white child's mean 1 becomes clamp_rho.
     Texture half = checker(2, 0.0, 1.0);
