@@ -86,6 +86,10 @@ class HrEntry final : public Solver {
                 if (ctx.onRecord) ctx.onRecord(hrRecordJson(rec));
             });
         auto res = std::make_shared<hr::HrResult>(s.solve(ctx.progress));
+        // hr.texture_rho = element on a scene with textured patches: the
+        // leaves carry their own reflectance (scene/field.h leafTextureRho),
+        // which the picture divides by (render/texturing.h).
+        res->field->setLeafTextureRho(res->hierarchy->elementRhoBytes() > 0);
         SolveOutput out;
         out.field = res->field.get();
         const hr::Hierarchy& h = *res->hierarchy;

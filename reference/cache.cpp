@@ -391,6 +391,12 @@ constexpr char kSolutionMagic[8] = {'H', 'R', 'A', 'D', 'S', 'O', 'L', '\0'};
 // version 1, byte for byte as before.
 constexpr uint32_t kSolutionVersion = 1;
 constexpr uint32_t kSolutionVersionPolynomial = 2;
+// Version 3: a field whose textured leaves carry their own reflectance
+// (RadiosityField::leafTextureRho): u32 degree (0..3) and u32 flags (bit 0)
+// after the patch count, then the leaves as version 2 (none after the mean
+// for degree 0). Versions 1 and 2 are still written for every other field.
+constexpr uint32_t kSolutionVersionFlags = 3;
+constexpr uint32_t kFlagLeafTextureRho = 1;
 
 /// The largest |B| (and basis coefficient) a patch of `scene` can hold, by
 /// which loadSolution refuses 1e308 or NaN, which the checksum cannot (a
@@ -423,6 +429,34 @@ class RadiosityBound {
     const scene::Scene& scene_;
     double emitters_ = 0.0, lights_ = 0.0;
 };
+/// The header's fields after the patch count: the basis degree (versions 2
+/// and 3) and the flags (version 3). Throws InputError at `path`.
+struct SolutionOptions {
+    uint32_t degree = 0, flags = 0;
+};
+SolutionOptions readSolutionOptions(Reader& r, uint32_t version, const std::string& path) {
+    auto fail = [&](const std::string& why) {
+        throw InputError(SourceLocation{path, 0, 0}, "not a usable hrad solution: " + why);
+    };
+    SolutionOptions o;
+    if (version == kSolutionVersionPolynomial || version == kSolutionVersionFlags) {
+        size_t at = r.pos;
+        o.degree = r.pod<uint32_t>();
+        const uint32_t lowest = version == kSolutionVersionFlags ? 0 : 1;
+        if (r.bad) fail(fmt::format("truncated header ({} bytes, the header has 32)", r.buf.size()));
+        if (o.degree < lowest || o.degree > uint32_t(scene::kMaxBasisDegree))
+            fail(fmt::format("basis degree {} (at byte offset {}) is not {}..{}", o.degree, at, lowest,
+                             scene::kMaxBasisDegree));
+    }
+    if (version == kSolutionVersionFlags) {
+        size_t at = r.pos;
+        o.flags = r.pod<uint32_t>();
+        if (r.bad) fail(fmt::format("truncated header ({} bytes, the header has 36)", r.buf.size()));
+        if (o.flags & ~kFlagLeafTextureRho)
+            fail(fmt::format("unknown flags {:#x} (at byte offset {})", o.flags, at));
+    }
+    return o;
+}
 }  // namespace
 
 void saveSolution(const std::string& path, const scene::RadiosityField& field) {
@@ -431,10 +465,12 @@ void saveSolution(const std::string& path, const scene::RadiosityField& field) {
     w.buf.append(kSolutionMagic, sizeof(kSolutionMagic));
     const int degree = field.basisDegree();
     const int extra = scene::basisSize(degree) - 1;
-    w.pod(degree > 0 ? kSolutionVersionPolynomial : kSolutionVersion);
+    const bool flags = field.leafTextureRho();
+    w.pod(flags ? kSolutionVersionFlags : degree > 0 ? kSolutionVersionPolynomial : kSolutionVersion);
     w.pod(sceneContentHash(s));
     w.pod(uint64_t(s.patches.size()));
-    if (degree > 0) w.pod(uint32_t(degree));
+    if (degree > 0 || flags) w.pod(uint32_t(degree));
+    if (flags) w.pod(kFlagLeafTextureRho);
     std::array<RGB, scene::kMaxBasisSize> higher{};
     for (uint32_t p = 0; p < s.patches.size(); ++p) {
         std::vector<std::pair<scene::ElementKey, RGB>> leaves;
@@ -485,9 +521,10 @@ std::unique_ptr<scene::LeafField> loadSolution(const std::string& path, const sc
     auto patches = r.pod<uint64_t>();
     if (r.bad)
         return fail(fmt::format("truncated header ({} bytes, the header has 28)", buf.size()));
-    if (version != kSolutionVersion && version != kSolutionVersionPolynomial)
-        return fail(fmt::format("format version {} is neither {} nor {} (at byte offset 8)",
-                                version, kSolutionVersion, kSolutionVersionPolynomial));
+    if (version != kSolutionVersion && version != kSolutionVersionPolynomial &&
+        version != kSolutionVersionFlags)
+        return fail(fmt::format("format version {} is not {}, {} or {} (at byte offset 8)", version,
+                                kSolutionVersion, kSolutionVersionPolynomial, kSolutionVersionFlags));
     if (hash != sceneContentHash(scene) || patches != scene.patches.size())
         throw InputError(SourceLocation{path, 0, 0},
                          fmt::format("the solution was computed for another scene (content hash "
@@ -495,16 +532,7 @@ std::unique_ptr<scene::LeafField> loadSolution(const std::string& path, const sc
                                      hex64(hash), patches, hex64(sceneContentHash(scene)),
                                      scene.patches.size()));
     const RadiosityBound boundOf(scene);
-    uint32_t degree = 0;
-    if (version == kSolutionVersionPolynomial) {
-        size_t at = r.pos;
-        degree = r.pod<uint32_t>();
-        if (r.bad)
-            return fail(fmt::format("truncated header ({} bytes, the header has 32)", buf.size()));
-        if (degree < 1 || degree > uint32_t(scene::kMaxBasisDegree))
-            return fail(fmt::format("basis degree {} (at byte offset {}) is not 1..{}", degree, at,
-                                    scene::kMaxBasisDegree));
-    }
+    const auto [degree, flags] = readSolutionOptions(r, version, path);
     const size_t extra = size_t(scene::basisSize(int(degree)) - 1);
     const size_t leafBytes = 4 * sizeof(uint64_t) + 3 * sizeof(double) * extra;
     std::vector<std::vector<scene::LeafField::Leaf>> leaves(patches);
@@ -569,8 +597,10 @@ std::unique_ptr<scene::LeafField> loadSolution(const std::string& path, const sc
     if (f.h != stored)
         return fail(fmt::format("checksum mismatch (checksum at byte offset {})", checked));
     try {
-        return std::make_unique<scene::LeafField>(scene, std::move(leaves), int(degree),
-                                                  std::move(higher));
+        auto field = std::make_unique<scene::LeafField>(scene, std::move(leaves), int(degree),
+                                                        std::move(higher));
+        field->setLeafTextureRho((flags & kFlagLeafTextureRho) != 0);
+        return field;
     } catch (const Error& e) {
         return fail(e.what());
     }

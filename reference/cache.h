@@ -125,6 +125,10 @@ MonteCarloResult cachedMonteCarlo(const scene::Scene& scene,
 /// Version 1 is written for piecewise constant fields (hr.basis = constant,
 /// the full matrix, Monte Carlo), version 2 for polynomial ones, so that
 /// `hrad render` draws the solver's polynomials, not their means.
+/// Version 3 (a field with leafTextureRho, hr.texture_rho = element): u32
+/// degree (0..3) and u32 flags (bit 0: leafTextureRho) after the patch count,
+/// then the leaves as version 2, so that the picture divides by each leaf's
+/// reflectance (render/texturing.h).
 /// Written atomically (temporary file + rename). Throws hrad::InputError
 /// naming the path when the file cannot be written.
 void saveSolution(const std::string& path, const scene::RadiosityField& field);

@@ -161,13 +161,34 @@ Lightmap bakeLightmap(const scene::RadiosityField& field, const LightmapSettings
     std::optional<TextureShading> shading;
     if (settings.textures && !sc.textures.empty()) shading.emplace(sc);
     const bool irradiance = settings.texels == LightmapSettings::Texels::Irradiance;
+    // Leaves with their own reflectance (render/texturing.h): texels from H,
+    // smoothed as H (a `smooth` built without them is rebuilt with them).
+    std::optional<LeafReflectance> leafRho;
+    std::unique_ptr<VertexInterpolation> ownSmooth;
+    if (shading && field.leafTextureRho()) {
+        leafRho.emplace(field);
+        if (!leafRho->any()) leafRho.reset();
+    }
+    if (smooth && smooth->interpolatesIrradiance() != bool(leafRho)) {
+        ownSmooth = std::make_unique<VertexInterpolation>(field, smooth->settings(),
+                                                          leafRho ? &*leafRho : nullptr);
+        smooth = ownSmooth.get();
+    }
     tbb::parallel_for(size_t(0), sc.patches.size(), [&](size_t p) {
         const Lightmap::Chart& c = lm.charts[p];
         const scene::Patch& patch = sc.patches[p];
         const bool textured = shading && scene::patchTexture(sc, patch);
+        const bool ownRho = leafRho && leafRho->covers(uint32_t(p));
         for (int j = -g; j < c.h + g; ++j)
             for (int i = -g; i < c.w + g; ++i) {
                 Vec2 uv = scene::clampToPatchDomain(patch.kind, Vec2((i + 0.5) / c.w, (j + 0.5) / c.h));
+                if (ownRho) {
+                    const RGB H = smooth ? smooth->at(uint32_t(p), uv.x, uv.y)
+                                         : leafRho->irradianceAt(uint32_t(p), uv.x, uv.y);
+                    lm.atlas.at(c.x + i, c.y + j) =
+                        irradiance ? H : shading->shadeIrradiance(uint32_t(p), uv.x, uv.y, H);
+                    continue;
+                }
                 RGB B = smooth ? smooth->at(uint32_t(p), uv.x, uv.y) : field.at(uint32_t(p), uv.x, uv.y);
                 if (textured && irradiance) {
                     // H = (B - E) / rho_bar per channel (0 where rho_bar is 0).

@@ -28,7 +28,9 @@
 //   lightmap_texels   string "radiosity"  what texels of textured patches hold
 //                                  (render/texturing.h): "radiosity" E + rho(x) H,
 //                                  the texture multiplied in at the texel; or
-//                                  "irradiance" H = (B - E) / rho_bar, for an
+//                                  "irradiance" H = (B - E) / rho_bar (each
+//                                  leaf's own rho under hr.texture_rho =
+//                                  element, render/texturing.h), for an
 //                                  engine that multiplies its own base texture
 //                                  (lightmap.exr/png). The .glb's unlit material
 //                                  always shows E + rho(x) H (core glTF has no

@@ -310,6 +310,43 @@ std::vector<Image> renderGathered(const scene::Scene& scene, const transport::Vi
     return img;
 }
 
+/// What one field shows at a camera sample: its lightmap's texel, or its
+/// (smooth or flat) value with the texture (render/texturing.h; with each
+/// leaf's own reflectance where the field says so).
+struct FieldPicture {
+    const scene::RadiosityField* field = nullptr;
+    std::unique_ptr<LeafReflectance> leafRho;
+    std::unique_ptr<VertexInterpolation> interp;
+    std::optional<Lightmap> lightmap;
+
+    void prepare(const scene::RadiosityField& f, const RenderSettings& settings) {
+        field = &f;
+        const bool fromLightmap = settings.reconstruction == RenderSettings::Reconstruction::Lightmap;
+        if (settings.textures && f.leafTextureRho()) {
+            leafRho = std::make_unique<LeafReflectance>(f);
+            if (!leafRho->any()) leafRho.reset();
+        }
+        if (settings.interpolate || fromLightmap)
+            interp = std::make_unique<VertexInterpolation>(f, settings.smooth, leafRho.get());
+        if (fromLightmap) {
+            LightmapSettings ls = settings.lightmap;
+            ls.textures = settings.textures;
+            lightmap = bakeLightmap(f, ls, interp.get());
+        }
+    }
+
+    RGB at(uint32_t patch, const Vec2& uv, const TextureShading* tex, const ParamFootprint* fp) const {
+        if (lightmap) return lightmap->sample(lightmap->uv(patch, uv.x, uv.y));  // texture in the texels
+        if (tex && leafRho && leafRho->covers(patch)) {
+            // Each leaf's own rho (texturing.h): shade H.
+            const RGB H = interp ? interp->at(patch, uv.x, uv.y) : leafRho->irradianceAt(patch, uv.x, uv.y);
+            return tex->shadeIrradiance(patch, uv.x, uv.y, H, fp);
+        }
+        const RGB B = interp ? interp->at(patch, uv.x, uv.y) : field->at(patch, uv.x, uv.y);
+        return tex ? tex->shade(patch, uv.x, uv.y, B, fp) : B;
+    }
+};
+
 }  // namespace
 
 Image renderField(const scene::Scene& scene, const transport::Visibility& visibility,
@@ -325,19 +362,11 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
     if (settings.reconstruction == RenderSettings::Reconstruction::FinalGather ||
         settings.reconstruction == RenderSettings::Reconstruction::PathTraced)
         return renderGathered(scene, visibility, fields, camera, settings);
-    const bool fromLightmap = settings.reconstruction == RenderSettings::Reconstruction::Lightmap;
-    std::vector<std::unique_ptr<VertexInterpolation>> interp(nf);
-    std::vector<Lightmap> lightmaps(fromLightmap ? nf : 0);
+    std::vector<FieldPicture> pictures(nf);
     for (size_t f = 0; f < nf; ++f) {
         HRAD_CHECK(&fields[f]->scene() == &scene ||
                    fields[f]->scene().patches.size() == scene.patches.size());
-        if (settings.interpolate || fromLightmap)
-            interp[f] = std::make_unique<VertexInterpolation>(*fields[f], settings.smooth);
-        if (fromLightmap) {
-            LightmapSettings ls = settings.lightmap;
-            ls.textures = settings.textures;
-            lightmaps[f] = bakeLightmap(*fields[f], ls, interp[f].get());
-        }
+        pictures[f].prepare(*fields[f], settings);
     }
     std::optional<TextureShading> shading;
     if (settings.textures && !scene.textures.empty()) shading.emplace(scene, settings.textureFilter);
@@ -391,15 +420,8 @@ std::vector<Image> renderFields(const scene::Scene& scene, const transport::Visi
                         if (mip)
                             fp = footprintOnPatch(p, frame.eye, frame.direction(x + jx + step, y + jy),
                                                   frame.direction(x + jx, y + jy + step), uv);
-                        for (size_t f = 0; f < nf; ++f) {
-                            if (fromLightmap) {  // texture already in the texels
-                                sum[f] += lightmaps[f].sample(lightmaps[f].uv(hit.patch, uv.x, uv.y));
-                                continue;
-                            }
-                            const RGB B = interp[f] ? interp[f]->at(hit.patch, uv.x, uv.y)
-                                                    : fields[f]->at(hit.patch, uv.x, uv.y);
-                            sum[f] += tex ? tex->shade(hit.patch, uv.x, uv.y, B, mip ? &fp : nullptr) : B;
-                        }
+                        for (size_t f = 0; f < nf; ++f)
+                            sum[f] += pictures[f].at(hit.patch, uv, tex, mip ? &fp : nullptr);
                     }
                     for (size_t f = 0; f < nf; ++f) img[f].at(x, y) = sum[f] / double(spp);
                     background.record(img, x, y, hits, spp);

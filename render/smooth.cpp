@@ -12,6 +12,7 @@
 #include <unordered_map>
 
 #include "core/error.h"
+#include "render/texturing.h"
 
 namespace hrad::render {
 
@@ -73,13 +74,18 @@ struct VertexInterpolation::PatchTable {
     }
 };
 
-VertexInterpolation::VertexInterpolation(const scene::RadiosityField& field, const SmoothSettings& s)
-    : field_(&field) {
+VertexInterpolation::VertexInterpolation(const scene::RadiosityField& field, const SmoothSettings& s,
+                                         const LeafReflectance* leaf)
+    : field_(&field), settings_(s), leaf_(leaf && leaf->any() ? leaf : nullptr) {
     buildSurfaces(s.creaseDegrees);
     buildVertices();
 }
 
 VertexInterpolation::~VertexInterpolation() = default;
+
+bool VertexInterpolation::holdsIrradiance(uint32_t patch) const { return leaf_ && leaf_->covers(patch); }
+
+bool VertexInterpolation::interpolatesIrradiance() const { return leaf_ != nullptr; }
 
 /// Phase 1: smooth surfaces, the union of root patches across shared edges
 /// with equal materials and normals within the crease angle.
@@ -112,13 +118,16 @@ void VertexInterpolation::buildSurfaces(double creaseDegrees) {
             edges[{a, b}].push_back(p);
         }
     }
-    auto compatible = [&](const scene::Patch& a, const scene::Patch& b) {
-        return a.rho == b.rho && a.emission == b.emission && glm::dot(a.normal, b.normal) >= cosCrease;
+    // A patch holding H never joins one holding B (smooth.h).
+    auto compatible = [&](uint32_t i, uint32_t j) {
+        const scene::Patch &a = sc.patches[i], &b = sc.patches[j];
+        return holdsIrradiance(i) == holdsIrradiance(j) && a.rho == b.rho &&
+               a.emission == b.emission && glm::dot(a.normal, b.normal) >= cosCrease;
     };
     for (const auto& [e, ps] : edges)
         for (size_t i = 0; i < ps.size(); ++i)
             for (size_t j = i + 1; j < ps.size(); ++j)
-                if (compatible(sc.patches[ps[i]], sc.patches[ps[j]])) {
+                if (compatible(ps[i], ps[j])) {
                     uint32_t ra = findRoot(surface_, ps[i]), rb = findRoot(surface_, ps[j]);
                     if (ra != rb) surface_[std::max(ra, rb)] = std::min(ra, rb);
                 }
@@ -144,10 +153,13 @@ void VertexInterpolation::buildVertices() {
     });
     const Quantiser q{sc.bounds().lo, std::max(1e-7 * sc.bounds().diagonal(), 1e-300)};
     std::unordered_map<VKey, uint32_t, VKeyHash> vertices;
-    std::vector<int> count;
+    // Per vertex and channel: the sum of the leaves' values and of their
+    // weights (1 each; on patches holding H, B - E and rho_l: smooth.h).
+    std::vector<RGB> weight;
     for (uint32_t p = 0; p < n; ++p) {
         PatchTable& t = *tables_[p];
         const scene::Patch& pa = sc.patches[p];
+        const bool irradiance = holdsIrradiance(p);
         for (size_t i = 0; i < t.keys.size(); ++i) {
             Vec3 c[4];
             int nc = scene::elementCorners(pa, scene::keyDomain(pa.kind, t.keys[i]), c);
@@ -155,16 +167,18 @@ void VertexInterpolation::buildVertices() {
                 auto [it, fresh] = vertices.try_emplace(q.key(surface_[p], c[k]), uint32_t(value_.size()));
                 if (fresh) {
                     value_.push_back(RGB(0.0));
-                    count.push_back(0);
+                    weight.push_back(RGB(0.0));
                 }
                 Vec2 a = scene::cornerLocal(pa.kind, k);
-                value_[it->second] += field_->leafPoint(p, t.keys[i], t.values[i], a.x, a.y);
-                ++count[it->second];
+                const RGB b = field_->leafPoint(p, t.keys[i], t.values[i], a.x, a.y);
+                value_[it->second] += irradiance ? b - pa.emission : b;
+                weight[it->second] += irradiance ? leaf_->rho(p, t.keys[i]) : RGB(1.0);
                 t.ids[i][size_t(k)] = it->second;
             }
         }
     }
-    for (size_t v = 0; v < value_.size(); ++v) value_[v] /= double(count[v]);
+    for (size_t v = 0; v < value_.size(); ++v)
+        for (int c = 0; c < 3; ++c) value_[v][c] = weight[v][c] > 0 ? value_[v][c] / weight[v][c] : 0.0;
 
     // T-vertices: recursive midpoints of leaf edges that are vertices of the
     // same surface; (level of the edge, end points, midpoint).
@@ -224,7 +238,8 @@ RGB VertexInterpolation::at(uint32_t patch, double u, double v) const {
     Vec2 uv = scene::clampToPatchDomain(t.kind, Vec2(u, v));
     Domain d;
     uint32_t leaf = t.find(uv.x, uv.y, d);
-    if (leaf == UINT32_MAX) return field_->at(patch, uv.x, uv.y);
+    if (leaf == UINT32_MAX)
+        return holdsIrradiance(patch) ? leaf_->irradianceAt(patch, uv.x, uv.y) : field_->at(patch, uv.x, uv.y);
     // Local coordinates; for inverted triangles h < 0 maps the corners
     // (u0,v0), (u0+h,v0), (u0,v0+h) to (0,0), (1,0), (0,1) all the same.
     double a = std::clamp((uv.x - d.u0) / d.h, 0.0, 1.0);

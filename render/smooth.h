@@ -26,6 +26,16 @@
 //     that is not an edge midpoint is not found (the image may then step).
 //   - Not handled: shadow edges that a discontinuity mesh resolves with
 //     coplanar patches of one material are smoothed like any other border.
+//   - Irradiance (with a LeafReflectance, render/texturing.h: leaves that
+//     carry their own reflectance, hr.texture_rho = element): on the patches
+//     it covers the tables hold H, not B. A vertex takes sum (B_l - E) / sum
+//     rho_l over its leaves per channel (the H whose product with the leaves'
+//     mean rho is their mean reflected radiosity; a black leaf, rho_l = 0,
+//     tells nothing of H and weighs nothing). Surfaces are those of B (equal
+//     patch means), so the picture is the patch solve's wherever the leaves
+//     carry the patch mean (joining by material instead smoothed the
+//     holodeck's floor into its walls' fillets: papers/notes/
+//     2026-12-02-textures.md, 2026-12-04); they never join a patch holding B.
 #pragma once
 
 #include <cstdint>
@@ -38,6 +48,8 @@
 
 namespace hrad::render {
 
+class LeafReflectance;
+
 struct SmoothSettings {
     double creaseDegrees = 30.0;  ///< render.crease_angle
 };
@@ -45,24 +57,35 @@ struct SmoothSettings {
 /// Vertex tables of one field, built once; at() is thread-safe.
 class VertexInterpolation {
   public:
-    explicit VertexInterpolation(const scene::RadiosityField& field, const SmoothSettings& s = {});
+    /// With `leaf` (which must outlive this), the patches it covers hold
+    /// irradiance H (see above).
+    explicit VertexInterpolation(const scene::RadiosityField& field, const SmoothSettings& s = {},
+                                 const LeafReflectance* leaf = nullptr);
     ~VertexInterpolation();
     VertexInterpolation(const VertexInterpolation&) = delete;
     VertexInterpolation& operator=(const VertexInterpolation&) = delete;
 
-    /// Interpolated value at parametric (u,v) of `patch`.
+    /// Interpolated value at parametric (u,v) of `patch` (H where
+    /// holdsIrradiance(patch), else B).
     RGB at(uint32_t patch, double u, double v) const;
     /// Value at corner `corner` (0..2 or 0..3, elementCorners order) of leaf
     /// `key` of `patch`; leaves are those of the field.
     RGB cornerValue(uint32_t patch, scene::ElementKey key, int corner) const;
     /// Smooth surface (union of root patches) that `patch` belongs to.
     uint32_t surfaceOf(uint32_t patch) const { return surface_[patch]; }
+    /// Whether `patch`'s values are irradiance (a LeafReflectance covers it).
+    bool holdsIrradiance(uint32_t patch) const;
+    /// Whether this was built with a LeafReflectance that covers some patch.
+    bool interpolatesIrradiance() const;
+    const SmoothSettings& settings() const { return settings_; }
     size_t numVertices() const { return value_.size(); }
     size_t numAnchored() const { return anchored_; }
 
   private:
     struct PatchTable;
     const scene::RadiosityField* field_;
+    SmoothSettings settings_;
+    const LeafReflectance* leaf_ = nullptr;
     std::vector<uint32_t> surface_;               ///< per patch
     std::vector<std::unique_ptr<PatchTable>> tables_;
     std::vector<RGB> value_;                      ///< per vertex

@@ -7,9 +7,12 @@
 #include <cmath>
 #include <optional>
 
+#include "core/error.h"
 #include "scene/element.h"
 
 namespace hrad::render {
+
+using scene::ElementKey;
 
 namespace {
 
@@ -149,6 +152,59 @@ RGB TextureShading::shade(uint32_t patch, double u, double v, const RGB& B,
     if (!textured_[patch]) return B;
     const RGB& E = scene_->patches[patch].emission;
     return E + (B - E) * ratio(patch, u, v, fp);
+}
+
+RGB TextureShading::shadeIrradiance(uint32_t patch, double u, double v, const RGB& H,
+                                    const ParamFootprint* fp) const {
+    const scene::Patch& p = scene_->patches[patch];
+    if (!textured_[patch]) return p.emission + p.rho * H;
+    return p.emission + H * (ratio(patch, u, v, fp) * p.rho);
+}
+
+LeafReflectance::LeafReflectance(const scene::RadiosityField& field) : field_(&field) {
+    const scene::Scene& sc = field.scene();
+    if (!field.leafTextureRho() || sc.textures.empty()) return;
+    rho_.resize(sc.patches.size());
+    tbb::parallel_for(size_t(0), sc.patches.size(), [&](size_t i) {
+        const scene::Patch& p = sc.patches[i];
+        if (!scene::patchTexture(sc, p)) return;
+        auto& m = rho_[i];
+        field.forEachLeaf(uint32_t(i), [&](ElementKey k, const RGB&) {
+            // The root keeps the patch's (clamped) mean, as hr/element_rho.h.
+            m.emplace(k, k == scene::kRootKey ? p.rho
+                                              : scene::elementRho(sc, p, scene::keyDomain(p.kind, k)));
+        });
+    });
+    for (const auto& m : rho_) any_ = any_ || !m.empty();
+}
+
+const RGB& LeafReflectance::rho(uint32_t patch, ElementKey key) const {
+    auto it = rho_[patch].find(key);
+    HRAD_CHECK_MSG(it != rho_[patch].end(), "key {} is not a leaf of patch {}", key, patch);
+    return it->second;
+}
+
+ElementKey LeafReflectance::leafAt(uint32_t patch, double u, double v) const {
+    const scene::PatchKind kind = field_->scene().patches[patch].kind;
+    const auto& m = rho_[patch];
+    ElementKey key = scene::kRootKey;
+    scene::Domain dom;
+    for (int level = 0; level < scene::kMaxLevel && !m.count(key); ++level) {
+        const int c = scene::childContaining(kind, dom, u, v);
+        dom = scene::childDomain(kind, dom, c);
+        key = scene::childKey(key, c);
+    }
+    return key;
+}
+
+RGB LeafReflectance::irradianceAt(uint32_t patch, double u, double v) const {
+    const RGB B = field_->at(patch, u, v);
+    const RGB& E = field_->scene().patches[patch].emission;
+    const auto it = rho_[patch].find(leafAt(patch, u, v));
+    if (it == rho_[patch].end()) return RGB(0.0);
+    RGB H(0.0);
+    for (int c = 0; c < 3; ++c) H[c] = it->second[c] > 0 ? (B[c] - E[c]) / it->second[c] : 0.0;
+    return H;
 }
 
 }  // namespace hrad::render

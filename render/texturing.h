@@ -15,35 +15,40 @@
 // Setting: render.textures  on | off  (default on; off shows the solved B).
 //
 // Filtering (render.texture_filter, read by RenderSettings, render/render.h):
-// `bilinear` looks up rho(x) at the hit alone, so a texture minified below
-// the pixel rate aliases (a far checker turns to noise or moire). `mip`
-// (default) filters over the sample's footprint with a mip map (Williams 1983,
-// "Pyramidal parametrics"): level k + 1 is the 2 x 2 box mean of level k,
-// sizes halved and rounded up (an odd edge's missing texel wraps by the
-// texture's mode), down to 1 x 1. The footprint is a ray differential (Igehy
-// 1999; Pharr, Jakob & Humphreys, PBR 3rd ed. section 10.1.1): the camera rays
-// one sample spacing (1 / sqrt(spp) pixel) to the right and below meet the hit
-// patch's plane, their points mapped back to the patch's (u, v) and through
-// its UV map to texels; that carries distance, pixel angle, 1 / cos and the
-// UV Jacobian. Two steps of at most one texel (magnification) are the
-// bilinear lookup exactly. Else the footprint is anisotropic, as GPUs filter
-// it (EXT_texture_filter_anisotropic): N = min(8, ceil(major / minor))
-// trilinear probes spread along the major axis, each at the level of a
-// square w = max(minor, major / 8) wide. A level-k lookup is a 2^k box
-// followed by a tent two level-k texels wide, of standard deviation 2^k / 2;
-// the pixel's box of width w has w / sqrt(12): the level is log2(w / sqrt(3)),
-// the one whose filter has the box's second moment (isotropic, always at the
-// longer step, as OpenGL's rho = max and PBR section 10.4.3, blurred the
-// holodeck: papers/notes/2026-12-02-textures.md, 2026-12-03). The pyramid
-// costs 1/3 of the texels again, at render time only. Final gather, the path
-// tracer and lightmap texels stay bilinear.
+// `bilinear` looks up rho(x) at the hit alone (a minified texture aliases);
+// `mip` (default) filters over the sample's footprint with a mip map
+// (Williams 1983: level k + 1 the 2 x 2 box mean of level k, down to 1 x 1).
+// The footprint is a ray differential (Igehy 1999; PBR 3rd ed. section
+// 10.1.1): the camera rays one sample spacing (1 / sqrt(spp) pixel) to the
+// right and below, met on the hit patch's plane and mapped to texels through
+// patchInverse and the UV map. Magnified (both steps <= 1 texel): the
+// bilinear lookup exactly. Else anisotropic (EXT_texture_filter_anisotropic):
+// N = min(8, ceil(major / minor)) trilinear probes along the major axis at
+// level log2(w / sqrt(3)), w = max(minor, major / 8): the level whose 2^k box
+// and tent have the pixel box's second moment (the derivation and the
+// measurements: papers/notes/2026-12-02-textures.md, 2026-12-03). The
+// pyramid costs 1/3 of the texels again, at render time only. Final gather,
+// the path tracer and lightmap texels stay bilinear.
+//
+// Reflectance per leaf (hr.texture_rho = element; scene/field.h
+// leafTextureRho): the solve gave each leaf l of a textured patch its own
+// rho_l (scene/texture.h elementRho), so its irradiance is H_l = (B_l - E) /
+// rho_l, not (B - E) / rho_bar (LeafReflectance). The picture is then
+// E + H(x) rho_shown(x), rho_shown = rho_raw(x) rho_bar / rho_raw_bar (the
+// texel as above, 1 x the texel unless the patch mean was clamped): flat,
+// H(x) = H_l of the leaf; smooth, H is what render/smooth.h interpolates on
+// these patches. Where every leaf's rho is the patch mean this is the patch
+// picture exactly.
 #pragma once
 
 #include <cstdint>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 #include "core/types.h"
+#include "scene/element.h"
+#include "scene/field.h"
 #include "scene/scene.h"
 #include "scene/texture.h"
 
@@ -91,6 +96,30 @@ struct ParamFootprint {
 ParamFootprint footprintOnPatch(const scene::Patch& p, const Vec3& eye, const Vec3& dirX,
                                 const Vec3& dirY, const Vec2& uv);
 
+/// The reflectance each leaf of a textured root patch was solved with, for a
+/// field whose leaves carry their own (RadiosityField::leafTextureRho; else
+/// any() is false): scene::elementRho over the leaf's domain, the value
+/// hr/element_rho.h gave it.
+class LeafReflectance {
+  public:
+    explicit LeafReflectance(const scene::RadiosityField& field);
+    bool any() const { return any_; }
+    /// Whether patch's leaves carry their own reflectance.
+    bool covers(uint32_t patch) const { return any_ && !rho_[patch].empty(); }
+    /// rho of leaf `key` of a covered patch.
+    const RGB& rho(uint32_t patch, scene::ElementKey key) const;
+    /// The leaf of a covered patch that contains (u, v), and its domain.
+    scene::ElementKey leafAt(uint32_t patch, double u, double v) const;
+    /// H = (B - E) / rho_leaf per channel (0 where rho_leaf is 0) at (u, v) of
+    /// a covered patch, B the field's value there (flat).
+    RGB irradianceAt(uint32_t patch, double u, double v) const;
+
+  private:
+    const scene::RadiosityField* field_;
+    std::vector<std::unordered_map<scene::ElementKey, RGB>> rho_;  ///< per patch, per leaf
+    bool any_ = false;
+};
+
 class TextureShading {
   public:
     /// Precomputes every textured patch's raw mean (scene/texture.h
@@ -106,6 +135,10 @@ class TextureShading {
     /// E + (B - E) ratio(u, v, fp): B at (u, v) of `patch` shown with its texture.
     RGB shade(uint32_t patch, double u, double v, const RGB& B,
               const ParamFootprint* fp = nullptr) const;
+    /// E + H rho_shown(u, v, fp): irradiance H at (u, v) of a textured
+    /// `patch` shown with its texture (rho_shown = ratio x the patch's rho).
+    RGB shadeIrradiance(uint32_t patch, double u, double v, const RGB& H,
+                        const ParamFootprint* fp = nullptr) const;
 
   private:
     const scene::Scene* scene_;

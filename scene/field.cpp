@@ -168,7 +168,9 @@ static std::vector<std::vector<RGB>> higherOf(const RadiosityField& field) {
 }
 
 LeafField::LeafField(const RadiosityField& field)
-    : LeafField(field.scene(), leavesOf(field), field.basisDegree(), higherOf(field)) {}
+    : LeafField(field.scene(), leavesOf(field), field.basisDegree(), higherOf(field)) {
+    setLeafTextureRho(field.leafTextureRho());
+}
 
 LeafField::~LeafField() = default;
 

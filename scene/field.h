@@ -55,6 +55,19 @@ class RadiosityField {
 
     /// Total radiosity power sum_leaves B * A (RGB).
     RGB totalPower() const;
+
+    /// Which reflectance the leaves of textured root patches were solved
+    /// with: the patch's texture mean (false: every solver's default) or
+    /// each leaf's own (true: hr.texture_rho = element, scene/texture.h
+    /// elementRho over the leaf's domain). A leaf's irradiance is then
+    /// (B - E) / elementRho, not (B - E) / rho_patch (render/texturing.h
+    /// LeafReflectance). Set by whoever runs the solver (experiments/), kept
+    /// by LeafField copies and solution files (reference/cache.h).
+    bool leafTextureRho() const { return leafTextureRho_; }
+    void setLeafTextureRho(bool on) { leafTextureRho_ = on; }
+
+  private:
+    bool leafTextureRho_ = false;
 };
 
 /// A field on a uniform subdivision: patch i is split to level levels[i]
