@@ -80,7 +80,7 @@ RGB Gatherer::direct(uint32_t patch, const Vec3& x, Pcg32& rng) const {
 }
 
 RGB Gatherer::finalGather(const scene::RadiosityField& field, uint32_t patch, const Vec3& x,
-                          Pcg32& rng) const {
+                          Pcg32& rng, const RGB* texel) const {
     const scene::Patch& r = scene_->patches[patch];
     const int n = settings_.gatherRays;
     const int strata = int(std::lround(std::sqrt(double(n))));
@@ -111,10 +111,10 @@ RGB Gatherer::finalGather(const scene::RadiosityField& field, uint32_t patch, co
         if (q.kind == scene::PatchKind::Triangle && uv.x + uv.y > 1) uv /= uv.x + uv.y;
         ind += field.at(h.patch, uv.x, uv.y) - q.emission;
     }
-    if (!envMis) return r.emission + rhoAt(patch, x) * (direct(patch, x, rng) + ind / double(n));
+    if (!envMis) return r.emission + rhoAt(patch, x, texel) * (direct(patch, x, rng) + ind / double(n));
     const RGB d = direct(patch, x, rng);
     env += environmentDirect(patch, x, n, rng);
-    return r.emission + rhoAt(patch, x) * (d + ind / double(n) + env);
+    return r.emission + rhoAt(patch, x, texel) * (d + ind / double(n) + env);
 }
 
 RGB Gatherer::environmentDirect(uint32_t patch, const Vec3& x, int cosineSamples,
@@ -125,11 +125,11 @@ RGB Gatherer::environmentDirect(uint32_t patch, const Vec3& x, int cosineSamples
                                                rays);
 }
 
-RGB Gatherer::rhoAt(uint32_t patch, const Vec3& x) const {
+RGB Gatherer::rhoAt(uint32_t patch, const Vec3& x, const RGB* texel) const {
     const scene::Patch& p = scene_->patches[patch];
     if (!settings_.textures || !scene::patchTexture(*scene_, p)) return p.rho;
     const Vec2 uv = scene::clampToPatchDomain(p.kind, scene::patchInverse(p, x));
-    RGB rho = scene::textureRho(*scene_, p, uv.x, uv.y);
+    RGB rho = texel ? *texel : scene::textureRho(*scene_, p, uv.x, uv.y);
     // Clamped like the patch means (the loader's clamp_rho), so no texel
     // reflects all the light it receives.
     const double cap = scene_->materials[p.material].diffuseMap.clampRho;

@@ -31,6 +31,12 @@
 // score pi L(w) on escaping rays alone: the cosine pdf is proportional to
 // their unoccluded integrand, so light draws would add rays and nothing else.
 //
+// Textures: rho at a hit is scale x the bilinear texel, clamped by the
+// loader's clamp_rho; at a final-gather pixel's own hit point the camera's
+// footprint-filtered (mip) texel when render.texture_filter = mip (render/
+// render.cpp; render/texturing.h). The path tracer, the reference, keeps the
+// bilinear texel at every vertex (its samples are the pixel's box filter).
+//
 // Both are deterministic per (seed, pixel, sample): the random sequence of a
 // sample is seeded by hashIds(seed, pixel, sample), so images do not depend
 // on the tiling or on thread scheduling. Images are computed in parallel
@@ -70,8 +76,11 @@ class Gatherer {
     Gatherer(const scene::Scene& scene, const transport::Visibility& visibility,
              GatherSettings settings);
     /// Final-gather radiosity at x on the front of `patch` from `field`.
+    /// `texel`: scale x texel at x filtered over the camera sample's
+    /// footprint (render/texturing.h TextureShading::texel) to use instead
+    /// of the bilinear texel (clamped alike); null: the bilinear one.
     RGB finalGather(const scene::RadiosityField& field, uint32_t patch, const Vec3& x,
-                    Pcg32& rng) const;
+                    Pcg32& rng, const RGB* texel = nullptr) const;
     /// Path-traced radiosity at x on the front of `patch`.
     RGB pathTraced(uint32_t patch, const Vec3& x, Pcg32& rng) const;
     /// Direct term D(x) (see the header), per RGB channel of E.
@@ -79,8 +88,9 @@ class Gatherer {
     const GatherSettings& settings() const { return settings_; }
 
   private:
-    /// rho(x) at x on `patch` with textures on, else the patch's rho.
-    RGB rhoAt(uint32_t patch, const Vec3& x) const;
+    /// rho(x) at x on `patch` with textures on, else the patch's rho;
+    /// `texel` as finalGather's.
+    RGB rhoAt(uint32_t patch, const Vec3& x, const RGB* texel = nullptr) const;
     /// The sampled environments' light half at x (shadow_rays draws, each
     /// weighted against `cosineSamples` cosine rays).
     RGB environmentDirect(uint32_t patch, const Vec3& x, int cosineSamples, Pcg32& rng) const;

@@ -46,6 +46,9 @@ LightmapSettings LightmapSettings::fromParams(const Params& params, const std::s
                    ? Texels::Irradiance
                    : Texels::Radiosity;
     s.textures = params.getEnum({key("textures"), kTexturesDoc}, "on", {"on", "off"}) == "on";
+    s.filter = params.getEnum({key("texture_filter"), kTextureFilterDoc}, "mip", {"bilinear", "mip"}) == "mip"
+                   ? TextureFilter::Mip
+                   : TextureFilter::Bilinear;
     return s;
 }
 
@@ -159,7 +162,7 @@ Lightmap bakeLightmap(const scene::RadiosityField& field, const LightmapSettings
     lm.atlas = Image(lm.size, lm.size);
     const int g = lm.gutter;
     std::optional<TextureShading> shading;
-    if (settings.textures && !sc.textures.empty()) shading.emplace(sc);
+    if (settings.textures && !sc.textures.empty()) shading.emplace(sc, settings.filter);
     const bool irradiance = settings.texels == LightmapSettings::Texels::Irradiance;
     // Leaves with their own reflectance (render/texturing.h): texels from H,
     // smoothed as H (a `smooth` built without them is rebuilt with them).
@@ -179,6 +182,11 @@ Lightmap bakeLightmap(const scene::RadiosityField& field, const LightmapSettings
         const scene::Patch& patch = sc.patches[p];
         const bool textured = shading && scene::patchTexture(sc, patch);
         const bool ownRho = leafRho && leafRho->covers(uint32_t(p));
+        // One atlas texel's footprint in the patch's (u, v): the texture is
+        // filtered over it (render.texture_filter = mip; texturing.h).
+        ParamFootprint texelStep;
+        texelStep.dx = Vec2(1.0 / c.w, 0.0);
+        texelStep.dy = Vec2(0.0, 1.0 / c.h);
         for (int j = -g; j < c.h + g; ++j)
             for (int i = -g; i < c.w + g; ++i) {
                 Vec2 uv = scene::clampToPatchDomain(patch.kind, Vec2((i + 0.5) / c.w, (j + 0.5) / c.h));
@@ -186,7 +194,7 @@ Lightmap bakeLightmap(const scene::RadiosityField& field, const LightmapSettings
                     const RGB H = smooth ? smooth->at(uint32_t(p), uv.x, uv.y)
                                          : leafRho->irradianceAt(uint32_t(p), uv.x, uv.y);
                     lm.atlas.at(c.x + i, c.y + j) =
-                        irradiance ? H : shading->shadeIrradiance(uint32_t(p), uv.x, uv.y, H);
+                        irradiance ? H : shading->shadeIrradiance(uint32_t(p), uv.x, uv.y, H, &texelStep);
                     continue;
                 }
                 RGB B = smooth ? smooth->at(uint32_t(p), uv.x, uv.y) : field.at(uint32_t(p), uv.x, uv.y);
@@ -195,7 +203,7 @@ Lightmap bakeLightmap(const scene::RadiosityField& field, const LightmapSettings
                     const RGB rho = patch.rho;
                     for (int k = 0; k < 3; ++k) B[k] = rho[k] > 0 ? (B[k] - patch.emission[k]) / rho[k] : 0.0;
                 } else if (textured) {
-                    B = shading->shade(uint32_t(p), uv.x, uv.y, B);
+                    B = shading->shade(uint32_t(p), uv.x, uv.y, B, &texelStep);
                 }
                 lm.atlas.at(c.x + i, c.y + j) = B;
             }

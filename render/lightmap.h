@@ -36,6 +36,8 @@
 //                                  always shows E + rho(x) H (core glTF has no
 //                                  product of two textures), so it stays viewable
 //   textures          string "on"  render.textures; off: B as solved everywhere
+//   texture_filter    string "mip" render.texture_filter: the texture filtered
+//                                  over each atlas texel (texturing.h)
 #pragma once
 
 #include <string>
@@ -44,6 +46,7 @@
 #include "core/params.h"
 #include "render/image.h"
 #include "render/smooth.h"
+#include "render/texturing.h"
 #include "scene/field.h"
 
 namespace hrad::render {
@@ -55,6 +58,7 @@ struct LightmapSettings {
     enum class Texels { Radiosity, Irradiance };
     Texels texels = Texels::Radiosity;
     bool textures = true;
+    TextureFilter filter = TextureFilter::Mip;  ///< render.texture_filter
     static LightmapSettings fromParams(const Params& params, const std::string& prefix = "render");
 };
 

@@ -267,6 +267,13 @@ std::vector<Image> renderGathered(const scene::Scene& scene, const transport::Vi
     background.prepare(img);
     const int spp = settings.spp, tile = 16;
     const int tx = (settings.width + tile - 1) / tile, ty = (settings.height + tile - 1) / tile;
+    // Final gather with mip: the texel at the pixel's hit filtered over the
+    // camera sample's footprint (texturing.h); the path tracer keeps bilinear.
+    std::optional<TextureShading> shading;
+    if (!path && settings.textures && settings.textureFilter == TextureFilter::Mip && !scene.textures.empty())
+        shading.emplace(scene, TextureFilter::Mip);
+    const TextureShading* tex = shading && shading->any() ? &*shading : nullptr;
+    const double step = 1.0 / std::sqrt(double(spp));  // as renderFields
     ProgressBar bar(path ? "path tracing" : "final gather", uint64_t(tx) * ty, settings.showProgress);
     tbb::parallel_for(tbb::blocked_range<int>(0, tx * ty, 1), [&](const tbb::blocked_range<int>& r) {
         std::vector<RGB> sum(nf);
@@ -293,11 +300,20 @@ std::vector<Image> renderGathered(const scene::Scene& scene, const transport::Vi
                         if (glm::dot(dir, p.normal) > 0) {
                             if (settings.backFacesBlack) continue;
                         }
+                        std::optional<RGB> texel;
+                        if (tex && scene::patchTexture(scene, p)) {
+                            const Vec2 uv = scene::clampToPatchDomain(p.kind, scene::patchInverse(p, hit.point));
+                            const ParamFootprint fp =
+                                footprintOnPatch(p, frame.eye, frame.direction(x + jx + step, y + jy),
+                                                 frame.direction(x + jx, y + jy + step), uv);
+                            texel = tex->texel(hit.patch, uv.x, uv.y, &fp);
+                        }
                         for (size_t f = 0; f < nf; ++f) {
                             // Each field gets the same random sequence.
                             Pcg32 g = rng;
                             sum[f] += path ? gatherer.pathTraced(hit.patch, hit.point, g)
-                                           : gatherer.finalGather(*fields[f], hit.patch, hit.point, g);
+                                           : gatherer.finalGather(*fields[f], hit.patch, hit.point, g,
+                                                                  texel ? &*texel : nullptr);
                         }
                     }
                     for (size_t f = 0; f < nf; ++f) img[f].at(x, y) = sum[f] / double(spp);
@@ -331,6 +347,7 @@ struct FieldPicture {
         if (fromLightmap) {
             LightmapSettings ls = settings.lightmap;
             ls.textures = settings.textures;
+            ls.filter = settings.textureFilter;
             lightmap = bakeLightmap(f, ls, interp.get());
         }
     }

@@ -134,8 +134,12 @@ TextureShading::TextureShading(const scene::Scene& scene, TextureFilter filter)
 
 RGB TextureShading::ratio(uint32_t patch, double u, double v, const ParamFootprint* fp) const {
     if (!textured_[patch]) return RGB(1.0);
+    return texel(patch, u, v, fp) * inverseMean_[patch];
+}
+
+RGB TextureShading::texel(uint32_t patch, double u, double v, const ParamFootprint* fp) const {
     const scene::Patch& p = scene_->patches[patch];
-    if (!fp || filter_ != TextureFilter::Mip) return scene::textureRho(*scene_, p, u, v) * inverseMean_[patch];
+    if (!fp || filter_ != TextureFilter::Mip) return scene::textureRho(*scene_, p, u, v);
     const scene::TextureBinding& b = *scene::patchTexture(*scene_, p);
     const MipChain& mip = *mips_[size_t(b.texture)];
     const auto& corners = scene_->cornerUVs[p.uvs];
@@ -144,7 +148,7 @@ RGB TextureShading::ratio(uint32_t patch, double u, double v, const ParamFootpri
     const Vec2 texels(mip.level(0).width, mip.level(0).height);
     const Vec2 sx = (scene::uvAt(p, corners, u + fp->dx.x, v + fp->dx.y) - st) * texels;
     const Vec2 sy = (scene::uvAt(p, corners, u + fp->dy.x, v + fp->dy.y) - st) * texels;
-    return b.scale * mip.filtered(st, sx, sy) * inverseMean_[patch];
+    return b.scale * mip.filtered(st, sx, sy);
 }
 
 RGB TextureShading::shade(uint32_t patch, double u, double v, const RGB& B,

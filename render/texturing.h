@@ -27,8 +27,10 @@
 // level log2(w / sqrt(3)), w = max(minor, major / 8): the level whose 2^k box
 // and tent have the pixel box's second moment (the derivation and the
 // measurements: papers/notes/2026-12-02-textures.md, 2026-12-03). The
-// pyramid costs 1/3 of the texels again, at render time only. Final gather,
-// the path tracer and lightmap texels stay bilinear.
+// pyramid costs 1/3 of the texels again, at render time only. Lightmap
+// texels are filtered over the texel (render/lightmap.h), final gather at its
+// pixel's hit point over the camera's footprint; the path tracer (the
+// reference) stays bilinear.
 //
 // Reflectance per leaf (hr.texture_rho = element; scene/field.h
 // leafTextureRho): the solve gave each leaf l of a textured patch its own
@@ -60,7 +62,8 @@ inline constexpr const char* kTexturesDoc =
 
 /// The doc of render.texture_filter (read by RenderSettings).
 inline constexpr const char* kTextureFilterDoc =
-    "render: texel lookups at the hit alone (bilinear) or mip-mapped over the sample's footprint (mip)";
+    "render: texel lookups at the point alone (bilinear) or mip-mapped over its footprint: a camera "
+    "sample's (images, final gather) or an atlas texel's (lightmaps) (mip)";
 
 enum class TextureFilter : uint8_t { Bilinear, Mip };
 
@@ -132,6 +135,9 @@ class TextureShading {
     /// rho(x) / rho_bar at the patch's parametric (u, v); 1 for untextured
     /// patches. With `fp` and the mip filter, rho(x) is filtered over it.
     RGB ratio(uint32_t patch, double u, double v, const ParamFootprint* fp = nullptr) const;
+    /// scale x texel at (u, v) of a textured `patch` (filtered over `fp`
+    /// with mip): rho_raw(x), unclamped (ratio = texel / rho_raw_bar).
+    RGB texel(uint32_t patch, double u, double v, const ParamFootprint* fp = nullptr) const;
     /// E + (B - E) ratio(u, v, fp): B at (u, v) of `patch` shown with its texture.
     RGB shade(uint32_t patch, double u, double v, const RGB& B,
               const ParamFootprint* fp = nullptr) const;

@@ -4,11 +4,13 @@
 // texture is the bilinear lookup exactly.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
 #include "core/params.h"
 #include "render/camera.h"
+#include "render/lightmap.h"
 #include "render/render.h"
 #include "render/texturing.h"
 #include "scene/field.h"
@@ -66,18 +68,24 @@ TEST(TextureFilter, MipLevelsAreBoxMeansAndTheLevelFollowsTheFootprint) {
 /// A 4 x 4 ground quad (z = 0, facing +z) with a 256 x 256 one-texel checker
 /// of (a, b) = (0.1, 0.7) repeated `repeats` times across, and a uniform field
 /// B = rho_bar (H = 1): every pixel shows rho(x) itself.
+/// With `lamp`, also an emitting 8 x 8 m quad (E = 1) at z = 3 facing down.
 struct Ground {
     scene::Scene scene;
     std::unique_ptr<scene::UniformField> field;
-    explicit Ground(float repeats) {
+    explicit Ground(float repeats, bool lamp = false) {
         const uint32_t m = scene.addMaterial({"ground", RGB(0.4), RGB(0.0)});
         scene.addQuad(Vec3(0, 0, 0), Vec3(4, 0, 0), Vec3(4, 4, 0), Vec3(0, 4, 0), m);
         scene.materials[m].diffuseMap.texture = scene::addTexture(scene, checker(256, 0.1f, 0.7f));
         scene.patches[0].uvs = 0;
         scene.cornerUVs.push_back({glm::vec2(0, 0), {repeats, 0}, {repeats, repeats}, {0, repeats}});
         scene::applyTextureMeans(scene);
-        field = std::make_unique<scene::UniformField>(scene, std::vector<uint8_t>{0});
+        if (lamp) {
+            const uint32_t l = scene.addMaterial({"lamp", RGB(0.0), RGB(1.0)});
+            scene.addQuad(Vec3(-2, -2, 3), Vec3(-2, 6, 3), Vec3(6, 6, 3), Vec3(6, -2, 3), l);
+        }
+        field = std::make_unique<scene::UniformField>(scene, std::vector<uint8_t>(scene.patches.size(), 0));
         field->values()[0] = scene.patches[0].rho;
+        if (lamp) field->values()[1] = scene.patches[1].emission;
     }
 };
 
@@ -161,6 +169,77 @@ TEST(TextureFilter, FarCheckerShowsItsMeanInsteadOfNoise) {
     // Per pixel, the mip picture is closer to the reference than the
     // unfiltered one by more than a factor of 10 (measured 0.0049 against 0.074).
     EXPECT_LT(errMip, 0.1 * errBilinear);
+}
+
+/// Final gather (render/final_gather.h): at the pixel's hit the texel is
+/// filtered over the camera's footprint, so the far checker under a lamp
+/// shows rho = 0.4, the picture with textures off (the patch mean) up to the
+/// float texels (1e-6); both draw the same rays (seeded per pixel). The
+/// bilinear texel differs from it by up to 0.3 / 0.4.
+TEST(TextureFilter, FinalGatherFiltersTheTexelAtItsPixel) {
+    Ground g(64, true);
+    transport::Visibility vis(g.scene);
+    scene::Camera cam;
+    cam.eye = Vec3(2, -1, 1);
+    cam.target = Vec3(2, 2, 0);
+    cam.up = Vec3(0, 0, 1);
+    cam.fovYDegrees = 40;
+    RenderSettings rs;
+    rs.width = rs.height = 48;
+    rs.reconstruction = RenderSettings::Reconstruction::FinalGather;
+    rs.interpolate = false;
+    rs.gather.gatherRays = 4;
+    rs.gather.shadowRays = 2;
+    rs.textureFilter = TextureFilter::Mip;
+    const Image mip = renderField(g.scene, vis, *g.field, cam, rs);
+    rs.textureFilter = TextureFilter::Bilinear;
+    const Image bilinear = renderField(g.scene, vis, *g.field, cam, rs);
+    rs.textures = rs.gather.textures = false;
+    const Image plain = renderField(g.scene, vis, *g.field, cam, rs);
+    CameraFrame frame(cam, rs.width, rs.height);
+    double worstBilinear = 0;
+    int n = 0;
+    for (int y = 0; y < rs.height; ++y)
+        for (int x = 0; x < rs.width; ++x) {
+            const Vec3 d = frame.direction(x + 0.5, y + 0.5);
+            if (!(d.z < 0)) continue;
+            const Vec3 p = cam.eye + (-cam.eye.z / d.z) * d;
+            if (p.x < 0.1 || p.x > 3.9 || p.y < 0.1 || p.y > 3.9) continue;
+            const double want = plain.at(x, y).r;
+            ASSERT_GT(want, 0.0);
+            ASSERT_NEAR(mip.at(x, y).r, want, 1e-6 * want) << x << "," << y;
+            worstBilinear = std::max(worstBilinear, std::fabs(bilinear.at(x, y).r - want) / want);
+            ++n;
+        }
+    EXPECT_GT(n, 500);
+    EXPECT_GT(worstBilinear, 0.3);
+}
+
+/// Lightmap texels (render/lightmap.h): each is filtered over its own
+/// footprint, 273 texels of the checker to an atlas texel here: every texel
+/// of the ground's chart is B = rho_bar (H = 1) up to the float texels; the
+/// bilinear texel at the atlas texel's centre is off by up to 0.3 / 0.4.
+TEST(TextureFilter, LightmapTexelsAreFilteredOverTheirFootprint) {
+    Ground g(64);
+    LightmapSettings ls;
+    ls.size = 128;
+    // 60 atlas texels over 4 m, 4096 / 15 = 273.07 checker texels each: the
+    // atlas texels' centres fall at unrelated phases of the checker.
+    ls.density = 15;
+    ls.filter = TextureFilter::Mip;
+    const Lightmap mip = bakeLightmap(*g.field, ls, nullptr);
+    ls.filter = TextureFilter::Bilinear;
+    const Lightmap bilinear = bakeLightmap(*g.field, ls, nullptr);
+    const double rhoBar = g.scene.patches[0].rho.r;
+    const Lightmap::Chart& c = mip.charts[0];
+    ASSERT_EQ(c.w, 60);
+    double worstBilinear = 0;
+    for (int j = 0; j < c.h; ++j)
+        for (int i = 0; i < c.w; ++i) {
+            ASSERT_NEAR(mip.atlas.at(c.x + i, c.y + j).r, rhoBar, 1e-6) << i << "," << j;
+            worstBilinear = std::max(worstBilinear, std::fabs(bilinear.atlas.at(c.x + i, c.y + j).r - rhoBar) / rhoBar);
+        }
+    EXPECT_GT(worstBilinear, 0.3);
 }
 
 TEST(TextureFilter, MagnifiedTextureIsTheBilinearLookup) {
