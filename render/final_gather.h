@@ -31,20 +31,16 @@
 // score pi L(w) on escaping rays alone: the cosine pdf is proportional to
 // their unoccluded integrand, so light draws would add rays and nothing else.
 //
-// Textures: rho at a hit is scale x the bilinear texel, clamped by the
-// loader's clamp_rho; at a final-gather pixel's own hit point the camera's
-// footprint-filtered (mip) texel when render.texture_filter = mip (render/
-// render.cpp; render/texturing.h). The path tracer, the reference, keeps the
-// bilinear texel at every vertex (its samples are the pixel's box filter).
+// Textures: rho at a hit is the bilinear texel (clamp_rho), at a final
+// gather pixel's own hit the mip texel over the camera footprint
+// (render/texturing.h); the path tracer (the reference) stays bilinear.
 //
 // Both are deterministic per (seed, pixel, sample): the random sequence of a
 // sample is seeded by hashIds(seed, pixel, sample), so images do not depend
 // on the tiling or on thread scheduling. Images are computed in parallel
 // over 16 x 16 tiles with a progress bar.
 //
-// Settings (below "render."):
-//   reconstruction string "flat"  "flat" | "interpolated" | "final-gather" |
-//                                 "path-traced" (render/render.h)
+// Settings (below "render."; reconstruction: render/render.h):
 //   gather_rays    int    64      indirect rays per pixel sample (final gather);
 //                                 a square k*k is stratified over the hemisphere
 //   shadow_rays    int    4       points per emitter for the direct term, and
