@@ -73,8 +73,9 @@ echo "$SCENES" | while IFS='|' read -r name path flags; do
     # shellcheck disable=SC2086
     $HRAD --log quiet solve "$scene" $flags --no-ply --no-images --no-progress -o "$d" >/dev/null
   fi
-  # The scene's loader settings again (obj.clamp_rho, ...), for the renders.
-  sets=$(echo "$flags" | grep -o -- '--set [^ ]*' | tr '\n' ' ' || true)
+  # The scene's loader settings again (obj.clamp_rho, ...), for the renders;
+  # not the solver's (hr.max_links), which hrad render does not read.
+  sets=$(echo "$flags" | grep -o -- '--set \(scene\|obj\|mitsuba\|gltf\|mgf\|ply\|texture\)\.[^ ]*' | tr '\n' ' ' || true)
   if [ -z "${REUSE:-}" ] || [ ! -e "$d/path_traced/image.exr" ]; then
     # shellcheck disable=SC2086
     $HRAD --log quiet render "$scene" "$d/solution.hrsol" --width "$W" --height "$H" $sets \
@@ -88,11 +89,20 @@ echo "$SCENES" | while IFS='|' read -r name path flags; do
       textured) f="" ;;
       lightmap) f="--set render.reconstruction=lightmap --set render.lightmap_size=$LM" ;;
     esac
+    # A column that cannot be drawn (the bathroom's 734 k charts do not fit a
+    # lightmap atlas) is reported in its cell; the others go on.
+    rm -rf "${d:?}/$col"
     # shellcheck disable=SC2086
-    $HRAD --log quiet render "$scene" "$d/solution.hrsol" --width "$W" --height "$H" $sets $f \
-      --set render.spp="$RSPP" --set render.exposure="$e" --compare "$d/path_traced/image.exr" -o "$d/$col" >/dev/null
+    if ! $HRAD --log quiet render "$scene" "$d/solution.hrsol" --width "$W" --height "$H" $sets $f \
+      --set render.spp="$RSPP" --set render.exposure="$e" --compare "$d/path_traced/image.exr" -o "$d/$col" \
+      >"$d/$col.log" 2>&1; then
+      echo "pictures: $name $col failed: $(tail -1 "$d/$col.log")" >&2
+    fi
   done
-  cell() { printf '![](%s/%s/image.png)<br>%s' "$name" "$1" "$(mae "$d/$1/render.json")"; }
+  cell() {
+    if [ -e "$d/$1/render.json" ]; then printf '![](%s/%s/image.png)<br>%s' "$name" "$1" "$(mae "$d/$1/render.json")"
+    else printf 'not drawn: %s' "$(tail -1 "$d/$1.log" | sed "s|$S/||g; s/|/ /g")"; fi
+  }
   printf '| %s | %s | %s | %s | %s | ![](%s/path_traced/image.png)<br>[%s] %s |\n' "$name" \
     "$(cell flat)" "$(cell smooth)" "$(cell textured)" "$(cell lightmap)" \
     "$name" "$(refmean "$d/flat/render.json")" "$(clipped "$d/path_traced/render.json")" >> "$index"
