@@ -23,6 +23,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <unordered_set>
 #include <vector>
 #include <string>
@@ -34,6 +35,7 @@
 #include "hr/solver.h"
 #include "scene/element.h"
 #include "scene/loader.h"
+#include "transport/formfactor.h"
 #include "transport/visibility.h"
 
 using namespace hrad;
@@ -151,6 +153,66 @@ void coverage(const scene::Scene& s, const transport::Visibility& vis, const hr:
                share, se, lostRays, samples, all > 0 ? inPlane / all : 0.0);
 }
 
+
+/// The links that light root patch `patch` (audit.patch): every final link
+/// whose receiver is one of its elements or a cluster above it, with its
+/// kind, sender, model power and Monte Carlo power (`pairs` point pairs),
+/// and a gathered estimate of the patch's irradiance from each emitter
+/// (cosine rays from area-uniform points, counting E at emitting hits),
+/// against what the links from emitters deliver.
+void patchReport(const scene::Scene& s, const transport::Visibility& vis, const hr::HrResult& res,
+                 const std::vector<uint32_t>& recv, uint32_t patch, int pairs) {
+    const hr::Hierarchy& h = *res.hierarchy;
+    const scene::Patch& P = s.patches[patch];
+    std::unordered_set<uint32_t> mine;  // the patch's elements and the clusters above it
+    std::vector<uint32_t> stack{patch};
+    while (!stack.empty()) {
+        const uint32_t e = stack.back();
+        stack.pop_back();
+        mine.insert(e);
+        for (uint32_t c = 0; c < h.numChildren(e); ++c) stack.push_back(h.child(e, c));
+    }
+    for (uint32_t e = h.parent(patch); e != hr::kNone; e = h.parent(e)) mine.insert(e);
+    fmt::print("patch {}: area {:.4g}, B (green) {:.5g}, rho {:.3g}\n", patch, P.area, h.B(patch).g,
+               P.rho.g);
+    for (uint32_t e = h.parent(patch); e != hr::kNone; e = h.parent(e)) {
+        const Vec3 c = h.center(e);
+        fmt::print("  above: cluster {} (area {:.4g}, centre {:.3f} {:.3f} {:.3f}, radius {:.3f})\n",
+                   h.clusterIndex(e), h.area(e), c.x, c.y, c.z, h.radius(e));
+    }
+    double fromEmitters = 0.0;
+    for (uint64_t i = 0; i < h.numLinks(); ++i) {
+        if (!mine.count(recv[i])) continue;
+        const hr::Link& l = h.link(i);
+        const test::LinkPower a = test::auditLink(s, vis, res, recv, i, pairs);
+        const bool rc = h.isCluster(recv[i]), sc = h.isCluster(l.sender);
+        const uint32_t sp = sc ? 0 : h.patch(l.sender);
+        if (!rc && !sc && s.patches[sp].isEmitter()) fromEmitters += a.model;
+        fmt::print("  link {}: {} {} (area {:.4g}) <- {} {} (area {:.4g}), K {:.4g}, flags {}, "
+                   "model {:.5g}, MC {:.5g} +- {:.2g}\n",
+                   i, rc ? "cluster" : "element", rc ? h.clusterIndex(recv[i]) : recv[i],
+                   h.area(recv[i]), sc ? "cluster" : (s.patches[sp].isEmitter() ? "emitter" : "element"),
+                   sc ? h.clusterIndex(l.sender) : sp, h.area(l.sender), double(l.K), int(l.flags),
+                   a.model, a.mc, std::sqrt(a.mcVar));
+    }
+    // Irradiance power from emitters, gathered.
+    Pcg32 rng(4242);
+    const int n = 1 << 16;
+    double sum = 0.0, sum2 = 0.0;
+    for (int j = 0; j < n; ++j) {
+        const Vec3 x = scene::elementSamplePoint(P, scene::Domain{}, rng.nextDouble(), rng.nextDouble());
+        const Vec3 dir = cosineDirection(P.normal, rng.nextDouble(), rng.nextDouble());
+        const transport::RayHit hit = vis.intersect(x, dir, 0.0, 1e300, patch);
+        double e = 0.0;
+        if (hit.hit && glm::dot(s.patches[hit.patch].normal, dir) < 0) e = s.patches[hit.patch].emission.g;
+        sum += e, sum2 += e * e;
+    }
+    const double mean = sum / n;
+    fmt::print("  from emitters: surface links {:.5g}; gathered {:.5g} +- {:.2g} (A E[E(hit)])\n",
+               fromEmitters, P.area * mean,
+               P.area * std::sqrt(std::max(0.0, sum2 / n - mean * mean) / (n - 1)));
+}
+
 int main(int argc, char** argv) try {
     if (argc < 2) {
         std::fprintf(stderr,
@@ -164,6 +226,10 @@ int main(int argc, char** argv) try {
         p.getDouble({"audit.links", "links audited (expected count)"}, 20000, 1, 1e9);
     const uint64_t coverageRays = uint64_t(
         p.getInt({"audit.coverage", "rays of the check for light no link carries (0: none)"}, 0, 0, 1 << 30));
+    const int64_t reportPatch =
+        p.getInt({"audit.patch", "root patch whose links are listed (-1: none)"}, -1, -1, INT32_MAX);
+    const int64_t reportSender =
+        p.getInt({"audit.sender", "with audit.patch: a root patch taken as the sender of one surface link (-1: none)"}, -1, -1, INT32_MAX);
     scene::Scene s = scene::loadScene(argv[1], p);
     transport::Visibility vis(s);
     hr::HrSolver solver(s, vis, hr::HrSettings::fromParams(p));
@@ -220,6 +286,43 @@ int main(int argc, char** argv) try {
             kKindNames[k], g.links, g.audited, g.model, g.modelAudited, g.mc, ratio, se, g.mcOpen);
     }
     if (coverageRays) coverage(s, vis, h, recv, coverageRays);
+    if (reportPatch >= 0 && uint64_t(reportPatch) < s.patches.size())
+        patchReport(s, vis, res, recv, uint32_t(reportPatch), pairs);
+    if (reportPatch >= 0 && reportSender >= 0 && uint64_t(std::max(reportPatch, reportSender)) < s.patches.size()) {
+        // The two root patches as one surface link (the hr solver's form factor settings).
+        const transport::FormFactorEngine engine(s, &vis, hr::HrSettings::fromParams(p).ff);
+        const transport::ElementRef er{uint32_t(reportPatch), scene::Domain{}, 1}, es{uint32_t(reportSender), scene::Domain{}, 2};
+        const transport::FormFactorResult f = engine.compute(er, es);
+        fmt::print("root {} <- root {}: facing {}, F {:.5g}, unoccluded {:.5g}, visibility {:.4g} ({} rays), "
+                   "visibility with 4096 rays {:.4g}\n",
+                   reportPatch, reportSender, engine.facing(er, es), f.F, f.unoccludedF, f.visibility, f.rays,
+                   engine.visibilityFraction(er, es, 4096));
+        // Which patches block area-uniform segments whose ends face each other.
+        std::map<uint32_t, int> blockers;
+        Pcg32 rng(99);
+        int tried = 0, blocked = 0;
+        const scene::Patch& R = s.patches[reportPatch];
+        const scene::Patch& S = s.patches[reportSender];
+        for (int j = 0; j < 20000 && tried < 4000; ++j) {
+            transport::Segment seg;
+            seg.a = scene::elementSamplePoint(R, scene::Domain{}, rng.nextDouble(), rng.nextDouble());
+            seg.b = scene::elementSamplePoint(S, scene::Domain{}, rng.nextDouble(), rng.nextDouble());
+            seg.patchA = uint32_t(reportPatch);
+            seg.patchB = uint32_t(reportSender);
+            const Vec3 d = seg.b - seg.a;
+            if (!(glm::dot(R.normal, d) > 0 && -glm::dot(S.normal, d) > 0)) continue;
+            ++tried;
+            uint8_t occ = 0;
+            vis.occluded(&seg, 1, &occ);
+            if (!occ) continue;
+            ++blocked;
+            const transport::RayHit hit = vis.intersect(seg.a, d, 0.0, 1.0, uint32_t(reportPatch));
+            ++blockers[hit.hit ? hit.patch : UINT32_MAX];
+        }
+        fmt::print("  {} facing segments, {} blocked; blockers:", tried, blocked);
+        for (const auto& [q, n] : blockers) fmt::print(" {}x{}", q, n);
+        fmt::print("\n");
+    }
     return 0;
 } catch (const InputError& e) {
     std::fprintf(stderr, "%s\n", e.what());

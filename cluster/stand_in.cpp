@@ -12,58 +12,21 @@
 #include "core/sampling.h"
 #include "scene/element.h"
 #include "transport/formfactor.h"
+#include "transport/solid_angle.h"
 
 namespace hrad::cluster {
 
 namespace {
 
-/// Below this solid angle (sr) a stand-in draws a point on a sender polygon
-/// by area instead of a direction over its solid angle: Arvo's construction
-/// loses its precision on triangles of a few 1e-4 rad across.
-constexpr double kMinSolidAngle = 1e-7;
+using transport::kMinSolidAngle;
+using transport::PolygonView;
+using transport::viewPolygon;
 
-/// A sender polygon (a patch, or a surface element's domain) seen from x:
-/// its corners, the unit directions to them, the solid angles of its fan
-/// triangles (0, 1, 2) and (0, 2, 3), and their sum;
-/// count 0 when x is not in front of its plane.
-struct PolygonView {
-    Vec3 dir[4];
-    Vec3 corner[4];
-    double tri[2] = {0.0, 0.0};
-    double omega = 0.0;
-    int count = 0;
-};
-
-PolygonView viewPolygon(const scene::Patch& P, const scene::Domain& d, const Vec3& x) {
-    PolygonView v;
-    const int count = scene::elementCorners(P, d, v.corner);
-    if (!(glm::dot(P.normal, x - v.corner[0]) > 0)) return v;
-    for (int i = 0; i < count; ++i) {
-        const Vec3 e = v.corner[i] - x;
-        const double l = glm::length(e);
-        if (!(l > 0)) return v;
-        v.dir[i] = e / l;
-    }
-    v.tri[0] = sphericalTriangleArea(v.dir[0], v.dir[1], v.dir[2]);
-    if (count == 4) v.tri[1] = sphericalTriangleArea(v.dir[0], v.dir[2], v.dir[3]);
-    v.omega = v.tri[0] + v.tri[1];
-    v.count = count;
-    return v;
-}
-
-/// A direction w uniform over the solid angle of pv (seen from x; Arvo
-/// 1995) and the point y where it meets the polygon's plane (normal n).
-/// False when, by rounding at an edge, it does not meet it in front of x.
+/// pointOverSolidAngle with rng's next three numbers, drawn in order.
 bool pointOverSolidAngle(const PolygonView& pv, const Vec3& n, const Vec3& x, Pcg32& rng, Vec3& w,
                          Vec3& y) {
-    const double pick = rng.nextDouble() * pv.omega;
-    const int tri = pv.count == 4 && pick >= pv.tri[0] ? 1 : 0;
-    w = sphericalTriangleDirection(pv.dir[0], pv.dir[1 + tri], pv.dir[2 + tri], pv.tri[tri],
-                                   rng.nextDouble(), rng.nextDouble());
-    const double dn = glm::dot(n, w);
-    const double tp = dn < 0 ? glm::dot(n, pv.corner[0] - x) / dn : -1.0;
-    y = x + tp * w;
-    return tp > 0;
+    const double u0 = rng.nextDouble(), u1 = rng.nextDouble(), u2 = rng.nextDouble();
+    return transport::pointOverSolidAngle(pv, n, x, u0, u1, u2, w, y);
 }
 
 }  // namespace

@@ -374,12 +374,6 @@ void HrSolver::buildHierarchy(HrResult& res) {
     Hierarchy& h = *res.hierarchy;
     h.setSubdivisionLimits(minArea_, s_.maxLevel);
     h.setElementRho(s_.elementRho);
-    if (h.elementRhoBytes() > 0)
-        // render/texturing.h shows E + (B - E) rho(x) / rho_bar with the
-        // patch's mean, which is rho(x) H only for one rho per root patch.
-        spdlog::warn("hr.texture_rho = element: the solve's leaves carry their own texture means; "
-                     "the textured picture (render.textures = on) still divides by the patch mean, "
-                     "so textured patches show rho(x) H times rho_leaf / rho_patch");
     h.setJudgedSurfaceVisibility(s_.judgeVisibility);
     h.setSeed(s_.seed);
     linker_ = std::make_unique<cluster::ClusterLinker>(*scene_, res.clusterTree.get(),

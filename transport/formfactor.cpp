@@ -18,12 +18,17 @@
 //   "centroid"     one point on each: F_rs = A_s cos_r cos_s / (pi r^2) at the
 //                  centroids (can exceed 1 for near elements; the coarsest rule).
 // Settings: rule (string, "gauss"), points (int 1..16, 3), sender_points
-// (int 1..16, 3), vis_rays (int 0..1024, 16).
+// (int 1..16, 3), vis_rays (int 0..1024, 16), vis_sampling (area |
+// solid_angle).
 //
 // Visibility: F = unoccluded F x the kernel-weighted fraction of vis_rays
 // segments that are unblocked (the "visibility factored out" approximation,
 // Cohen & Wallace 1993 sec. 4.10, with each segment weighted by the
-// point-to-point kernel: see visibilityEstimate). Segment ends are stratified jittered samples on both
+// point-to-point kernel: see areaVisibility), or, by default (vis_sampling =
+// solid_angle), half the segments from stratified points of each element
+// along directions over the other's solid angle, weighted by multiple
+// importance sampling (solidAngleVisibility; Arvo 1995, Veach & Guibas 1995).
+// Area-uniform segment ends are stratified jittered samples on both
 // elements (quadrature.h stratifiedSquare), drawn from a Pcg32 seeded with
 // hashIds(lo.id, hi.id) where (lo, hi) is the pair ordered by id, and segments
 // always run from lo to hi: the visibility of (r,s) and (s,r) is bitwise the
@@ -53,15 +58,14 @@
 
 #include "core/error.h"
 #include "transport/quadrature.h"
+#include "transport/pair_visibility.h"
 
 namespace hrad::transport {
 
 namespace {
 
 constexpr int kMaxRulePoints = kMaxGaussPoints * kMaxGaussPoints;
-constexpr int kMaxVisRays = 1024;
-constexpr int kRayBatch = 64;
-constexpr double kSampleShrink = 1e-5;
+using detail::kMaxVisRays;
 
 /// Geometry of one element gathered once per call.
 struct ElemGeom {
@@ -110,20 +114,7 @@ bool facingGeom(const ElemGeom& r, const ElemGeom& s) {
     return maxHeightAbove(r, s) > tol && maxHeightAbove(s, r) > tol;
 }
 
-/// Point-to-point kernel cos_r cos_s / (pi r^2) (0 when either cosine <= 0).
-inline double kernel(const Vec3& x, const Vec3& nx, const Vec3& y, const Vec3& ny) {
-    Vec3 d = y - x;
-    double r2 = glm::dot(d, d);
-    double cx = glm::dot(nx, d), cy = -glm::dot(ny, d);
-    if (cx <= 0.0 || cy <= 0.0 || r2 <= 0.0) return 0.0;
-    return cx * cy / (kPi * r2 * r2);
-}
-
-/// Local sample (a,b) shrunk towards the local domain's centre.
-inline Vec2 shrinkLocal(scene::PatchKind kind, Vec2 ab) {
-    Vec2 c = kind == scene::PatchKind::Quad ? Vec2(0.5, 0.5) : Vec2(1.0 / 3.0, 1.0 / 3.0);
-    return c + (1.0 - 2.0 * kSampleShrink) * (ab - c);
-}
+using detail::kernel;
 
 double sumLambert(const Vec3& p, const Vec3& n, const Vec3* poly, int count) {
     // Lambert / Nusselt contour integral (Cohen & Wallace 1993 eq. 4.18; Baum,
@@ -249,6 +240,15 @@ FormFactorSettings FormFactorSettings::fromParams(const Params& params, const st
         params.getInt({prefix + ".vis_rays",
                        "visibility rays per link (0: assume visible); raise against shadow noise"},
                       s.visRays, 0, kMaxVisRays));
+    s.visSampling = params.getEnum({prefix + ".vis_sampling",
+                                    "where the visibility rays go: area (area-uniform ends) or "
+                                    "solid_angle (directions over each end's solid angle, "
+                                    "multiple importance sampling)"},
+                                   s.visSampling == VisSampling::SolidAngle ? std::string("solid_angle")
+                                                                           : std::string("area"),
+                                   {"area", "solid_angle"}) == "solid_angle"
+                        ? VisSampling::SolidAngle
+                        : VisSampling::Area;
     s.adaptiveDepth = int(params.getInt(
         {prefix + ".adaptive_depth", "adaptive quadrature: subdivision levels at most (0: off)"},
         s.adaptiveDepth, 0, 8));
@@ -259,9 +259,11 @@ FormFactorSettings FormFactorSettings::fromParams(const Params& params, const st
 }
 
 std::string FormFactorSettings::describe() const {
-    return fmt::format("rule={} points={} sender_points={} vis_rays={} adaptive_depth={} "
-                       "adaptive_tol={}",
-                       rule, points, senderPoints, visRays, adaptiveDepth, adaptiveTol);
+    return fmt::format("rule={} points={} sender_points={} vis_rays={} vis_sampling={} "
+                       "adaptive_depth={} adaptive_tol={}",
+                       rule, points, senderPoints, visRays,
+                       visSampling == VisSampling::SolidAngle ? "solid_angle" : "area",
+                       adaptiveDepth, adaptiveTol);
 }
 
 // ---- engine ---------------------------------------------------------------------
@@ -277,79 +279,6 @@ Rule parseRule(const std::string& r) {
                     "form factor rule '{}' is not one of: gauss, gauss-gauss, centroid", r);
 }
 
-/// Visibility between stratified samples on two elements.
-struct VisEstimate {
-    double fraction = 1.0;  ///< kernel-weighted unblocked fraction
-    bool partial = false;   ///< some facing segments blocked, some not
-    uint32_t cast = 0;
-};
-
-/// The visibility fraction of the pair as the kernel-weighted fraction of
-/// unblocked segments, sum_i w_i (1 - occ_i) / sum_i w_i with w_i = cos_a
-/// cos_b / r^2 of segment i (0 when either end sees the other's back). The
-/// form factor is F = F_unoccluded x this fraction, a ratio estimate of
-/// int k V / int k. The plain fraction of unblocked segments counted segments
-/// whose ends face away from each other (a floor point under a box and the
-/// box's side) as blocked although the unoccluded F already gives them no
-/// weight, so their loss was counted twice: on the Cornell box partially
-/// visible links carried 3.7 % too little of the gathered power against a
-/// Monte Carlo integral of the same links, white-to-white links between the
-/// floor and the boxes most. Segments with zero weight decide nothing; when
-/// all weights are zero the plain fraction is used.
-VisEstimate visibilityEstimate(const Visibility& vis, const scene::Scene& sc, const ElementRef& r,
-                               const ElementRef& s, int rays, uint64_t salt = 0) {
-    rays = std::min(rays, kMaxVisRays);
-    // Order the pair by id so (r,s) and (s,r) use identical segments (the
-    // weight is symmetric in the two ends).
-    const ElementRef& lo = r.id <= s.id ? r : s;
-    const ElementRef& hi = r.id <= s.id ? s : r;
-    const scene::Patch& plo = sc.patches[lo.patch];
-    const scene::Patch& phi = sc.patches[hi.patch];
-    Pcg32 rng(salt ? hashIds(lo.id, hi.id, salt) : hashIds(lo.id, hi.id));
-    Vec2 ulo[kMaxVisRays], uhi[kMaxVisRays];
-    stratifiedSquare(rays, rng, ulo);
-    stratifiedSquare(rays, rng, uhi);
-    Segment seg[kRayBatch];
-    uint8_t occ[kRayBatch];
-    int blocked = 0, wBlocked = 0, wOpen = 0;
-    double wsum = 0.0, wvis = 0.0;
-    for (int base = 0; base < rays; base += kRayBatch) {
-        int n = std::min(kRayBatch, rays - base);
-        for (int i = 0; i < n; ++i) {
-            Vec2 a = shrinkLocal(plo.kind,
-                                 squareToElementLocal(plo.kind, ulo[base + i].x, ulo[base + i].y));
-            Vec2 b = shrinkLocal(phi.kind,
-                                 squareToElementLocal(phi.kind, uhi[base + i].x, uhi[base + i].y));
-            seg[i].a = scene::elementPoint(plo, lo.dom, a.x, a.y);
-            seg[i].b = scene::elementPoint(phi, hi.dom, b.x, b.y);
-            seg[i].patchA = lo.patch;
-            seg[i].patchB = hi.patch;
-        }
-        vis.occluded(seg, size_t(n), occ);
-        for (int i = 0; i < n; ++i) {
-            blocked += occ[i];
-            double w = kernel(seg[i].a, plo.normal, seg[i].b, phi.normal);
-            if (!(w > 0.0)) continue;
-            wsum += w;
-            if (occ[i]) {
-                ++wBlocked;
-            } else {
-                wvis += w;
-                ++wOpen;
-            }
-        }
-    }
-    VisEstimate v;
-    v.cast = uint32_t(rays);
-    if (wsum > 0.0) {
-        v.fraction = wvis / wsum;
-        v.partial = wBlocked > 0 && wOpen > 0;
-    } else {
-        v.fraction = 1.0 - double(blocked) / double(rays);
-        v.partial = blocked > 0 && blocked < rays;
-    }
-    return v;
-}
 }  // namespace
 
 FormFactorEngine::FormFactorEngine(const scene::Scene& scene, const Visibility* visibility,
@@ -476,7 +405,8 @@ FormFactorResult FormFactorEngine::compute(const ElementRef& r, const ElementRef
     res.unoccludedF = F;
     res.F = F;
     if (F > 0.0 && settings_.visRays > 0 && visibility_) {
-        VisEstimate v = visibilityEstimate(*visibility_, *scene_, r, s, settings_.visRays);
+        detail::VisEstimate v =
+            detail::pairVisibility(*visibility_, *scene_, r, s, settings_.visRays, settings_.visSampling);
         res.rays = v.cast;
         res.visibility = v.fraction;
         res.partial = v.partial;
@@ -624,7 +554,7 @@ double FormFactorEngine::visibilityFraction(const ElementRef& r, const ElementRe
     if (raysCast) *raysCast = 0;
     if (partial) *partial = false;
     if (!visibility_ || rays <= 0) return 1.0;
-    VisEstimate v = visibilityEstimate(*visibility_, *scene_, r, s, rays, salt);
+    detail::VisEstimate v = detail::pairVisibility(*visibility_, *scene_, r, s, rays, settings_.visSampling, salt);
     if (raysCast) *raysCast = v.cast;
     if (partial) *partial = v.partial;
     return v.fraction;

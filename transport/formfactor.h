@@ -74,11 +74,15 @@ struct ElementRef {
 ///                                   fixed 3 x 3 rule overestimates the
 ///                                   full-matrix power by 2-6 % at mesh levels
 ///                                   0-1 (papers/README.md).
+/// Where a link's visibility rays go (ff.vis_sampling).
+enum class VisSampling { Area, SolidAngle };
+
 struct FormFactorSettings {
     std::string rule = "gauss";
     int points = 3;
     int senderPoints = 3;
     int visRays = 16;
+    VisSampling visSampling = VisSampling::SolidAngle;
     int adaptiveDepth = 0;
     double adaptiveTol = 1e-3;
 
