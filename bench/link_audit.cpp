@@ -11,7 +11,8 @@
 // really carry light (visibility judged 0, sampled links that found nothing)
 // are counted too. The ratio model / Monte Carlo below 1 is light the kind
 // loses. Green channel, as the audits in tests/ (papers/README.md
-// "Clustering accuracy"). Also printed: what the receivers hold,
+// "Clustering accuracy"); links into surfaces of rho 0 are left out (their
+// light changes no radiosity). Also printed: what the receivers hold,
 // sum A (B - E) / rho, against the links' total (light lost between a link
 // and a radiosity), and with audit.coverage=N the share of N gathered rays'
 // radiosity that no link carries (coverage() below). Findings:
@@ -226,6 +227,8 @@ int main(int argc, char** argv) try {
         p.getDouble({"audit.links", "links audited (expected count)"}, 20000, 1, 1e9);
     const uint64_t coverageRays = uint64_t(
         p.getInt({"audit.coverage", "rays of the check for light no link carries (0: none)"}, 0, 0, 1 << 30));
+    const int64_t worstCount =
+        p.getInt({"audit.worst", "audited links listed that lose the most light (0: none)"}, 0, 0, 100000);
     const int64_t reportPatch =
         p.getInt({"audit.patch", "root patch whose links are listed (-1: none)"}, -1, -1, INT32_MAX);
     const int64_t reportSender =
@@ -247,8 +250,21 @@ int main(int argc, char** argv) try {
     const double floorP = 0.25 * want / double(std::max<uint64_t>(1, h.numLinks()));
     const double c = 0.75 * want;
     Total t[kKinds];
+    struct Audited {
+        uint64_t link;
+        Kind kind;
+        test::LinkPower power;
+    };
+    std::vector<Audited> worst;
     Pcg32 pick(12345);
+    uint64_t black = 0;
     for (uint64_t i = 0; i < h.numLinks(); ++i) {
+        // Light into a surface that reflects nothing (rho 0: the emitters
+        // here) changes no radiosity: left out of the table.
+        if (!h.isCluster(recv[i]) && !(s.patches[h.patch(recv[i])].rho.g > 0)) {
+            ++black;
+            continue;
+        }
         const Kind k = kindOf(s, h, h.link(i), recv[i]);
         Total& g = t[k];
         g.model += power[i];
@@ -256,6 +272,7 @@ int main(int argc, char** argv) try {
         const double pi = std::min(1.0, c * power[i] / std::max(total, 1e-300) + floorP);
         if (pick.nextDouble() >= pi) continue;
         test::LinkPower a = test::auditLink(s, vis, res, recv, i, pairs);
+        if (worstCount > 0) worst.push_back({i, k, a});
         g.modelAudited += a.model / pi;
         g.mc += a.mc / pi;
         g.mcOpen += a.mcOpen / pi;
@@ -275,6 +292,7 @@ int main(int argc, char** argv) try {
     fmt::print("{}: {} links, model power {:.6g}, held by the receivers {:.6g} (green; {} "
                "patches of rho 0 left out)\n",
                argv[1], h.numLinks(), total, held, dark);
+    fmt::print("{} links into surfaces of rho 0 left out\n", black);
     fmt::print("{:<26} {:>10} {:>8} {:>12} {:>12} {:>12} {:>8} {:>8} {:>12}\n", "kind", "links",
                "audited", "model", "model (HT)", "MC (HT)", "ratio", "+-", "MC, V = 1");
     for (int k = 0; k < kKinds; ++k) {
@@ -286,6 +304,24 @@ int main(int argc, char** argv) try {
             kKindNames[k], g.links, g.audited, g.model, g.modelAudited, g.mc, ratio, se, g.mcOpen);
     }
     if (coverageRays) coverage(s, vis, h, recv, coverageRays);
+    // The audited links that lose the most light (Monte Carlo - model).
+    const size_t nw = std::min<size_t>(size_t(worstCount), worst.size());
+    std::partial_sort(worst.begin(), worst.begin() + nw, worst.end(), [](const Audited& a, const Audited& b) {
+        return a.power.mc - a.power.model > b.power.mc - b.power.model;
+    });
+    for (size_t j = 0; j < nw; ++j) {
+        const Audited& w = worst[j];
+        const hr::Link& l = h.link(w.link);
+        const uint32_t r = recv[w.link];
+        auto name = [&](uint32_t e) {
+            return h.isCluster(e) ? fmt::format("cluster {} ({:.3g} m^2, r {:.3g})", h.clusterIndex(e), h.area(e), h.radius(e))
+                                  : fmt::format("patch {} ({:.3g} m^2)", h.patch(e), h.area(e));
+        };
+        const Vec3 d = h.center(l.sender) - h.center(r);
+        fmt::print("  lost {:.4g}: {} {} <- {}, distance {:.3g}, K {:.4g}, flags {}, model {:.4g}, MC {:.4g} +- {:.2g}, MC with V = 1 {:.4g}\n",
+                   w.power.mc - w.power.model, kKindNames[w.kind], name(r), name(l.sender), glm::length(d),
+                   double(l.K), int(l.flags), w.power.model, w.power.mc, std::sqrt(w.power.mcVar), w.power.mcOpen);
+    }
     if (reportPatch >= 0 && uint64_t(reportPatch) < s.patches.size())
         patchReport(s, vis, res, recv, uint32_t(reportPatch), pairs);
     if (reportPatch >= 0 && reportSender >= 0 && uint64_t(std::max(reportPatch, reportSender)) < s.patches.size()) {
