@@ -50,6 +50,12 @@ ClusterLinkSettings ClusterLinkSettings::fromParams(const Params& p) {
         s.faceSeparation, 1.0, 100.0);
     s.faceDisc = p.getEnum({"cluster.face_kernel", "face-cluster transfer kernel: point or disc"},
                            "point", {"point", "disc"}) == "disc";
+    s.polygonSender =
+        p.getEnum({"cluster.sender_kernel",
+                   "kernel of links from a surface element into a cluster: point (A_s cos_s / "
+                   "(pi d^2) at the centres) or polygon (the exact form factor from the "
+                   "receiver's centre to the sender's polygon)"},
+                  "point", {"point", "polygon"}) == "polygon";
     const std::string kernel =
         p.getEnum({"cluster.kernel",
                    "point links' geometric kernel: point (the centres' 1/r^2), sampled (times "
@@ -87,14 +93,14 @@ std::string ClusterLinkSettings::describe() const {
         "cluster_face_separation={}, cluster_face_kernel={}, cluster_defer_dark={}, "
         "cluster_ambient={}, cluster_handover={}, cluster_stand_in={}, "
         "cluster_stand_in_rays={}, cluster_stand_in_handover={}, cluster_stand_in_pairs={}, "
-        "cluster_kernel={}, cluster_kernel_pairs={}",
+        "cluster_kernel={}, cluster_kernel_pairs={}{}",
         visRays, separation, surfaceSeparation,
         sampleNear ? "sample" : (standInNear ? "stand_in" : "open"), nearOverlapping, nearOpenPairs,
         nearRays, faceSeparation, faceDisc ? "disc" : "point", deferDark, ambient,
         visibleHandover ? "visible" : "cosine", standIn, standInRays, standInSeen ? "seen" : "area",
         standInPairs,
         kernel == Kernel::Sampled ? "sampled" : (kernel == Kernel::Pairs ? "pairs" : "point"),
-        kernelPairs);
+        kernelPairs, polygonSender ? ", cluster_sender_kernel=polygon" : "");
 }
 
 ClusterLinker::ClusterLinker(const scene::Scene& scene, const ClusterTree* tree, ClusterModel model,
@@ -120,6 +126,14 @@ double ClusterLinker::kernel(const LinkEnd& r, const LinkEnd& s) const {
     bool orientedReceiver = r.isCluster && transfer_->receivesByCosine();
     double gr = orientedReceiver ? 1.0 : projectedFraction(r, -u);
     if (orientedReceiver && projectedFraction(r, -u) <= 0) return 0.0;
+    if (s_.polygonSender && r.isCluster && !s.isCluster) {
+        // The sender's polygon seen from the receiver's centre (facing the
+        // sender's centroid), exact where the point model is not.
+        if (!(gs > 0)) return 0.0;
+        Vec3 corner[4];
+        const int count = scene::elementCorners(scene_->patches[s.patch], s.domain, corner);
+        return transport::pointToPolygon(r.center, -u, corner, count) * gr;
+    }
     double denom = kPi * dist2;
     if (s_.faceDisc && faceLink(r, s)) denom += r.area + s.area;
     return s.area * gs * gr / denom;

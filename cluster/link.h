@@ -89,6 +89,13 @@ struct ClusterLinkSettings {
     bool ambient = true;
     double faceSeparation = 1.5;
     bool faceDisc = false;
+    /// cluster.sender_kernel: a link from a surface element into a cluster
+    /// takes the exact form factor from a differential area at the
+    /// receiver's centre, facing the sender's centroid, to the sender's
+    /// polygon (transport::pointToPolygon; true, `polygon`), not the point
+    /// model's A_s cos_s / (pi d^2) (false, `point`, the default): the point
+    /// model misjudges a sender whose size is not small against the distance.
+    bool polygonSender = false;
     /// cluster.kernel, a point link's geometric kernel: Point, the centres'
     /// 1 / r^2; Sampled, times r^2 times the mean of its rays' 1 / d^2
     /// (ClusterLinker::LinkRays::estimate); Pairs, times the ratio of the
