@@ -214,6 +214,75 @@ void patchReport(const scene::Scene& s, const transport::Visibility& vis, const 
                P.area * std::sqrt(std::max(0.0, sum2 / n - mean * mean) / (n - 1)));
 }
 
+/// One audited link, for audit.worst.
+struct Audited {
+    uint64_t link;
+    Kind kind;
+    test::LinkPower power;
+};
+
+/// The `count` audited links that lose the most light (Monte Carlo - model).
+void printWorst(const hr::Hierarchy& h, const std::vector<uint32_t>& recv,
+                std::vector<Audited>& worst, size_t count) {
+    const size_t nw = std::min<size_t>(count, worst.size());
+    std::partial_sort(worst.begin(), worst.begin() + nw, worst.end(), [](const Audited& a, const Audited& b) {
+        return a.power.mc - a.power.model > b.power.mc - b.power.model;
+    });
+    for (size_t j = 0; j < nw; ++j) {
+        const Audited& w = worst[j];
+        const hr::Link& l = h.link(w.link);
+        const uint32_t r = recv[w.link];
+        auto name = [&](uint32_t e) {
+            return h.isCluster(e) ? fmt::format("cluster {} ({:.3g} m^2, r {:.3g})", h.clusterIndex(e), h.area(e), h.radius(e))
+                                  : fmt::format("patch {} ({:.3g} m^2)", h.patch(e), h.area(e));
+        };
+        const Vec3 d = h.center(l.sender) - h.center(r);
+        fmt::print("  lost {:.4g}: {} {} <- {}, distance {:.3g}, K {:.4g}, flags {}, model {:.4g}, MC {:.4g} +- {:.2g}, MC with V = 1 {:.4g}\n",
+                   w.power.mc - w.power.model, kKindNames[w.kind], name(r), name(l.sender), glm::length(d),
+                   double(l.K), int(l.flags), w.power.model, w.power.mc, std::sqrt(w.power.mcVar), w.power.mcOpen);
+    }
+}
+
+/// Root patches `patch` <- `sender` as one surface link (audit.sender): its
+/// form factor, visibility with 16 and 4,096 rays, and which patches block
+/// area-uniform segments whose ends face each other.
+void pairReport(const scene::Scene& s, const transport::Visibility& vis,
+                const transport::FormFactorSettings& ff, uint32_t patch, uint32_t sender) {
+    // The two root patches as one surface link (the hr solver's form factor settings).
+    const transport::FormFactorEngine engine(s, &vis, ff);
+    const transport::ElementRef er{patch, scene::Domain{}, 1}, es{sender, scene::Domain{}, 2};
+    const transport::FormFactorResult f = engine.compute(er, es);
+    fmt::print("root {} <- root {}: facing {}, F {:.5g}, unoccluded {:.5g}, visibility {:.4g} ({} rays), "
+               "visibility with 4096 rays {:.4g}\n",
+               patch, sender, engine.facing(er, es), f.F, f.unoccludedF, f.visibility, f.rays,
+               engine.visibilityFraction(er, es, 4096));
+    // Which patches block area-uniform segments whose ends face each other.
+    std::map<uint32_t, int> blockers;
+    Pcg32 rng(99);
+    int tried = 0, blocked = 0;
+    const scene::Patch& R = s.patches[patch];
+    const scene::Patch& S = s.patches[sender];
+    for (int j = 0; j < 20000 && tried < 4000; ++j) {
+        transport::Segment seg;
+        seg.a = scene::elementSamplePoint(R, scene::Domain{}, rng.nextDouble(), rng.nextDouble());
+        seg.b = scene::elementSamplePoint(S, scene::Domain{}, rng.nextDouble(), rng.nextDouble());
+        seg.patchA = patch;
+        seg.patchB = sender;
+        const Vec3 d = seg.b - seg.a;
+        if (!(glm::dot(R.normal, d) > 0 && -glm::dot(S.normal, d) > 0)) continue;
+        ++tried;
+        uint8_t occ = 0;
+        vis.occluded(&seg, 1, &occ);
+        if (!occ) continue;
+        ++blocked;
+        const transport::RayHit hit = vis.intersect(seg.a, d, 0.0, 1.0, patch);
+        ++blockers[hit.hit ? hit.patch : UINT32_MAX];
+    }
+    fmt::print("  {} facing segments, {} blocked; blockers:", tried, blocked);
+    for (const auto& [q, n] : blockers) fmt::print(" {}x{}", q, n);
+    fmt::print("\n");
+}
+
 int main(int argc, char** argv) try {
     if (argc < 2) {
         std::fprintf(stderr,
@@ -250,11 +319,6 @@ int main(int argc, char** argv) try {
     const double floorP = 0.25 * want / double(std::max<uint64_t>(1, h.numLinks()));
     const double c = 0.75 * want;
     Total t[kKinds];
-    struct Audited {
-        uint64_t link;
-        Kind kind;
-        test::LinkPower power;
-    };
     std::vector<Audited> worst;
     Pcg32 pick(12345);
     uint64_t black = 0;
@@ -304,61 +368,13 @@ int main(int argc, char** argv) try {
             kKindNames[k], g.links, g.audited, g.model, g.modelAudited, g.mc, ratio, se, g.mcOpen);
     }
     if (coverageRays) coverage(s, vis, h, recv, coverageRays);
-    // The audited links that lose the most light (Monte Carlo - model).
-    const size_t nw = std::min<size_t>(size_t(worstCount), worst.size());
-    std::partial_sort(worst.begin(), worst.begin() + nw, worst.end(), [](const Audited& a, const Audited& b) {
-        return a.power.mc - a.power.model > b.power.mc - b.power.model;
-    });
-    for (size_t j = 0; j < nw; ++j) {
-        const Audited& w = worst[j];
-        const hr::Link& l = h.link(w.link);
-        const uint32_t r = recv[w.link];
-        auto name = [&](uint32_t e) {
-            return h.isCluster(e) ? fmt::format("cluster {} ({:.3g} m^2, r {:.3g})", h.clusterIndex(e), h.area(e), h.radius(e))
-                                  : fmt::format("patch {} ({:.3g} m^2)", h.patch(e), h.area(e));
-        };
-        const Vec3 d = h.center(l.sender) - h.center(r);
-        fmt::print("  lost {:.4g}: {} {} <- {}, distance {:.3g}, K {:.4g}, flags {}, model {:.4g}, MC {:.4g} +- {:.2g}, MC with V = 1 {:.4g}\n",
-                   w.power.mc - w.power.model, kKindNames[w.kind], name(r), name(l.sender), glm::length(d),
-                   double(l.K), int(l.flags), w.power.model, w.power.mc, std::sqrt(w.power.mcVar), w.power.mcOpen);
-    }
+    printWorst(h, recv, worst, size_t(worstCount));
     if (reportPatch >= 0 && uint64_t(reportPatch) < s.patches.size())
         patchReport(s, vis, res, recv, uint32_t(reportPatch), pairs);
-    if (reportPatch >= 0 && reportSender >= 0 && uint64_t(std::max(reportPatch, reportSender)) < s.patches.size()) {
-        // The two root patches as one surface link (the hr solver's form factor settings).
-        const transport::FormFactorEngine engine(s, &vis, hr::HrSettings::fromParams(p).ff);
-        const transport::ElementRef er{uint32_t(reportPatch), scene::Domain{}, 1}, es{uint32_t(reportSender), scene::Domain{}, 2};
-        const transport::FormFactorResult f = engine.compute(er, es);
-        fmt::print("root {} <- root {}: facing {}, F {:.5g}, unoccluded {:.5g}, visibility {:.4g} ({} rays), "
-                   "visibility with 4096 rays {:.4g}\n",
-                   reportPatch, reportSender, engine.facing(er, es), f.F, f.unoccludedF, f.visibility, f.rays,
-                   engine.visibilityFraction(er, es, 4096));
-        // Which patches block area-uniform segments whose ends face each other.
-        std::map<uint32_t, int> blockers;
-        Pcg32 rng(99);
-        int tried = 0, blocked = 0;
-        const scene::Patch& R = s.patches[reportPatch];
-        const scene::Patch& S = s.patches[reportSender];
-        for (int j = 0; j < 20000 && tried < 4000; ++j) {
-            transport::Segment seg;
-            seg.a = scene::elementSamplePoint(R, scene::Domain{}, rng.nextDouble(), rng.nextDouble());
-            seg.b = scene::elementSamplePoint(S, scene::Domain{}, rng.nextDouble(), rng.nextDouble());
-            seg.patchA = uint32_t(reportPatch);
-            seg.patchB = uint32_t(reportSender);
-            const Vec3 d = seg.b - seg.a;
-            if (!(glm::dot(R.normal, d) > 0 && -glm::dot(S.normal, d) > 0)) continue;
-            ++tried;
-            uint8_t occ = 0;
-            vis.occluded(&seg, 1, &occ);
-            if (!occ) continue;
-            ++blocked;
-            const transport::RayHit hit = vis.intersect(seg.a, d, 0.0, 1.0, uint32_t(reportPatch));
-            ++blockers[hit.hit ? hit.patch : UINT32_MAX];
-        }
-        fmt::print("  {} facing segments, {} blocked; blockers:", tried, blocked);
-        for (const auto& [q, n] : blockers) fmt::print(" {}x{}", q, n);
-        fmt::print("\n");
-    }
+    if (reportPatch >= 0 && reportSender >= 0 &&
+        uint64_t(std::max(reportPatch, reportSender)) < s.patches.size())
+        pairReport(s, vis, hr::HrSettings::fromParams(p).ff, uint32_t(reportPatch),
+                   uint32_t(reportSender));
     return 0;
 } catch (const InputError& e) {
     std::fprintf(stderr, "%s\n", e.what());

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "core/rng.h"
@@ -36,6 +37,31 @@ inline Vec3 auditPoint(const scene::Scene& s, const hr::Hierarchy& h, uint32_t e
     const auto& P = s.patches[patch];
     if (P.kind == scene::PatchKind::Triangle && a + b > 1) a = 1 - a, b = 1 - b;
     return scene::elementPoint(P, h.domain(e), a, b);
+}
+
+/// out.mc and out.mcVar from n samples of sum `sum` and sum of squares
+/// `sum2`, each an estimate of mc / scale.
+inline void setMonteCarlo(LinkPower& out, double sum, double sum2, int n, double scale) {
+    const double mean = n > 0 ? sum / n : 0.0;
+    out.mc = scale * mean;
+    out.mcVar = n > 1 ? scale * scale * std::max(0.0, sum2 / n - mean * mean) / (n - 1) : 0.0;
+}
+
+/// The weights w of the segments `seg` that nothing blocks: their sum and sum
+/// of squares; `open` (when given) receives the sum over all.
+inline std::pair<double, double> unblockedSums(const transport::Visibility& vis,
+                                               std::vector<transport::Segment>& seg,
+                                               const std::vector<double>& w,
+                                               double* open = nullptr) {
+    std::vector<uint8_t> occ(seg.size());
+    vis.occluded(seg.data(), seg.size(), occ.data());
+    double sum = 0, sum2 = 0, all = 0;
+    for (size_t j = 0; j < seg.size(); ++j) {
+        all += w[j];
+        if (!occ[j]) sum += w[j], sum2 += w[j] * w[j];
+    }
+    if (open) *open = all;
+    return {sum, sum2};
 }
 
 /// The area a receiving cluster r hands a link's light to, towards unit
@@ -106,18 +132,11 @@ inline LinkPower auditLink(const scene::Scene& s, const transport::Visibility& v
         // The sender's solved radiosity at that point (its root patch).
         w[j] *= h.B(seg[j].patchB < k ? seg[j].patchB : 0).g;
     }
-    std::vector<uint8_t> occ(static_cast<size_t>(pairs));
-    vis.occluded(seg.data(), size_t(pairs), occ.data());
-    double sum = 0, sum2 = 0, open = 0;
-    for (int j = 0; j < pairs; ++j) {
-        open += w[j];
-        if (!occ[j]) sum += w[j], sum2 += w[j] * w[j];
-    }
-    const double scale = h.area(r) * h.area(sd), mean = pairs > 0 ? sum / pairs : 0.0;
-    out.mc = scale * mean;
+    double open = 0;
+    const auto [sum, sum2] = unblockedSums(vis, seg, w, &open);
+    const double scale = h.area(r) * h.area(sd);
+    setMonteCarlo(out, sum, sum2, pairs, scale);
     out.mcOpen = pairs > 0 ? scale * open / pairs : 0.0;
-    out.mcVar =
-        pairs > 1 ? scale * scale * std::max(0.0, sum2 / pairs - mean * mean) / (pairs - 1) : 0.0;
     return out;
 }
 
@@ -158,11 +177,8 @@ inline LinkPower auditLinkByGather(const scene::Scene& s, const transport::Visib
             b = h.B(hit.patch).g;
         sum += b, sum2 += b * b;
     }
-    const double scale = h.area(r), mean = rays > 0 ? sum / rays : 0.0;
-    out.mc = scale * mean;
+    setMonteCarlo(out, sum, sum2, rays, h.area(r));
     out.mcOpen = 0.0;
-    out.mcVar =
-        rays > 1 ? scale * scale * std::max(0.0, sum2 / rays - mean * mean) / (rays - 1) : 0.0;
     return out;
 }
 
@@ -223,16 +239,8 @@ inline LinkPower auditLinkBySenderRadiosity(const scene::Scene& s,
         if (ca > 0 && cb > 0 && d2 > 0)
             w[j] = ca * cb / (kPi * d2 * d2) * h.B(k).g * s.patches[k].area / (prob[m] / run);
     }
-    std::vector<uint8_t> occ(static_cast<size_t>(pairs));
-    vis.occluded(seg.data(), size_t(pairs), occ.data());
-    double sum = 0, sum2 = 0;
-    for (int j = 0; j < pairs; ++j)
-        if (!occ[j]) sum += w[j], sum2 += w[j] * w[j];
-    const double mean = pairs > 0 ? sum / pairs : 0.0;
-    out.mc = h.area(r) * mean;
-    out.mcVar = pairs > 1 ? h.area(r) * h.area(r) * std::max(0.0, sum2 / pairs - mean * mean) /
-                                (pairs - 1)
-                          : 0.0;
+    const auto [sum, sum2] = unblockedSums(vis, seg, w);
+    setMonteCarlo(out, sum, sum2, pairs, h.area(r));
     return out;
 }
 

@@ -2,8 +2,10 @@
 #pragma once
 
 #include <array>
+#include <optional>
 
 #include "scene/scene.h"
+#include "scene/texture.h"
 
 namespace hrad::test {
 
@@ -26,6 +28,37 @@ inline uint32_t addFloorUnderLamp(scene::Scene& s) {
     s.addQuad(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0), floor);
     s.addQuad(Vec3(0, 0, 1), Vec3(0, 1, 1), Vec3(1, 1, 1), Vec3(1, 0, 1), lamp);
     return floor;
+}
+
+/// addFloorUnderLamp's scene, its floor of reflectance `rho` with `tex` as
+/// its texture (UV = (x, y)) when given.
+inline scene::Scene floorUnderLamp(std::optional<scene::Texture> tex, double rho = 0.5) {
+    scene::Scene s;
+    s.name = "floor";
+    const uint32_t floor = addFloorUnderLamp(s);
+    s.materials[floor].rho = RGB(rho);
+    s.patches[0].rho = RGB(rho);
+    if (tex) {
+        s.materials[floor].diffuseMap.texture = scene::addTexture(s, std::move(*tex));
+        s.patches[0].uvs = 0;
+        s.cornerUVs.push_back({glm::vec2(0, 0), {1, 0}, {1, 1}, {0, 1}});
+        scene::applyTextureMeans(s);
+    }
+    return s;
+}
+
+/// 256 x 2 texels, clamped: 0 in the columns u < 1/2, `bright` in the
+/// others (bilinear: 0 for u <= 0.5 - 1/512, `bright` for u >= 0.5 + 1/512).
+inline scene::Texture halfBlackTexture(float bright) {
+    scene::Texture t;
+    t.file = "half";
+    t.width = 256;
+    t.height = 2;
+    for (int j = 0; j < t.height; ++j)
+        for (int i = 0; i < t.width; ++i)
+            for (int c = 0; c < 3; ++c) t.texels.push_back(i < 128 ? 0.f : bright);
+    t.wrapU = t.wrapV = scene::TextureWrap::Clamp;
+    return t;
 }
 
 /// Adds the six faces of the axis-aligned box [lo, hi], facing inwards

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "core/rng.h"
 #include "scene/element.h"
@@ -21,6 +22,12 @@ constexpr double kSampleShrink = 1e-5;
 inline Vec2 shrinkLocal(scene::PatchKind kind, Vec2 ab) {
     Vec2 c = kind == scene::PatchKind::Quad ? Vec2(0.5, 0.5) : Vec2(1.0 / 3.0, 1.0 / 3.0);
     return c + (1.0 - 2.0 * kSampleShrink) * (ab - c);
+}
+
+/// The point of element d of P at the stratified sample u of the unit square.
+Vec3 samplePoint(const scene::Patch& P, const scene::Domain& d, Vec2 u) {
+    const Vec2 a = shrinkLocal(P.kind, squareToElementLocal(P.kind, u.x, u.y));
+    return scene::elementPoint(P, d, a.x, a.y);
 }
 
 /// The visibility fraction of the pair as the kernel-weighted fraction of
@@ -55,12 +62,8 @@ VisEstimate areaVisibility(const Visibility& vis, const scene::Scene& sc, const 
     for (int base = 0; base < rays; base += kRayBatch) {
         int n = std::min(kRayBatch, rays - base);
         for (int i = 0; i < n; ++i) {
-            Vec2 a = shrinkLocal(plo.kind,
-                                 squareToElementLocal(plo.kind, ulo[base + i].x, ulo[base + i].y));
-            Vec2 b = shrinkLocal(phi.kind,
-                                 squareToElementLocal(phi.kind, uhi[base + i].x, uhi[base + i].y));
-            seg[i].a = scene::elementPoint(plo, lo.dom, a.x, a.y);
-            seg[i].b = scene::elementPoint(phi, hi.dom, b.x, b.y);
+            seg[i].a = samplePoint(plo, lo.dom, ulo[base + i]);
+            seg[i].b = samplePoint(phi, hi.dom, uhi[base + i]);
             seg[i].patchA = lo.patch;
             seg[i].patchB = hi.patch;
         }
@@ -132,16 +135,16 @@ double solidAngleDensity(const VisEnd& far, const PolygonView& pv, const Vec3& x
 /// thin visible part of the other at close range (the strip of a recessed
 /// window between its frame and the wall's reveal), area-uniform ends find
 /// that part in proportion to its area, directions in proportion to what it
-/// subtends. The segments of (r, s) and (s, r) are the same. `ok` false:
-/// no segment had weight (the caller falls back to areaVisibility).
-VisEstimate solidAngleVisibility(const Visibility& vis, const scene::Scene& sc,
-                                 const ElementRef& r, const ElementRef& s, int rays,
-                                 uint64_t salt, bool& ok) {
+/// subtends. The segments of (r, s) and (s, r) are the same. Nothing when no
+/// segment had weight (no ray cast; the caller falls back to areaVisibility).
+std::optional<VisEstimate> solidAngleVisibility(const Visibility& vis, const scene::Scene& sc,
+                                                const ElementRef& r, const ElementRef& s,
+                                                int rays, uint64_t salt) {
     rays = std::max(2, std::min(rays, kMaxVisRays));
     const ElementRef& lo = r.id <= s.id ? r : s;
     const ElementRef& hi = r.id <= s.id ? s : r;
     const VisEnd ends[2] = {visEnd(sc, lo), visEnd(sc, hi)};
-    Pcg32 rng(salt ? hashIds(lo.id, hi.id, salt ^ 0x736f6c6964ULL) : hashIds(lo.id, hi.id, 0x736f6c6964ULL));
+    Pcg32 rng(hashIds(lo.id, hi.id, salt ^ 0x736f6c6964ULL));
     const int half[2] = {rays / 2, rays - rays / 2};
     Vec2 upt[2][kMaxVisRays], udir[2][kMaxVisRays];
     for (int k = 0; k < 2; ++k) {
@@ -155,8 +158,7 @@ VisEstimate solidAngleVisibility(const Visibility& vis, const scene::Scene& sc,
         const VisEnd& near = ends[k];
         const VisEnd& far = ends[1 - k];
         for (int i = 0; i < half[k]; ++i) {
-            const Vec2 a = shrinkLocal(near.P->kind, squareToElementLocal(near.P->kind, upt[k][i].x, upt[k][i].y));
-            const Vec3 x = scene::elementPoint(*near.P, near.e->dom, a.x, a.y);
+            const Vec3 x = samplePoint(*near.P, near.e->dom, upt[k][i]);
             const PolygonView pv = viewPolygon(far.c, far.n, far.P->normal, x);
             const double u0 = rng.nextDouble();
             if (pv.count == 0) continue;
@@ -164,10 +166,9 @@ VisEstimate solidAngleVisibility(const Visibility& vis, const scene::Scene& sc,
             if (pv.omega >= kMinSolidAngle) {
                 if (!pointOverSolidAngle(pv, far.P->normal, x, u0, udir[k][i].x, udir[k][i].y, w, y)) continue;
             } else {
-                const Vec2 b = shrinkLocal(far.P->kind, squareToElementLocal(far.P->kind, udir[k][i].x, udir[k][i].y));
-                y = scene::elementPoint(*far.P, far.e->dom, b.x, b.y);
+                y = samplePoint(*far.P, far.e->dom, udir[k][i]);
             }
-            // f / (p_near + p_far) of the pair (x on near, y on far).
+            // f / (n_near p_near + n_far p_far) of the pair (x on near, y on far).
             const Vec3 d = y - x;
             const double d2 = glm::dot(d, d);
             const double cx = glm::dot(near.P->normal, d), cy = -glm::dot(far.P->normal, d);
@@ -187,22 +188,20 @@ VisEstimate solidAngleVisibility(const Visibility& vis, const scene::Scene& sc,
             ++m;
         }
     }
-    VisEstimate v;
-    v.cast = uint32_t(m);
+    // Every kept segment has a positive weight.
+    if (m == 0) return std::nullopt;
     uint8_t occ[kMaxVisRays];
-    if (m > 0) vis.occluded(seg, size_t(m), occ);
+    vis.occluded(seg, size_t(m), occ);
     double wsum = 0.0, wvis = 0.0;
-    int open = 0, blocked = 0;
+    int open = 0;
     for (int i = 0; i < m; ++i) {
         wsum += weight[i];
-        if (occ[i]) ++blocked;
-        else wvis += weight[i], ++open;
+        if (!occ[i]) wvis += weight[i], ++open;
     }
-    ok = wsum > 0;
-    if (ok) {
-        v.fraction = std::min(1.0, wvis / wsum);
-        v.partial = open > 0 && blocked > 0;
-    }
+    VisEstimate v;
+    v.cast = uint32_t(m);
+    v.fraction = std::min(1.0, wvis / wsum);
+    v.partial = open > 0 && open < m;
     return v;
 }
 
@@ -210,14 +209,8 @@ VisEstimate solidAngleVisibility(const Visibility& vis, const scene::Scene& sc,
 
 VisEstimate pairVisibility(const Visibility& vis, const scene::Scene& sc, const ElementRef& r,
                            const ElementRef& s, int rays, VisSampling sampling, uint64_t salt) {
-    if (sampling == VisSampling::SolidAngle) {
-        bool ok = false;
-        VisEstimate v = solidAngleVisibility(vis, sc, r, s, rays, salt, ok);
-        if (ok) return v;
-        VisEstimate a = areaVisibility(vis, sc, r, s, rays, salt);
-        a.cast += v.cast;
-        return a;
-    }
+    if (sampling == VisSampling::SolidAngle)
+        if (std::optional<VisEstimate> v = solidAngleVisibility(vis, sc, r, s, rays, salt)) return *v;
     return areaVisibility(vis, sc, r, s, rays, salt);
 }
 

@@ -18,28 +18,10 @@
 namespace hrad::hr {
 namespace {
 
-/// A unit floor quad (z = 0, UV = (x, y)) under a black emitting unit square
-/// at z = 1 (E = 1). The floor's texture is 256 x 2 texels, black in the
-/// columns u < 1/2 and white (1) in the others, clamped: its bilinear
-/// reconstruction is 0 for u <= 0.5 - 1/512 and 1 for u >= 0.5 + 1/512.
-scene::Scene halfBlackFloor() {
-    scene::Scene s;
-    s.name = "half-black-floor";
-    const uint32_t floor = test::addFloorUnderLamp(s);
-    scene::Texture t;
-    t.file = "half";
-    t.width = 256;
-    t.height = 2;
-    for (int j = 0; j < t.height; ++j)
-        for (int i = 0; i < t.width; ++i)
-            for (int c = 0; c < 3; ++c) t.texels.push_back(i < 128 ? 0.f : 1.f);
-    t.wrapU = t.wrapV = scene::TextureWrap::Clamp;
-    s.materials[floor].diffuseMap.texture = scene::addTexture(s, std::move(t));
-    s.patches[0].uvs = 0;
-    s.cornerUVs.push_back({glm::vec2(0, 0), {1, 0}, {1, 1}, {0, 1}});
-    scene::applyTextureMeans(s);
-    return s;
-}
+/// A unit floor quad (z = 0, UV = (x, y), rho 0.5) under a black emitting
+/// unit square at z = 1 (E = 1), its texture black in the columns u < 1/2
+/// and white (1) in the others (test::halfBlackTexture).
+scene::Scene halfBlackFloor() { return test::floorUnderLamp(test::halfBlackTexture(1.f)); }
 
 /// The furnace box with an n x n checker (0.1 / 0.7, mean 0.4) on every wall.
 scene::Scene checkerFurnace(int n) {

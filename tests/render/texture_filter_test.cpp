@@ -95,6 +95,16 @@ struct Stats {
     int n = 0;
 };
 /// With `ref`: also the mean absolute difference to it over the same pixels.
+/// From 1 m above the ground, looking along it: a grazing footprint.
+scene::Camera grazingCamera() {
+    scene::Camera cam;
+    cam.eye = Vec3(2, -1, 1);
+    cam.target = Vec3(2, 2, 0);
+    cam.up = Vec3(0, 0, 1);
+    cam.fovYDegrees = 40;
+    return cam;
+}
+
 Stats groundStats(const Image& img, const scene::Camera& cam, int w, int h, const Image* ref = nullptr,
                   double* meanAbs = nullptr) {
     CameraFrame frame(cam, w, h);
@@ -126,11 +136,7 @@ TEST(TextureFilter, FarCheckerShowsItsMeanInsteadOfNoise) {
     // about 60 to a pixel, the farthest thousands (a grazing footprint).
     Ground g(64);
     transport::Visibility vis(g.scene);
-    scene::Camera cam;
-    cam.eye = Vec3(2, -1, 1);
-    cam.target = Vec3(2, 2, 0);
-    cam.up = Vec3(0, 0, 1);
-    cam.fovYDegrees = 40;
+    const scene::Camera cam = grazingCamera();
     RenderSettings rs;
     rs.width = rs.height = 64;
     rs.reconstruction = RenderSettings::Reconstruction::Flat;
@@ -179,11 +185,7 @@ TEST(TextureFilter, FarCheckerShowsItsMeanInsteadOfNoise) {
 TEST(TextureFilter, FinalGatherFiltersTheTexelAtItsPixel) {
     Ground g(64, true);
     transport::Visibility vis(g.scene);
-    scene::Camera cam;
-    cam.eye = Vec3(2, -1, 1);
-    cam.target = Vec3(2, 2, 0);
-    cam.up = Vec3(0, 0, 1);
-    cam.fovYDegrees = 40;
+    const scene::Camera cam = grazingCamera();
     RenderSettings rs;
     rs.width = rs.height = 48;
     rs.reconstruction = RenderSettings::Reconstruction::FinalGather;

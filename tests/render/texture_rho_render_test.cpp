@@ -27,36 +27,6 @@
 namespace hrad::render {
 namespace {
 
-/// A unit floor (UV = (x, y)) under the black unit lamp (E = 1) at z = 1,
-/// with `tex` as its texture or, without, a plain reflectance `rho`.
-scene::Scene floorUnderLamp(std::optional<scene::Texture> tex, double rho = 0.5) {
-    scene::Scene s;
-    s.name = "floor";
-    const uint32_t floor = test::addFloorUnderLamp(s);
-    s.materials[floor].rho = RGB(rho);
-    s.patches[0].rho = RGB(rho);
-    if (tex) {
-        s.materials[floor].diffuseMap.texture = scene::addTexture(s, std::move(*tex));
-        s.patches[0].uvs = 0;
-        s.cornerUVs.push_back({glm::vec2(0, 0), {1, 0}, {1, 1}, {0, 1}});
-        scene::applyTextureMeans(s);
-    }
-    return s;
-}
-
-/// 256 x 2 texels: 0 in the columns u < 1/2, `bright` in the others, clamped.
-scene::Texture halfBlack(float bright) {
-    scene::Texture t;
-    t.file = "half";
-    t.width = 256;
-    t.height = 2;
-    for (int j = 0; j < t.height; ++j)
-        for (int i = 0; i < t.width; ++i)
-            for (int c = 0; c < 3; ++c) t.texels.push_back(i < 128 ? 0.f : bright);
-    t.wrapU = t.wrapV = scene::TextureWrap::Clamp;
-    return t;
-}
-
 /// A 256 x 256 checker of single texels 0.2 / 0.6: every element down to
 /// 2 x 2 texels has the patch mean.
 scene::Texture fineChecker() {
@@ -117,9 +87,9 @@ constexpr RenderSettings::Reconstruction kRecs[] = {RenderSettings::Reconstructi
                                                    RenderSettings::Reconstruction::Lightmap};
 
 TEST(TextureRhoRender, HalfBlackFloorShowsEachLeafsIrradiance) {
-    const scene::Scene half = floorUnderLamp(halfBlack(0.8f));
+    const scene::Scene half = test::floorUnderLamp(test::halfBlackTexture(0.8f));
     // The texels are floats: the plain floor's rho is the float 0.8f.
-    const scene::Scene plain = floorUnderLamp(std::nullopt, double(0.8f));
+    const scene::Scene plain = test::floorUnderLamp(std::nullopt, double(0.8f));
     ASSERT_NEAR(half.patches[0].rho.g, 0.4, 1e-7);
     transport::Visibility visHalf(half), visPlain(plain);
     hr::HrResult el = solve(half, visHalf, true), pl = solve(plain, visPlain, false);
@@ -162,7 +132,7 @@ TEST(TextureRhoRender, HalfBlackFloorShowsEachLeafsIrradiance) {
 }
 
 TEST(TextureRhoRender, LeavesAtThePatchMeanShowThePatchPicture) {
-    const scene::Scene s = floorUnderLamp(fineChecker());
+    const scene::Scene s = test::floorUnderLamp(fineChecker());
     transport::Visibility vis(s);
     hr::HrResult el = solve(s, vis, true), pa = solve(s, vis, false);
     ASSERT_TRUE(el.field->leafTextureRho());
@@ -188,7 +158,7 @@ TEST(TextureRhoRender, LeavesAtThePatchMeanShowThePatchPicture) {
 /// A solution file keeps the flag (version 3), so `hrad render` of a saved
 /// element-mode solve draws the same picture; patch-mode files stay version 1.
 TEST(TextureRhoRender, SolutionFilesKeepTheLeavesReflectance) {
-    const scene::Scene half = floorUnderLamp(halfBlack(0.8f));
+    const scene::Scene half = test::floorUnderLamp(test::halfBlackTexture(0.8f));
     transport::Visibility vis(half);
     hr::HrResult el = solve(half, vis, true), pa = solve(half, vis, false);
     const test::TempDir dir = test::tempDir("texture_rho_solution");
